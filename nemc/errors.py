@@ -29,4 +29,4 @@ class InputError(Exception):
 
 
 class BuildError(Exception):
-    """The C compiler or the build failed (exit status 1); names the C file and the compiler's output."""
+    """The build failed (exit status 1): names the C file and carries the compiler's output."""

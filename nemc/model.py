@@ -133,7 +133,7 @@ class JointSpring:
     loc: Loc
 
 
-Load = Union[Torque, Force, Spring, JointSpring]
+Load = Union[Torque, Force, Spring, JointSpring]  # noqa: UP007 (a runtime alias)
 
 
 @dataclass(frozen=True)

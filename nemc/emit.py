@@ -1,0 +1,199 @@
+"""Emission: C source, its cffi declarations and the runtime metadata, from templates.
+
+The templates in templates/ own the signatures, loops and memory layout; this module prints
+only straight-line bodies. Every symbol is printed through an explicit table (coordinates and
+rates -> y[...], parameters -> p[...], accelerations -> qdd[...], temporaries -> x<k>), so no
+name from the YAML ever reaches C code; names appear only inside comments, sanitized.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from string import Template
+
+import sympy
+from sympy.printing.c import C99CodePrinter
+
+from . import __version__
+from . import model as m
+from .derive import Equations
+from .optimize import Block
+
+TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
+
+
+@dataclass(frozen=True)
+class Emitted:
+    """The generated code of one model: C source, cffi declarations, runtime metadata."""
+
+    name: str
+    c_source: str
+    cdef: str
+    package_init: str
+    metadata: dict
+
+
+class SymbolTablePrinter(C99CodePrinter):
+    """C99 printer that refuses anything it cannot print and names symbols from a table."""
+
+    def __init__(self, names: dict[sympy.Symbol, str]):
+        super().__init__({"strict": True})
+        self.names = names
+
+    def _print_Symbol(self, expr: sympy.Symbol) -> str:
+        try:
+            return self.names[expr]
+        except KeyError:
+            raise ValueError(f"no C name for symbol {expr.name!r}") from None
+
+
+def template(name: str) -> Template:
+    return Template((TEMPLATES / name).read_text())
+
+
+def comment_text(text: str) -> str:
+    """Text safe inside a C block comment: printable ASCII, no comment terminator."""
+    text = re.sub(r"[^\x20-\x7e]", "?", text)
+    return text.replace("*/", "* /").replace("/*", "/ *")
+
+
+def symbol_table(eqs: Equations, block: Block) -> dict[sympy.Symbol, str]:
+    names: dict[sympy.Symbol, str] = {m.TIME: "t"}
+    for i, (q, u) in enumerate(zip(eqs.coordinates, eqs.speeds)):
+        names[q], names[u] = f"y[{2 * i}]", f"y[{2 * i + 1}]"
+    names.update({a: f"qdd[{i}]" for i, a in enumerate(eqs.accelerations)})
+    names.update({s: f"p[{k}]" for k, s in enumerate(eqs.parameters)})
+    names.update({s: s.name for s, _ in block.temporaries})
+    return names
+
+
+def needed(block: Block, exprs: tuple[sympy.Expr, ...]) -> list[tuple[sympy.Symbol, sympy.Expr]]:
+    """The temporaries these expressions use, directly or through other temporaries, in order."""
+    wanted = set().union(*(sympy.sympify(e).free_symbols for e in exprs)) if exprs else set()
+    for sym, expr in reversed(block.temporaries):
+        if sym in wanted:
+            wanted |= expr.free_symbols
+    return [(s, e) for s, e in block.temporaries if s in wanted]
+
+
+def body(
+    printer: SymbolTablePrinter, block: Block, targets: list[tuple[str, sympy.Expr]]
+) -> str:
+    """Straight-line C: the temporaries the targets need, then `target = expression;`."""
+    lines = [
+        f"    const double {printer.doprint(s)} = {printer.doprint(e)};"
+        for s, e in needed(block, tuple(e for _, e in targets))
+    ]
+    lines += [f"    {target} = {printer.doprint(expr)};" for target, expr in targets]
+    return "\n".join(lines)
+
+
+def indexed(array: str, exprs: tuple[sympy.Expr, ...]) -> list[tuple[str, sympy.Expr]]:
+    return [(f"{array}[{k}]", expr) for k, expr in enumerate(exprs)]
+
+
+def outputs_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str) -> str:
+    if not eqs.outputs:
+        return ""
+    exprs = block.groups["outputs"]
+    uses_qdd = any(s in eqs.accelerations for e in exprs for s in _all_symbols(block, e))
+    return template("outputs.c.tmpl").substitute(
+        prefix=prefix,
+        n_output=len(exprs),
+        output_names=comment_text(", ".join(name for name, _ in eqs.outputs)),
+        accelerations=template("accelerations.c.tmpl").template if uses_qdd else "",
+        outputs=body(printer, block, indexed("out", exprs)),
+    )
+
+
+def _all_symbols(block: Block, expr: sympy.Expr) -> set[sympy.Symbol]:
+    found = set(sympy.sympify(expr).free_symbols)
+    for _, temp in needed(block, (expr,)):
+        found |= temp.free_symbols
+    return found
+
+
+def c_source(eqs: Equations, block: Block, prefix: str) -> str:
+    mech, printer = eqs.mechanism, SymbolTablePrinter(symbol_table(eqs, block))
+    mass_forcing = indexed("M", block.groups["mass"]) + indexed("f", block.groups["forcing"])
+    return template("model.c.tmpl").substitute(
+        name=mech.name,
+        version=__version__,
+        source=comment_text(mech.source),
+        source_hash=mech.source_hash,
+        description=comment_text(mech.description),
+        state_names=comment_text(", ".join(mech.state_names)),
+        parameter_names=comment_text(", ".join(s.name for s in eqs.parameters)),
+        n_coord=eqs.n,
+        n_state=2 * eqs.n,
+        prefix=prefix,
+        mass_forcing=body(printer, block, mass_forcing),
+        check_names=comment_text(", ".join(key for key, _ in eqs.checks)),
+        checks=body(printer, block, indexed("out", block.groups["checks"])),
+        initial=body(printer, block, indexed("y0", block.groups["initial"])),
+        outputs_section=outputs_section(eqs, block, printer, prefix),
+    )
+
+
+def generated_functions(has_outputs: bool) -> list[str]:
+    """The C functions a model gets: outputs only when the scene asks for some."""
+    return ["rhs", "rhs_many", "checks", "initial_state"] + (["outputs"] if has_outputs else [])
+
+
+def cdef(prefix: str, has_outputs: bool) -> str:
+    lines = [
+        f"int {prefix}rhs(double t, const double *y, const double *p, double *dy);",
+        f"int {prefix}rhs_many(int n, const double *ts, const double *ys, const double *p,"
+        " double *dys);",
+        f"void {prefix}checks(const double *p, double *out);",
+        f"void {prefix}initial_state(const double *p, double *y0);",
+    ]
+    if has_outputs:
+        lines.append(
+            f"int {prefix}outputs(int n_t, const double *ts, const double *ys, const double *p,"
+            " double *out);"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def metadata(eqs: Equations, prefix: str) -> dict:
+    mech, sim = eqs.mechanism, eqs.mechanism.simulation
+    return {
+        "name": mech.name,
+        "description": mech.description,
+        "source": mech.source,
+        "source_hash": mech.source_hash,
+        "nemc_version": __version__,
+        "c_prefix": prefix,
+        "coordinate_names": list(mech.coordinates),
+        "state_names": list(mech.state_names),
+        "parameter_names": [s.name for s in eqs.parameters],
+        "parameter_defaults": list(eqs.parameter_defaults),
+        "derived_parameters": {name: str(expr) for name, expr in eqs.derived_parameters},
+        "check_names": [key for key, _ in eqs.checks],
+        "output_names": [name for name, _ in eqs.outputs],
+        "generated": generated_functions(bool(eqs.outputs)),
+        "scene": {
+            "t_span": list(sim.t_span) if sim.t_span else None,
+            "t_eval": list(sim.t_eval) if sim.t_eval is not None else None,
+            "t_eval_step": sim.t_eval_step,
+            "method": sim.method,
+            "rtol": sim.rtol,
+            "atol": sim.atol,
+        },
+    }
+
+
+def emit(eqs: Equations, block: Block) -> Emitted:
+    prefix = f"{eqs.mechanism.name}_"
+    return Emitted(
+        name=eqs.mechanism.name,
+        c_source=c_source(eqs, block, prefix),
+        cdef=cdef(prefix, bool(eqs.outputs)),
+        package_init=template("package_init.py.tmpl").substitute(
+            name=eqs.mechanism.name, version=__version__
+        ),
+        metadata=metadata(eqs, prefix),
+    )
