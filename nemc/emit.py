@@ -158,6 +158,12 @@ def cdef(prefix: str, has_outputs: bool) -> str:
     return "\n".join(lines) + "\n"
 
 
+def coordinate_kinds(mech: m.Mechanism) -> list[str]:
+    """"angle" or "length" for each coordinate (plots show angles in degrees)."""
+    kinds = {"revolute": ["angle"], "prismatic": ["length"], "free": ["length", "length", "angle"]}
+    return [kind for joint in mech.joints for kind in kinds.get(joint.type, [])]
+
+
 def metadata(eqs: Equations, prefix: str) -> dict:
     mech, sim = eqs.mechanism, eqs.mechanism.simulation
     return {
@@ -168,6 +174,7 @@ def metadata(eqs: Equations, prefix: str) -> dict:
         "nemc_version": __version__,
         "c_prefix": prefix,
         "coordinate_names": list(mech.coordinates),
+        "coordinate_kinds": coordinate_kinds(mech),
         "state_names": list(mech.state_names),
         "parameter_names": [s.name for s in eqs.parameters],
         "parameter_defaults": list(eqs.parameter_defaults),

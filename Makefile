@@ -1,0 +1,34 @@
+# nemc: `make run` compiles and simulates the book's double pendulum; `make test` runs the tests.
+# Both set up everything on a fresh machine (a virtual environment in .venv).
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+export NEMC_CACHE ?= $(CURDIR)/.nemc-cache
+
+.PHONY: run test bench bench-quick lint clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[dev]'
+	touch $(STAMP)
+
+run: $(STAMP)
+	$(BIN)/nemc compile examples/double_pendulum.yaml
+	$(BIN)/nemc simulate examples/double_pendulum.yaml --plot generated/double_pendulum.png
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+bench: $(STAMP)
+	$(BIN)/nemc bench
+
+bench-quick: $(STAMP)
+	$(BIN)/nemc bench --quick
+
+lint: $(STAMP)
+	$(BIN)/ruff check nemc tests benchmarks
+
+clean:
+	rm -rf generated/* .nemc-cache
