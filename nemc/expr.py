@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import difflib
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 
 import sympy
@@ -243,7 +243,7 @@ class _Parser:
         if name.text == "dot":
             return self.rate(name)
         if name.text not in FUNCTIONS:
-            hint = _suggest(name.text, list(FUNCTIONS) + ["dot"])
+            hint = suggest(name.text, list(FUNCTIONS) + ["dot"])
             raise ExprError(f"unknown function {name.text!r}{hint}", name.offset)
         function, least, most = FUNCTIONS[name.text]
         args = self.arguments()
@@ -261,7 +261,7 @@ class _Parser:
         if arg.text not in self.scope.rates:
             if not self.scope.rates:
                 raise ExprError(f"dot() is not allowed {self.scope.where}", name.offset)
-            hint = _suggest(arg.text, sorted(self.scope.rates))
+            hint = suggest(arg.text, sorted(self.scope.rates))
             raise ExprError(f"dot() takes a coordinate, {arg.text!r} is not one{hint}", arg.offset)
         return rate_symbol(arg.text)
 
@@ -279,7 +279,7 @@ class _Parser:
             raise ExprError(self.scope.refused[text], token.offset)
         if text in FUNCTIONS or text == "dot":
             raise ExprError(f"{text} is a function: write {text}(...)", token.offset)
-        hint = _suggest(text, self.known_names())
+        hint = suggest(text, self.known_names())
         raise ExprError(f"unknown name {text!r}{hint}", token.offset)
 
     def known_names(self) -> list[str]:
@@ -309,7 +309,9 @@ def _describe(token: Token) -> str:
     return "the end of the expression" if token.kind == "end" else repr(token.text)
 
 
-def _suggest(word: str, candidates: list[str]) -> str:
-    """``" (did you mean 'x'?)"`` for the closest candidate, or ``""``."""
-    close = difflib.get_close_matches(word, candidates, n=1, cutoff=0.6)
+def suggest(word: str, candidates: Iterable[str]) -> str:
+    """``" (did you mean 'x'?)"`` for the closest candidate (ignoring case first), or ``""``."""
+    candidates = list(candidates)
+    same = [c for c in candidates if c.lower() == word.lower()]
+    close = same or difflib.get_close_matches(word, candidates, n=1, cutoff=0.5)
     return f" (did you mean {close[0]!r}?)" if close else ""

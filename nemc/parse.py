@@ -115,7 +115,8 @@ def parse_text(text: str | bytes, file: str) -> Node:
     except RecursionError:
         raise _error(file, 1, "YAML is nested too deeply") from None
     if root is None:
-        raise _error(file, 1, "file holds no YAML document")
+        raise _error(file, 1, "file is empty (no YAML document); expected a mapping with "
+                              "name, bodies and joints")
     converter = _Converter(file)
     tree = converter.convert(root, depth=0, path="")
     if converter.problems:

@@ -19,7 +19,7 @@ from pathlib import Path
 import sympy
 
 from nemc.errors import InputError, Problem
-from nemc.expr import RESERVED, ExprError, Scope, parse_expression
+from nemc.expr import RESERVED, ExprError, Scope, parse_expression, suggest
 from nemc.model import (
     GROUND,
     Body,
@@ -100,7 +100,9 @@ class _Ctx:
     coordinates: list[str] = field(default_factory=list)
     defaults: dict[sympy.Symbol, sympy.Expr] = field(default_factory=dict)
     bodies: dict[str, Body] = field(default_factory=dict)
-    body_names: list[str] = field(default_factory=list)
+    body_names: list[str] = field(default_factory=list)  # valid names, in file order
+    body_keys: list[str] = field(default_factory=list)  # every key under bodies
+    joint_keys: list[str] = field(default_factory=list)  # every key under joints
     joints: dict[str, Joint] = field(default_factory=dict)
     joint_coordinates: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
@@ -135,21 +137,16 @@ def _join(path: str, key: str | int) -> str:
 
 
 def _suggest(word: object, candidates: Iterable[str]) -> str:
-    import difflib
-
-    if not isinstance(word, str):
-        return ""
-    close = difflib.get_close_matches(word, list(candidates), n=1, cutoff=0.6)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+    return suggest(word, candidates) if isinstance(word, str) else ""
 
 
 def _got(node: Node) -> str:
     """How a value that arrived is described in a message."""
     value = node.value
     if isinstance(value, dict):
-        return "got a mapping"
+        return "got a mapping" if value else "got an empty mapping"
     if isinstance(value, list):
-        return f"got a list of {len(value)}"
+        return f"got a list of {len(value)}" if value else "got an empty list"
     if value is None:
         return "got nothing (null)"
     if isinstance(value, bool):
@@ -204,7 +201,8 @@ def _expr(ctx: _Ctx, node: Node, path: str, scope: Scope) -> sympy.Expr | None:
     try:
         return parse_expression(value, scope)
     except ExprError as exc:
-        ctx.problem(node.line, path, f"{exc.message} (in expression {value!r}, "
+        shown = value if len(value) <= 60 else value[:57] + "..."
+        ctx.problem(node.line, path, f"{exc.message} (in expression {shown!r}, "
                                      f"at character {exc.offset + 1})")
         return None
 
@@ -324,6 +322,8 @@ def _collect_names(ctx: _Ctx, root: Mapping[str, Node]) -> None:
                                   ("joints", "joint", None)):
         node = root.get(section)
         for name in _entries(node) if node is not None else {}:
+            if section in ("bodies", "joints"):
+                (ctx.body_keys if section == "bodies" else ctx.joint_keys).append(name)
             path = _join(section, name)
             if _register(ctx, name, node.key_lines[name], path, kind) and target is not None:
                 target.append(name)
@@ -593,9 +593,9 @@ def _body_name(ctx: _Ctx, node: Node, path: str, ground: bool) -> str | None:
     if name == GROUND and not ground:
         ctx.problem(node.line, path, "expected a body, got 'ground' (ground is not allowed here)")
         return None
-    if name == GROUND or name in ctx.body_names:
+    if name == GROUND or name in ctx.body_keys:
         return name
-    candidates = [*ctx.body_names, GROUND] if ground else ctx.body_names
+    candidates = [*ctx.body_keys, GROUND] if ground else ctx.body_keys
     ctx.problem(node.line, path, f"unknown body {name!r}{_suggest(name, candidates)}")
     return None
 
@@ -772,7 +772,7 @@ def _load(ctx: _Ctx, node: Node, path: str) -> Load | None:
     kinds = [kind for kind in LOAD_KINDS if kind in entries]
     if len(kinds) != 1:
         found = f"got {' and '.join(kinds)}" if kinds else f"got keys {', '.join(entries)}"
-        hint = "".join(_suggest(key, LOAD_KINDS) for key in entries)
+        hint = "" if kinds else "".join(_suggest(key, LOAD_KINDS) for key in entries)
         ctx.problem(node.line, path, f"a load has exactly one of {', '.join(LOAD_KINDS)}; "
                                      f"{found}{hint}")
         return None
@@ -873,9 +873,8 @@ def _joint_name(ctx: _Ctx, node: Node, path: str) -> str | None:
     name = _string(ctx, node, path, "a joint name")
     if name is None:
         return None
-    joints = [n for n, (kind, _) in ctx.names.items() if kind == "joint"]
-    if name not in joints:
-        ctx.problem(node.line, path, f"unknown joint {name!r}{_suggest(name, joints)}")
+    if name not in ctx.joint_keys:
+        ctx.problem(node.line, path, f"unknown joint {name!r}{_suggest(name, ctx.joint_keys)}")
         return None
     return name
 
@@ -886,7 +885,9 @@ def _point_ref(ctx: _Ctx, node: Node, path: str, ground: bool) -> PointRef | Non
         if not _keys(ctx, node, path, ("body", "at"), ("body", "at")):
             return None
         entries = _entries(node)
-        body = _body_name(ctx, entries["body"], _join(path, "body"), ground=True)
+        body = None
+        if "body" in entries:
+            body = _body_name(ctx, entries["body"], _join(path, "body"), ground=True)
         xy = _vec2(ctx, entries["at"], _join(path, "at")) if "at" in entries else None
         if body is None or xy is None:
             return None
@@ -1035,7 +1036,8 @@ def _t_eval(ctx: _Ctx, node: Node, t_span: tuple[float, float] | None,
     if node.is_map:
         if not _keys(ctx, node, path, ("step",), ("step",), what="{step: h}"):
             return None, None
-        return None, _positive(ctx, _entries(node)["step"], _join(path, "step"))
+        step = _entries(node).get("step")
+        return None, _positive(ctx, step, _join(path, "step")) if step is not None else None
     if not node.is_list or not node.value:
         ctx.problem(node.line, path, f"expected {{step: h}} or a list of times, {_got(node)}")
         return None, None
