@@ -13,6 +13,7 @@ mechanisms (chains and trees of mixed joints and loads) for the comparison tests
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -35,9 +36,11 @@ from nemc.model import (
     symbol,
 )
 
-# The joint spring of a revolute joint acts on child angle - parent angle, which includes the
-# joint's `offset` (for `angle: relative`, q + offset).
-JOINT_SPRING_ANGLE_INCLUDES_OFFSET = True
+# The spec says a joint spring acts on "the relative angle" of a revolute joint without saying
+# whether the joint's `offset` is part of it. nemc (kinematics.joint_relative) measures it from
+# the offset: child angle - parent angle - offset, i.e. q for `angle: relative` and
+# q - parent angle for `angle: absolute`. Set True for child angle - parent angle instead.
+JOINT_SPRING_ANGLE_INCLUDES_OFFSET = False
 
 Params = Mapping[str, float] | None
 
@@ -284,6 +287,49 @@ def reference_rhs(mech: Mechanism) -> Callable[..., np.ndarray]:
 def reference_energy(mech: Mechanism) -> Callable[..., tuple[float, float]]:
     """``energy(t, y, params=None) -> (T, V)``: kinetic and potential (gravity and springs)."""
     return ReferenceModel(mech).energy
+
+
+# ---------------------------------------------------------------------------------------------
+# The book's own equations
+
+
+def book_two_link_rhs(t: float, y: np.ndarray) -> np.ndarray:
+    """The book's 5.4 Newton-Euler equations EqA and Eq2, solved for the accelerations."""
+    L1 = L2 = m1 = m2 = 1.0
+    g = 9.81
+    q1, u1, q2, u2 = y
+    T01 = (
+        -450 * u1
+        - 300 * (q1 - math.pi / 6)
+        + 0.5 * g * L1 * m1 * math.cos(q1)
+        + g * L1 * m2 * math.cos(q1)
+    )
+    T12 = -200 * u2 - 300 * (q2 - math.pi / 3) + 0.5 * g * L2 * m2 * math.cos(q2)
+    IA, IC2 = m1 * L1**2 / 3, m2 * L2**2 / 12
+    rB = L1 * np.array([math.cos(q1), math.sin(q1)])
+    rC1, rC2 = rB / 2, rB + L2 / 2 * np.array([math.cos(q2), math.sin(q2)])
+
+    def cross(a, b):
+        return a[0] * b[1] - a[1] * b[0]
+
+    def residual(a1: float, a2: float) -> np.ndarray:
+        aB = L1 * (
+            a1 * np.array([-math.sin(q1), math.cos(q1)])
+            - u1**2 * np.array([math.cos(q1), math.sin(q1)])
+        )
+        aC2 = aB + L2 / 2 * (
+            a2 * np.array([-math.sin(q2), math.cos(q2)])
+            - u2**2 * np.array([math.cos(q2), math.sin(q2)])
+        )
+        F21 = -m2 * aC2 + np.array([0, -m2 * g])
+        eqA = -IA * a1 + cross(rB, F21) + cross(rC1, [0, -m1 * g]) + T01 - T12
+        eq2 = -IC2 * a2 + cross(rB - rC2, -F21) + T12
+        return np.array([eqA, eq2])
+
+    r0 = residual(0, 0)
+    A = np.column_stack([residual(1, 0) - r0, residual(0, 1) - r0])
+    a = np.linalg.solve(A, -r0)
+    return np.array([u1, a[0], u2, a[1]])
 
 
 # ---------------------------------------------------------------------------------------------
