@@ -23,12 +23,15 @@ import sysconfig
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cffi
 
 from . import __version__
-from .emit import Emitted
 from .errors import BuildError
+
+if TYPE_CHECKING:  # emit imports sympy; a cached load must not
+    from .emit import Emitted
 
 NEMC_DIR = Path(__file__).resolve().parent
 TEMPLATE_DIR = NEMC_DIR.parent / "templates"

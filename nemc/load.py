@@ -1,4 +1,8 @@
-"""Load: import a built package and return its Model. Never builds."""
+"""Load: import a built package's compiled extension and return a Model. Never builds.
+
+The model is built from nemc's own runtime (so its exceptions are nemc.runtime's); the package's
+`__init__.py` and `_runtime.py` serve only standalone use of an exported package.
+"""
 
 from __future__ import annotations
 
@@ -6,24 +10,19 @@ import importlib.util
 import sys
 from pathlib import Path
 
-from .runtime import Model
+from .runtime import Model, read_metadata
 
 
 def load_package(folder: Path) -> Model:
-    """Import the package in FOLDER under a name unique to its build, once per process."""
-    module_name = "_nemc_build_" + folder.name
+    """The Model of the build in FOLDER; its extension is imported once per process."""
+    module_name = f"_nemc_build_{folder.name}._native"  # the extension's init is PyInit__native
     module = sys.modules.get(module_name)
     if module is None:
-        spec = importlib.util.spec_from_file_location(
-            module_name, folder / "__init__.py", submodule_search_locations=[str(folder)]
-        )
+        extension = next(folder.glob("_native.*"), None)
+        spec = importlib.util.spec_from_file_location(module_name, extension) if extension else None
         if spec is None or spec.loader is None:
-            raise ImportError(f"cannot load the nemc build in {folder}")
+            raise ImportError(f"no compiled extension in the nemc build {folder}")
         module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
         sys.modules[module_name] = module
-        try:
-            spec.loader.exec_module(module)
-        except BaseException:
-            del sys.modules[module_name]
-            raise
-    return module.model
+    return Model(read_metadata(folder / "model.json"), module.ffi, module.lib)

@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 SCIPY_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 DEFAULT_T_SPAN = (0.0, 10.0)
@@ -267,6 +266,8 @@ class Model:
         atol = float(atol if atol is not None else self.scene["atol"] or DEFAULT_ATOL)
         times = self._times(span, t_eval)
         state0 = self.state_vector(y0, params)
+        from scipy.integrate import solve_ivp  # here: importing scipy costs more than a load
+
         try:
             sol = solve_ivp(
                 self._rhs_function(p), span, state0, method=method, t_eval=times,
