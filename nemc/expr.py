@@ -17,6 +17,7 @@ allows it) and ``dot(q)`` is the rate of coordinate ``q``.
 from __future__ import annotations
 
 import difflib
+import math
 import re
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
@@ -130,7 +131,15 @@ def parse_expression(text: str, scope: Scope) -> sympy.Expr:
         raise ExprError(f"expression is too long ({len(text)} characters, at most {MAX_LENGTH})", 0)
     if not text.strip():
         raise ExprError("expected an expression, got an empty string", 0)
-    result = _Parser(tokenize(text), scope).parse()
+    try:
+        result = _Parser(tokenize(text), scope).parse()
+    except ExprError:
+        raise
+    except ZeroDivisionError:
+        raise ExprError("expression divides by zero", 0) from None
+    except (ArithmeticError, ValueError, TypeError) as exc:
+        raise ExprError(f"expression cannot be computed ({type(exc).__name__}: {exc})",
+                        0) from None
     if result.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo):
         raise ExprError(f"expression is not finite (it simplifies to {result})", 0)
     return result
@@ -142,7 +151,12 @@ def number(text: str, offset: int = 0) -> sympy.Expr:
         if len(text) > MAX_DIGITS:
             raise ExprError(f"integer literal has more than {MAX_DIGITS} digits", offset)
         return sympy.Integer(int(text))
-    return sympy.Float(text)
+    value = float(text)  # correctly rounded, and fast even for absurd exponents
+    if not math.isfinite(value) or (value == 0 and re.search(r"[1-9]", text.split("e")[0]
+                                                             .split("E")[0])):
+        raise ExprError(f"number {text} is out of range (beyond about 1e308 or below about "
+                        "1e-308)", offset)
+    return sympy.Float(value)
 
 
 class _Parser:
@@ -182,6 +196,7 @@ class _Parser:
             op = self.advance().text
             right = self.product()
             result = result + right if op == "+" else result - right
+            _check_size(result, self.token.offset)
         return result
 
     def product(self) -> sympy.Expr:
@@ -190,6 +205,7 @@ class _Parser:
             op = self.advance().text
             right = self.unary()
             result = result * right if op == "*" else result / right
+            _check_size(result, self.token.offset)
         return result
 
     def unary(self) -> sympy.Expr:
@@ -214,7 +230,7 @@ class _Parser:
         offset = self.advance().offset
         exponent = self.unary()
         _check_power_size(base, exponent, offset)
-        return base**exponent
+        return _check_size(base**exponent, offset)
 
     def atom(self) -> sympy.Expr:
         token = self.advance()
@@ -250,7 +266,7 @@ class _Parser:
         if len(args) < least or (most is not None and len(args) > most):
             raise ExprError(f"{name.text}() takes {_arity(least, most)}, got {len(args)}",
                             name.offset)
-        return function(*args)
+        return _check_size(function(*args), name.offset)
 
     def rate(self, name: Token) -> sympy.Expr:
         self.expect("(")
@@ -297,6 +313,26 @@ def _check_power_size(base: sympy.Expr, exponent: sympy.Expr, offset: int) -> No
     if size > MAX_DIGITS * 4:
         raise ExprError("power is too large to compute exactly; write the base as a decimal",
                         offset)
+
+
+def _check_size(value: sympy.Expr, offset: int) -> sympy.Expr:
+    """Refuse numbers beyond double range or with huge exact digits (they make sympy crawl)."""
+    if isinstance(value, sympy.Float) and value.is_finite:
+        try:
+            magnitude = abs(float(value))
+        except (OverflowError, ValueError):
+            magnitude = math.inf
+        if magnitude == math.inf or (magnitude == 0 and value != 0):
+            raise ExprError("a number in the expression is out of range (beyond about 1e308 "
+                            "or below about 1e-308)", offset)
+    elif isinstance(value, sympy.Rational) and _bits(value) > 4 * MAX_DIGITS:
+        raise ExprError(f"an exact number in the expression has more than about {MAX_DIGITS} "
+                        "digits", offset)
+    return value
+
+
+def _bits(value: sympy.Rational) -> int:
+    return max(abs(value.p), value.q).bit_length()
 
 
 def _arity(least: int, most: int | None) -> str:

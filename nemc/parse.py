@@ -104,7 +104,7 @@ def parse_text(text: str | bytes, file: str) -> Node:
     if not text.strip():
         raise _error(file, 1, "file is empty; expected a mapping with name, bodies and joints")
     try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
+        root = yaml.compose(text, Loader=_Loader)
     except yaml.MarkedYAMLError as exc:
         raise _syntax_error(exc, file) from None
     except yaml.reader.ReaderError as exc:
@@ -112,8 +112,9 @@ def parse_text(text: str | bytes, file: str) -> Node:
         raise _error(file, line, f"invalid character in YAML: {exc.reason}") from None
     except yaml.YAMLError as exc:
         raise _error(file, 1, f"YAML error: {exc}") from None
-    except RecursionError:
-        raise _error(file, 1, "YAML is nested too deeply") from None
+    except _TooDeep as exc:
+        raise _error(file, exc.line, f"YAML is nested more than {MAX_NESTING} levels deep") \
+            from None
     if root is None:
         raise _error(file, 1, "file is empty (no YAML document); expected a mapping with "
                               "name, bodies and joints")
@@ -122,6 +123,29 @@ def parse_text(text: str | bytes, file: str) -> Node:
     if converter.problems:
         raise InputError(converter.problems)
     return tree
+
+
+class _TooDeep(Exception):
+    def __init__(self, line: int):
+        super().__init__(line)
+        self.line = line
+
+
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe composer with a nesting limit (it recurses once per level)."""
+
+    def __init__(self, stream: str):
+        super().__init__(stream)
+        self.nesting = 0
+
+    def compose_node(self, parent: yaml.Node | None, index: object) -> yaml.Node:
+        self.nesting += 1
+        if self.nesting > MAX_NESTING:
+            raise _TooDeep(self.peek_event().start_mark.line + 1)
+        try:
+            return super().compose_node(parent, index)
+        finally:
+            self.nesting -= 1
 
 
 def _syntax_error(exc: yaml.MarkedYAMLError, file: str) -> InputError:

@@ -88,11 +88,26 @@ def test_integers_stay_exact() -> None:
     ("2**100000", "too large"),
     ("1" * 2000, "more than 1000 digits"),
     ("x" * 100_001, "too long"),
+    ("1.5/0.0", "divides by zero"),
+    ("1e400", "out of range"),
+    ("1e-400000", "out of range"),
+    ("exp(1e308)", "out of range"),
+    ("10.0**10**10", "out of range"),
+    ("cosh(exp(1e5))", "out of range"),
+    ("(10**999)**4", "too large"),
 ])
 def test_invalid(text: str, message: str) -> None:
     with pytest.raises(ExprError) as info:
         parse(text)
     assert message in info.value.message
+
+
+def test_numeric_blowups_are_refused_fast() -> None:
+    start = time.perf_counter()
+    for text in ("1e-400000", "log(1e-400000)", "cosh(exp(1e5))", "1e308**1e3080.0"):
+        with pytest.raises(ExprError):
+            parse(text)
+    assert time.perf_counter() - start < 2
 
 
 def test_error_offset() -> None:
