@@ -157,17 +157,26 @@ def _got(node: Node) -> str:
 
 
 def _keys(ctx: _Ctx, node: Node, path: str, allowed: Iterable[str],
-          required: Iterable[str] = (), what: str = "a mapping") -> bool:
-    """Check ``node`` is a mapping with only ``allowed`` keys and all ``required`` ones."""
+          required: Iterable[str] = (), what: str = "a mapping",
+          owner: tuple[str, Iterable[str]] = ("", ())) -> bool:
+    """Check ``node`` is a mapping with only ``allowed`` keys and all ``required`` ones.
+
+    ``owner`` is ``(description, keys of its siblings)``, e.g. ``("a revolute joint", every
+    joint key)``: a sibling's key is then refused as not applying rather than as unknown.
+    """
     if not node.is_map:
         ctx.problem(node.line, path, f"expected {what}, {_got(node)}")
         return False
     allowed = tuple(allowed)
     for key in node.value:  # type: ignore[union-attr]
-        if key not in allowed:
-            ctx.problem(node.key_lines[key], _join(path, key),
-                        f"unknown key {key!r}{_suggest(key, allowed)}; "
-                        f"expected one of: {', '.join(allowed)}")
+        if key in allowed:
+            continue
+        if key in owner[1]:
+            message = f"key {key!r} does not apply to {owner[0]}"
+        else:
+            message = f"unknown key {key!r}{_suggest(key, allowed)}"
+        ctx.problem(node.key_lines[key], _join(path, key),
+                    f"{message}; expected one of: {', '.join(allowed)}")
     for key in required:
         if key not in node.value:  # type: ignore[operator]
             ctx.problem(node.line, _join(path, key), f"missing required key {key!r}")
@@ -611,12 +620,8 @@ def _joint(ctx: _Ctx, name: str, node: Node, path: str, edge: _Edge | None) -> J
         required.append("coordinate")
     elif kind == "free":
         required.append("coordinates")
-    _keys(ctx, node, path, every_key, required)
-    if kind is not None:
-        for key in entries:
-            if key in every_key and key not in JOINT_KEYS[kind]:
-                ctx.problem(node.key_lines[key], _join(path, key), f"key {key!r} does not apply "
-                            f"to a {kind} joint; it takes: {', '.join(JOINT_KEYS[kind])}")
+    allowed = JOINT_KEYS[kind] if kind is not None else every_key
+    _keys(ctx, node, path, allowed, required, owner=(f"a {kind} joint", every_key))
     if kind is None:
         return None
     return _joint_fields(ctx, Joint(name, kind, "", "", ZERO2, (), loc=ctx.loc(node, path)),
@@ -779,7 +784,8 @@ def _load(ctx: _Ctx, node: Node, path: str) -> Load | None:
     kind = kinds[0]
     required = ("body",) if kind in ("torque", "force") else ()
     count = len(ctx.problems)
-    _keys(ctx, node, path, LOAD_KEYS[kind], required)
+    every_key = {key for keys in LOAD_KEYS.values() for key in keys}
+    _keys(ctx, node, path, LOAD_KEYS[kind], required, owner=(f"a {kind} load", every_key))
     maker = {"torque": _torque, "force": _force, "spring": _spring,
              "joint_spring": _joint_spring}[kind]
     load = maker(ctx, node, path)

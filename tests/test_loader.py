@@ -269,6 +269,9 @@ BAD = [
      "already used by the coordinate at joints.A.coordinate"),
     ("coordinate-ground", variant("coordinate: q2", "coordinate: ground"),
      "8: joints.B.coordinate:", "reserved"),
+    ("body-ground", variant("  b2: {mass", "  ground: {mass"), "5: bodies.ground:",
+     "'ground' is reserved"),
+    ("joint-ddot", variant("  B: {type", "  ddot: {type"), "8: joints.ddot:", "reserved"),
     ("output-name-collides", extra("outputs: {expressions: {L: q1}}"),
      "9: outputs.expressions.L:", "already used by the parameter"),
     # gravity
@@ -365,7 +368,7 @@ BAD = [
     ("torque-unknown-reaction", extra("loads:\n  - torque: 1\n    body: b1\n    reaction: b3\n"),
      "12: loads[0].reaction:", "unknown body 'b3'"),
     ("torque-frame-key", extra("loads:\n  - torque: 1\n    body: b1\n    frame: body\n"),
-     "12: loads[0].frame:", "unknown key 'frame'"),
+     "12: loads[0].frame:", "key 'frame' does not apply to a torque load"),
     ("torque-bad-rate", extra("loads:\n  - torque: dot(q3)\n    body: b1\n"),
      "10: loads[0].torque:", "dot() takes a coordinate, 'q3' is not one"),
     ("spring-map-no-body", extra("loads:\n  - spring: {a: b1.P, b: {at: [1, 0]}, k: 1, "
