@@ -19,11 +19,14 @@ if TYPE_CHECKING:
     from .runtime import Model
 
 
-def compile(path: str | Path) -> Model:  # noqa: A001 (the interface's name)
-    """Build the mechanism in PATH, or load its cached build, and return the Model."""
+def compile(path: str | Path, *, jacobian: bool | None = None) -> Model:  # noqa: A001
+    """Build the mechanism in PATH, or load its cached build, and return the Model.
+
+    The analytic Jacobian is generated when `jacobian` is True, or (None) when the scene's
+    method is implicit; otherwise it is built on the model's first call that needs it."""
     from .pipeline import compile_mechanism
 
-    return compile_mechanism(path).model
+    return compile_mechanism(path, jacobian).model
 
 
 __all__ = ["compile", "__version__"]

@@ -41,6 +41,7 @@ class Equations:
     outputs: tuple[tuple[str, sympy.Expr], ...]  # may contain the acceleration symbols
     checks: tuple[tuple[str, sympy.Expr], ...]  # key path -> expression that must be > 0
     initial_state: tuple[sympy.Expr, ...]
+    jacobian: tuple[sympy.Matrix, sympy.Matrix] | None = None  # (R, S): see jacobian.py
 
     @property
     def n(self) -> int:

@@ -108,6 +108,15 @@ def outputs_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, p
     )
 
 
+def jacobian_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str) -> str:
+    if eqs.jacobian is None:
+        return ""
+    terms = indexed("R", block.groups["jacobian_r"]) + indexed("S", block.groups["jacobian_s"])
+    return template("jacobian.c.tmpl").substitute(
+        prefix=prefix, jacobian_terms=body(printer, block, terms)
+    )
+
+
 def _all_symbols(block: Block, expr: sympy.Expr) -> set[sympy.Symbol]:
     found = set(sympy.sympify(expr).free_symbols)
     for _, temp in needed(block, (expr,)):
@@ -134,15 +143,17 @@ def c_source(eqs: Equations, block: Block, prefix: str) -> str:
         checks=body(printer, block, indexed("out", block.groups["checks"])),
         initial=body(printer, block, indexed("y0", block.groups["initial"])),
         outputs_section=outputs_section(eqs, block, printer, prefix),
+        jacobian_section=jacobian_section(eqs, block, printer, prefix),
     )
 
 
-def generated_functions(has_outputs: bool) -> list[str]:
-    """The C functions a model gets: outputs only when the scene asks for some."""
-    return ["rhs", "rhs_many", "checks", "initial_state"] + (["outputs"] if has_outputs else [])
+def generated_functions(eqs: Equations) -> list[str]:
+    """The C functions a model gets: outputs and jacobian only when needed."""
+    optional = [("outputs", bool(eqs.outputs)), ("jacobian", eqs.jacobian is not None)]
+    return ["rhs", "rhs_many", "checks", "initial_state"] + [f for f, yes in optional if yes]
 
 
-def cdef(prefix: str, has_outputs: bool) -> str:
+def cdef(prefix: str, functions: list[str]) -> str:
     lines = [
         f"int {prefix}rhs(double t, const double *y, const double *p, double *dy);",
         f"int {prefix}rhs_many(int n, const double *ts, const double *ys, const double *p,"
@@ -150,10 +161,14 @@ def cdef(prefix: str, has_outputs: bool) -> str:
         f"void {prefix}checks(const double *p, double *out);",
         f"void {prefix}initial_state(const double *p, double *y0);",
     ]
-    if has_outputs:
+    if "outputs" in functions:
         lines.append(
             f"int {prefix}outputs(int n_t, const double *ts, const double *ys, const double *p,"
             " double *out);"
+        )
+    if "jacobian" in functions:
+        lines.append(
+            f"int {prefix}jacobian(double t, const double *y, const double *p, double *jac);"
         )
     return "\n".join(lines) + "\n"
 
@@ -181,7 +196,7 @@ def metadata(eqs: Equations, prefix: str) -> dict:
         "derived_parameters": {name: str(expr) for name, expr in eqs.derived_parameters},
         "check_names": [key for key, _ in eqs.checks],
         "output_names": [name for name, _ in eqs.outputs],
-        "generated": generated_functions(bool(eqs.outputs)),
+        "generated": generated_functions(eqs),
         "scene": {
             "t_span": list(sim.t_span) if sim.t_span else None,
             "t_eval": list(sim.t_eval) if sim.t_eval is not None else None,
@@ -198,7 +213,7 @@ def emit(eqs: Equations, block: Block) -> Emitted:
     return Emitted(
         name=eqs.mechanism.name,
         c_source=c_source(eqs, block, prefix),
-        cdef=cdef(prefix, bool(eqs.outputs)),
+        cdef=cdef(prefix, generated_functions(eqs)),
         package_init=template("package_init.py.tmpl").substitute(
             name=eqs.mechanism.name, version=__version__
         ),

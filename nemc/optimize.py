@@ -48,12 +48,13 @@ def shared_cse(groups: dict[str, tuple[sympy.Expr, ...]]) -> Block:
 
 
 def optimize_equations(eqs: Equations) -> Block:
-    return shared_cse(
-        {
-            "mass": lower_triangle(eqs.mass_matrix),
-            "forcing": tuple(eqs.forcing),
-            "outputs": tuple(expr for _, expr in eqs.outputs),
-            "checks": tuple(expr for _, expr in eqs.checks),
-            "initial": eqs.initial_state,
-        }
-    )
+    groups = {
+        "mass": lower_triangle(eqs.mass_matrix),
+        "forcing": tuple(eqs.forcing),
+        "outputs": tuple(expr for _, expr in eqs.outputs),
+        "checks": tuple(expr for _, expr in eqs.checks),
+        "initial": eqs.initial_state,
+    }
+    if eqs.jacobian is not None:
+        groups["jacobian_r"], groups["jacobian_s"] = (tuple(m) for m in eqs.jacobian)
+    return shared_cse(groups)

@@ -26,7 +26,6 @@ class Compiled:
     package: Path
     cached: bool
     timings: dict[str, float] = field(default_factory=dict)
-    generated: list[str] = field(default_factory=list)
 
 
 @contextmanager
@@ -46,37 +45,51 @@ def read_source(path: str | Path) -> Source:
         raise InputError([problem]) from None
 
 
-def compile_mechanism(path: str | Path) -> Compiled:
-    """Build the mechanism in PATH (or load its cached build) and load it."""
+def compile_mechanism(path: str | Path, jacobian: bool | None = None) -> Compiled:
+    """Build the mechanism in PATH (or load its cached build) and load it.
+
+    jacobian: True generates the analytic Jacobian; None (default) generates it only when the
+    scene's method is implicit, and later on the model's first need of it."""
+    return compile_source(read_source(path), jacobian)
+
+
+def compile_source(source: Source, jacobian: bool | None) -> Compiled:
     timings: dict[str, float] = {}
-    source = read_source(path)
-    key = build_key(source)
+    options = {"jacobian": "auto" if jacobian is None else bool(jacobian)}
+    key = build_key(source, options)
     with timed(timings, "lookup"):
         package = cached_package(key)
-    cached, generated = package is not None, []
+    cached = package is not None
     if package is None:
-        package, generated = generate_and_build(source, key, timings)
+        package = generate_and_build(source, key, jacobian, timings)
     with timed(timings, "load"):
         model = load_package(package)
-    return Compiled(model, package, cached, timings, generated)
+    if "jacobian" not in model.metadata["generated"]:
+        model.jacobian_provider = lambda: compile_source(source, True).model
+    return Compiled(model, package, cached, timings)
 
 
-def generate_and_build(source: Source, key: str, timings: dict[str, float]) -> tuple[Path, list]:
+def generate_and_build(
+    source: Source, key: str, jacobian: bool | None, timings: dict[str, float]
+) -> Path:
     from .build import build
     from .derive import derive
     from .emit import emit
+    from .jacobian import with_jacobian
     from .optimize import optimize_equations
+    from .runtime import IMPLICIT_METHODS
     from .validate import validate_text
 
     with timed(timings, "validate"):
         mechanism = validate_text(source.data, source.path)
     with timed(timings, "derive"):
         equations = derive(mechanism)
+        if jacobian or (jacobian is None and mechanism.simulation.method in IMPLICIT_METHODS):
+            equations = with_jacobian(equations)
     with timed(timings, "optimize"):
         block = optimize_equations(equations)
     with timed(timings, "emit"):
         code = emit(equations, block)
     with timed(timings, "build"):
-        package = build(code, key)
-    return package, code.metadata["generated"]
+        return build(code, key)
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import difflib
 import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 SCIPY_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")  # these get the analytic Jacobian
 DEFAULT_T_SPAN = (0.0, 10.0)
 DEFAULT_METHOD = "RK45"
 DEFAULT_RTOL = 1e-6
@@ -81,10 +82,12 @@ class Model:
         prefix = metadata["c_prefix"]
         self._c = {
             name: getattr(lib, prefix + name)
-            for name in ("rhs", "rhs_many", "checks", "initial_state", "outputs")
+            for name in ("rhs", "rhs_many", "checks", "initial_state", "outputs", "jacobian")
             if hasattr(lib, prefix + name)
         }
         self._default_p = np.array(metadata["parameter_defaults"], dtype=float)
+        # Builds the variant with the C Jacobian on first need (set by nemc; None standalone).
+        self.jacobian_provider: Callable[[], Model] | None = None
         self._checked: tuple[tuple, np.ndarray] = ((), self._default_p)
 
     @property
@@ -216,8 +219,38 @@ class Model:
         return np.ascontiguousarray(array.T, dtype=np.float64)
 
     def jacobian(self, t: float, y: Any, params: Mapping[str, float] | None = None) -> np.ndarray:
-        """d rhs / d y, (n_state, n_state), by central differences of the compiled RHS."""
-        y = self._state(y)
+        """d rhs / d y, (n_state, n_state): analytic, from C (built on first need); central
+        differences of the compiled RHS only in a standalone package built without it."""
+        function = self._jacobian_function(self.parameter_vector(params))
+        if function is not None:
+            return function(float(t), self._state(y))
+        return self._finite_difference_jacobian(float(t), self._state(y), params)
+
+    def _has_jacobian(self) -> bool:
+        if "jacobian" not in self._c and self.jacobian_provider is not None:
+            upgraded = self.jacobian_provider()
+            self._c, self._lib, self._ffi = upgraded._c, upgraded._lib, upgraded._ffi
+            self.jacobian_provider = None
+        return "jacobian" in self._c
+
+    def _jacobian_function(self, p: np.ndarray):
+        """A fast closure d rhs/d y for implicit integrators, or None without a C Jacobian."""
+        if not self._has_jacobian():
+            return None
+        c_jac, buffer, n, names = self._c["jacobian"], self._buffer, self.n_state, self.state_names
+        p_buffer = buffer(p)
+
+        def jacobian(t: float, y: np.ndarray) -> np.ndarray:
+            y = np.ascontiguousarray(y, dtype=np.float64)
+            jac = np.empty((n, n))
+            status = c_jac(t, buffer(y), p_buffer, buffer(jac))
+            if status:
+                raise IntegrationFailure(t, y, status, names)
+            return jac
+
+        return jacobian
+
+    def _finite_difference_jacobian(self, t: float, y: np.ndarray, params) -> np.ndarray:
         f = self._rhs_function(self.parameter_vector(params))
         jac = np.empty((self.n_state, self.n_state))
         for j in range(self.n_state):
@@ -225,7 +258,7 @@ class Model:
             up, down = y.copy(), y.copy()
             up[j] += h
             down[j] -= h
-            jac[:, j] = (f(float(t), up) - f(float(t), down)) / (2 * h)
+            jac[:, j] = (f(t, up) - f(t, down)) / (2 * h)
         return jac
 
     def outputs(
@@ -269,9 +302,11 @@ class Model:
         from scipy.integrate import solve_ivp  # here: importing scipy costs more than a load
 
         try:
+            jac = self._jacobian_function(p) if method in IMPLICIT_METHODS else None
+            extra = {"jac": jac} if jac is not None else {}
             sol = solve_ivp(
                 self._rhs_function(p), span, state0, method=method, t_eval=times,
-                rtol=rtol, atol=atol,
+                rtol=rtol, atol=atol, **extra,
             )
         except IntegrationFailure as failure:
             return self._failed(failure, method, rtol, atol, params)

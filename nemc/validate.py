@@ -124,10 +124,14 @@ class _Ctx:
         if kind == "load":
             allowed += self.coordinates
         names = {name: symbol(name) for name in allowed}
-        refused = {name: f"{name!r} is a {kind_}, not allowed {where}"
+        refused = {name: f"{name!r} is {_article(kind_)} {kind_}, not allowed {where}"
                    for name, (kind_, _) in self.names.items() if name not in names}
         rates = frozenset(self.coordinates) if kind == "load" else frozenset()
         return Scope(names, rates, kind == "load", refused, where)
+
+
+def _article(word: str) -> str:
+    return "an" if word[:1] in "aeiou" else "a"
 
 
 def _join(path: str, key: str | int) -> str:
