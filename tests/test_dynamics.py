@@ -124,14 +124,17 @@ def test_compound_pendulum_book_acceleration() -> None:
 
 
 def compound_pendulum_outputs(y: np.ndarray, W: float, g: float = 32.2, L: float = 3.0):
-    """Book eqs. (5.15)-(5.17): kinetic energy and the pin force on the rod, ground frame."""
+    """Book eqs. (5.15)-(5.17): kinetic energy and the pin force on the rod (ground, rod frame)."""
     th, w = y
     m = W / g
     alpha = -3 * g * math.cos(th) / (2 * L)
     ax = L / 2 * (-math.sin(th) * alpha - math.cos(th) * w**2)
     ay = L / 2 * (math.cos(th) * alpha - math.sin(th) * w**2)
     kinetic = 0.5 * m * L**2 / 3 * w**2
-    return {"energy.kinetic": kinetic, "O.Fx": m * ax, "O.Fy": m * ay + m * g}
+    fx, fy = m * ax, m * ay + m * g
+    fn = fx * math.cos(th) + fy * math.sin(th)  # along the rod (5.17)
+    ft = -fx * math.sin(th) + fy * math.cos(th)  # across it (5.16)
+    return {"energy.kinetic": kinetic, "O.Fx": fx, "O.Fy": fy, "O.Fn": fn, "O.Ft": ft}
 
 
 @pytest.mark.parametrize("W", [12.0, 24.0])
