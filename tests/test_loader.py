@@ -425,6 +425,8 @@ BAD = [
      "expected BODY.POINT"),
     ("output-expression", extra("outputs:\n  expressions: {e: ddot(q1)}\n"),
      "10: outputs.expressions.e:", "unknown function 'ddot'"),
+    ("output-uses-output", extra("outputs:\n  expressions: {e1: q1, e2: 2*e1}\n"),
+     "10: outputs.expressions.e2:", "'e1' is an output expression, not allowed"),
     ("output-expression-name", extra("outputs:\n  expressions: {2e: q1}\n"),
      "10: outputs.expressions.2e:", "identifier"),
     # simulation
