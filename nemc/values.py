@@ -7,7 +7,6 @@ definition, so it follows its inputs when they are changed at run time.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import sympy
@@ -21,9 +20,6 @@ class Values:
     runtime_defaults: tuple[float, ...]
     derived: tuple[tuple[str, sympy.Expr], ...]  # derived parameter -> expression of runtime ones
     substitutions: dict[sympy.Symbol, sympy.Expr]  # constants and derived parameters
-
-    def defaults(self) -> dict[sympy.Symbol, float]:
-        return dict(zip(self.runtime_symbols, self.runtime_defaults))
 
 
 def _resolve(items: tuple[m.Param, ...], known: dict[sympy.Symbol, sympy.Expr]) -> None:
@@ -54,12 +50,3 @@ def resolve_values(mech: m.Mechanism) -> Values:
     derived = tuple((p.name, known[m.symbol(p.name)]) for p in derived_items)
     return Values(runtime_syms, defaults, derived, known)
 
-
-def evaluate(expr: sympy.Expr, values: dict[sympy.Symbol, float]) -> float:
-    """A number from an expression of runtime parameters (nan when it has no finite value)."""
-    result = sympy.sympify(expr).xreplace(values).evalf()
-    try:
-        number = float(result)
-    except TypeError:
-        return math.nan
-    return number
