@@ -23,6 +23,7 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/nemc bench
+	$(BIN)/python benchmarks/stiff.py
 
 bench-quick: $(STAMP)
 	$(BIN)/nemc bench --quick
