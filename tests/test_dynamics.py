@@ -28,15 +28,6 @@ RANDOM_SEEDS = range(12)
 RHS_RTOL = 1e-10
 
 
-@pytest.fixture(scope="module", autouse=True)
-def nemc_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    cache = tmp_path_factory.mktemp("nemc-cache")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("NEMC_CACHE", str(cache))
-        yield cache
-    _build.cache_clear()
-
-
 @pytest.fixture(scope="module")
 def random_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return tmp_path_factory.mktemp("random-mechanisms")

@@ -66,15 +66,6 @@ EXPRESSIONS: dict[str, dict[str, Numpy]] = {
 }
 
 
-@pytest.fixture(scope="module", autouse=True)
-def nemc_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    cache = tmp_path_factory.mktemp("nemc-cache")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("NEMC_CACHE", str(cache))
-        yield cache
-    _build.cache_clear()
-
-
 @pytest.fixture(scope="module")
 def scratch(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return tmp_path_factory.mktemp("output-mechanisms")
