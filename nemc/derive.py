@@ -73,7 +73,7 @@ def newton_euler(mech: m.Mechanism, kin: Kinematics) -> tuple[sympy.Matrix, symp
         for k in range(n):
             residual[k] -= sympy.diff(rel, kin.q[k]) * tension
     mass = residual.jacobian(kin.qdd)
-    forcing = -residual.subs({a: 0 for a in kin.qdd})
+    forcing = -residual.xreplace({a: sympy.S.Zero for a in kin.qdd})
     return mass, forcing
 
 
