@@ -495,12 +495,19 @@ def _compute_defaults(ctx: _Ctx, parsed: Mapping[str, tuple[Node, str, sympy.Exp
 # ----------------------------------------------------------------------------- bodies
 
 
-def _bodies(ctx: _Ctx, node: Node | None) -> tuple[Body, ...]:
+def _nonempty_mapping(ctx: _Ctx, node: Node | None, key: str, item: str) -> bool:
+    """Whether NODE is a mapping with at least one entry (a problem is recorded if not)."""
     if node is None:
-        return ()
+        return False
     if not node.is_map or not node.value:
-        ctx.problem(node.line, "bodies", f"expected a mapping body name -> body with at least "
-                                         f"one body, {_got(node)}")
+        ctx.problem(node.line, key, f"expected a mapping {item} name -> {item} with at least "
+                                    f"one {item}, {_got(node)}")
+        return False
+    return True
+
+
+def _bodies(ctx: _Ctx, node: Node | None) -> tuple[Body, ...]:
+    if not _nonempty_mapping(ctx, node, "bodies", "body"):
         return ()
     for name, body_node in _entries(node).items():
         path = _join("bodies", name)
@@ -563,11 +570,7 @@ class _Edge:
 
 
 def _joints(ctx: _Ctx, node: Node | None) -> tuple[Joint, ...]:
-    if node is None:
-        return ()
-    if not node.is_map or not node.value:
-        ctx.problem(node.line, "joints", f"expected a mapping joint name -> joint with at least "
-                                         f"one joint, {_got(node)}")
+    if not _nonempty_mapping(ctx, node, "joints", "joint"):
         return ()
     edges: list[_Edge] = []
     for name, joint_node in _entries(node).items():
