@@ -150,7 +150,8 @@ def c_source(eqs: Equations, block: Block, prefix: str) -> str:
 def generated_functions(eqs: Equations) -> list[str]:
     """The C functions a model gets: outputs and jacobian only when needed."""
     optional = [("outputs", bool(eqs.outputs)), ("jacobian", eqs.jacobian is not None)]
-    return ["rhs", "rhs_many", "checks", "initial_state"] + [f for f, yes in optional if yes]
+    always = ["rhs", "rhs_many", "mass_matrix", "checks", "initial_state"]
+    return always + [f for f, yes in optional if yes]
 
 
 def cdef(prefix: str, functions: list[str]) -> str:
@@ -158,6 +159,7 @@ def cdef(prefix: str, functions: list[str]) -> str:
         f"int {prefix}rhs(double t, const double *y, const double *p, double *dy);",
         f"int {prefix}rhs_many(int n, const double *ts, const double *ys, const double *p,"
         " double *dys);",
+        f"int {prefix}mass_matrix(double t, const double *y, const double *p, double *mass);",
         f"void {prefix}checks(const double *p, double *out);",
         f"void {prefix}initial_state(const double *p, double *y0);",
     ]

@@ -82,7 +82,10 @@ class Model:
         prefix = metadata["c_prefix"]
         self._c = {
             name: getattr(lib, prefix + name)
-            for name in ("rhs", "rhs_many", "checks", "initial_state", "outputs", "jacobian")
+            for name in (
+                "rhs", "rhs_many", "mass_matrix", "checks", "initial_state", "outputs",
+                "jacobian",
+            )
             if hasattr(lib, prefix + name)
         }
         self._default_p = np.array(metadata["parameter_defaults"], dtype=float)
@@ -260,6 +263,17 @@ class Model:
             down[j] -= h
             jac[:, j] = (f(t, up) - f(t, down)) / (2 * h)
         return jac
+
+    def mass_matrix(self, y: Any, params: Mapping[str, float] | None = None) -> np.ndarray:
+        """The mass matrix M(q) of M qdd = f at state y, (n_coord, n_coord)."""
+        n = len(self.coordinate_names)
+        mass = np.empty((n, n))
+        p, state = self.parameter_vector(params), self._state(y)
+        buffer = self._buffer
+        status = self._c["mass_matrix"](0.0, buffer(state), buffer(p), buffer(mass))
+        if status:
+            raise IntegrationFailure(0.0, state, status, self.state_names)
+        return mass
 
     def outputs(
         self, t: Any, y: Any, params: Mapping[str, float] | None = None

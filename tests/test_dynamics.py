@@ -77,8 +77,11 @@ def check_rhs(model, ref, seed: int) -> None:
     assert tuple(model.state_names) == ref.mech.state_names
     for t, y in random_states(rng, len(model.state_names)):
         assert_rel_close(model.rhs(t, y), ref.rhs(t, y))
+        assert_rel_close(model.mass_matrix(y), ref.mass_forcing(t, y)[0])
         params = scaled_parameters(model, ref, rng)
         assert_rel_close(model.rhs(t, y, params=params), ref.rhs(t, y, params))
+        mass = model.mass_matrix(y, params=params)
+        assert_rel_close(mass, ref.mass_forcing(t, y, params)[0])
 
 
 # ---------------------------------------------------------------------------------------------
