@@ -51,7 +51,7 @@ class Kinematics:
         self.bodies: dict[str, BodyKinematics] = {
             m.GROUND: BodyKinematics(sympy.S.Zero, vec([0, 0]))
         }
-        for joint in _joints_parent_first(mech.joints):
+        for joint in joints_parent_first(mech.joints):
             self.bodies[joint.child] = self._place_child(joint)
 
     def _place_child(self, joint: m.Joint) -> BodyKinematics:
@@ -90,7 +90,7 @@ class Kinematics:
         return [sympy.diff(expr, u) for u in self.u]
 
 
-def _joints_parent_first(joints: Iterable[m.Joint]) -> list[m.Joint]:
+def joints_parent_first(joints: Iterable[m.Joint]) -> list[m.Joint]:
     placed, pending, ordered = {m.GROUND}, list(joints), []
     while pending:
         ready = [j for j in pending if j.parent in placed]
