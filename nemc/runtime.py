@@ -10,7 +10,10 @@ from __future__ import annotations
 import difflib
 import json
 import math
+import os
+import warnings
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,9 +21,12 @@ from typing import Any
 import numpy as np
 
 SCIPY_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
-IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")  # these get the analytic Jacobian
+# Integrators in the model's own C (templates/integrators.c.tmpl), no Python in the loop.
+NATIVE_METHODS = ("nemc.DOP853", "nemc.Radau")
+METHODS = SCIPY_METHODS + NATIVE_METHODS
+IMPLICIT_METHODS = ("Radau", "BDF", "LSODA", "nemc.Radau")  # these get the analytic Jacobian
 DEFAULT_T_SPAN = (0.0, 10.0)
-DEFAULT_METHOD = "RK45"
+DEFAULT_METHOD = "nemc.DOP853"
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-9
 
@@ -309,16 +315,19 @@ class Model:
         params: Mapping[str, float] | None = None,
     ) -> SimulationResult:
         """Integrate the scene. Arguments left None take the YAML scene's values, then defaults
-        (t_span (0, 10), method RK45, rtol 1e-6, atol 1e-9, t_eval: the solver's steps)."""
+        (t_span (0, 10), method nemc.DOP853, rtol 1e-6, atol 1e-9, t_eval: the solver's steps).
+        Methods: scipy's solve_ivp methods (SCIPY_METHODS) and nemc's own (NATIVE_METHODS)."""
         p = self.parameter_vector(params)
         span = tuple(float(v) for v in (t_span or self.scene["t_span"] or DEFAULT_T_SPAN))
         method = method or self.scene["method"] or DEFAULT_METHOD
-        if method not in SCIPY_METHODS:
-            raise ModelError(f"unknown method {method!r}; choose one of {', '.join(SCIPY_METHODS)}")
+        if method not in METHODS:
+            raise ModelError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
         rtol = float(rtol if rtol is not None else self.scene["rtol"] or DEFAULT_RTOL)
         atol = float(atol if atol is not None else self.scene["atol"] or DEFAULT_ATOL)
         times = self._times(span, t_eval)
         state0 = self.state_vector(y0, params)
+        if method in NATIVE_METHODS:
+            return self._simulate_native(method, span, state0, times, rtol, atol, p)
         from scipy.integrate import solve_ivp  # here: importing scipy costs more than a load
 
         try:
@@ -360,3 +369,210 @@ class Model:
             nlu=0, status=-1, message=f"integration failed: {failure}", success=False,
             method=method, rtol=rtol, atol=atol, params=dict(params or {}),
         )
+
+    # -- native integration: integrators in the model's C (NATIVE_METHODS) -------------------
+
+    def _native(self, method: str, function: str = "integrate") -> Any:
+        """A native entry point of the compiled module; for nemc.Radau, builds the Jacobian."""
+        if method in IMPLICIT_METHODS and not self._has_jacobian():
+            raise ModelError(f"{method} needs the analytic Jacobian, and this build has none:"
+                             " compile it with jacobian=True (or a scene method that is implicit)")
+        entry = getattr(self._lib, self.metadata["c_prefix"] + function, None)
+        if entry is None:
+            raise ModelError(f"{method}: this build has no native integrators (rebuild it)")
+        return entry
+
+    def _native_run(
+        self, span: tuple[float, ...], times: np.ndarray | None, rtol: float, atol: float
+    ) -> tuple[Any, list]:
+        """A nemc_run with the settings of one integration, and the buffers it points into."""
+        run = self._ffi.new("nemc_run *")
+        run.t0, run.t_end = span
+        run.rtol, run.atol = native_tolerances(rtol, atol)
+        keep: list = []
+        if times is None:
+            run.n_eval = -1
+        else:
+            times = checked_times(times, span)
+            run.n_eval, run.t_eval = len(times), self._buffer(times)
+            keep.append(times)
+        return run, keep
+
+    def _simulate_native(
+        self, method: str, span: tuple[float, ...], y0: np.ndarray, times: Any,
+        rtol: float, atol: float, p: np.ndarray,
+    ) -> SimulationResult:
+        """simulate() with a native method: the same result as scipy's solve_ivp would give."""
+        integrate = self._native(method)
+        run, keep = self._native_run(span, None if times is None else np.asarray(times), rtol,
+                                     atol)
+        n, buffer = self.n_state, self._buffer
+        y_eval = np.empty((max(run.n_eval, 0), n))
+        y_fail = np.empty(n)
+        run.y_eval, run.y_fail = buffer(y_eval), buffer(y_fail)
+        status = integrate(NATIVE_IDS[method], run, buffer(y0), buffer(p))
+        if run.n_eval < 0:
+            t, y = self._take_steps(run)
+        else:
+            t, y = keep[0][: run.n_out], y_eval[: run.n_out].T
+        if status == NATIVE_RHS_FAILED:
+            failure = IntegrationFailure(run.t_fail, y_fail, run.rhs_status, self.state_names)
+            return self._failed(failure, method, run.rtol, run.atol, self.parameters_at(p))
+        if status not in NATIVE_MESSAGES:
+            raise RuntimeError(f"{method}: the native integrator failed (status {status})")
+        return SimulationResult(
+            t=t, y=y, outputs=self.outputs(t, y, dict(zip(self.parameter_names, p)))
+            if t.size else {}, nfev=int(run.nfev), njev=int(run.njev), nlu=int(run.nlu),
+            status=status, message=NATIVE_MESSAGES[status], success=status == 0, method=method,
+            rtol=run.rtol, atol=run.atol, params=self.parameters_at(p),
+        )
+
+    def parameters_at(self, p: np.ndarray) -> dict[str, float]:
+        return dict(zip(self.parameter_names, p.tolist()))
+
+    def _take_steps(self, run: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Copy the step record that C malloc'ed (n_eval -1) and release it."""
+        count, ffi = run.n_out, self._ffi
+        try:
+            t = np.frombuffer(ffi.buffer(run.steps_t, 8 * count), dtype=float).copy()
+            y = np.frombuffer(ffi.buffer(run.steps_y, 8 * count * self.n_state), dtype=float)
+            return t, y.reshape(count, self.n_state).T.copy()
+        finally:
+            getattr(self._lib, self.metadata["c_prefix"] + "free_steps")(run)
+
+    def simulate_many(
+        self,
+        y0s: Any = None,
+        *,
+        params: Mapping[str, Any] | None = None,
+        t_span: Sequence[float] | None = None,
+        t_eval: Sequence[float] | None = None,
+        method: str | None = None,
+        rtol: float | None = None,
+        atol: float | None = None,
+        threads: int | None = None,
+    ) -> EnsembleResult:
+        """Integrate an ensemble with a native method, the loop over runs in C.
+
+        y0s: (k, n_state) initial states, or None for the scene's initial state. params: a dict
+        of overrides whose values are numbers (shared) or arrays of length k (one per run).
+        t_eval: the times of the returned states, default the scene's, else (t0, t_end).
+        method: a native method; default the scene's when native, nemc.Radau when the scene's
+        method is implicit, else nemc.DOP853. threads: how many threads share the runs
+        (default: the machine's cores); each run is independent and deterministic."""
+        span = tuple(float(v) for v in (t_span or self.scene["t_span"] or DEFAULT_T_SPAN))
+        method = method or ensemble_method(self.scene["method"])
+        if method not in NATIVE_METHODS:
+            raise ModelError(f"simulate_many: method must be one of {', '.join(NATIVE_METHODS)},"
+                             f" got {method!r}")
+        rtol = float(rtol if rtol is not None else self.scene["rtol"] or DEFAULT_RTOL)
+        atol = float(atol if atol is not None else self.scene["atol"] or DEFAULT_ATOL)
+        times = self._times(span, t_eval)
+        times = np.array(span[:1] + span[1:] if times is None else times, dtype=float)
+        ps, y0s = self._ensemble_inputs(y0s, params)
+        integrate_many = self._native(method, "integrate_many")
+        run, keep = self._native_run(span, times, rtol, atol)
+        k, n = len(y0s), self.n_state
+        y = np.empty((k, len(times), n))
+        statuses = np.empty(k, dtype=np.intc)
+        counts = np.empty((k, 4), dtype=np.int_)
+        p_stride = ps.shape[1] if ps.shape[0] > 1 else 0
+
+        def chunk(rows: slice) -> None:
+            f = self._ffi.from_buffer
+            integrate_many(
+                NATIVE_IDS[method], run, rows.stop - rows.start, f("double[]", y0s[rows]),
+                f("double[]", ps[rows] if p_stride else ps), p_stride, f("double[]", y[rows]),
+                f("int[]", statuses[rows]), f("long[]", counts[rows]),
+            )
+
+        workers = max(1, min(threads or os.cpu_count() or 1, k))
+        bounds = np.linspace(0, k, workers + 1).astype(int)
+        with ThreadPoolExecutor(workers) as pool:  # cffi releases the GIL during C calls
+            list(pool.map(chunk, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]))
+        return EnsembleResult(
+            t=keep[0], y=y.transpose(0, 2, 1), status=statuses.astype(int),
+            success=statuses == 0, nfev=counts[:, 0].copy(), njev=counts[:, 1].copy(),
+            nlu=counts[:, 2].copy(), method=method, rtol=run.rtol, atol=run.atol,
+        )
+
+    def _ensemble_inputs(self, y0s: Any, params: Mapping[str, Any] | None):
+        """(parameter vectors (k or 1, n_p), initial states (k, n_state)), checked."""
+        columns = {name: np.atleast_1d(np.asarray(v, dtype=float)) for name, v in
+                   (params or {}).items()}
+        sizes = {len(v) for v in columns.values() if len(v) != 1}
+        if y0s is not None:
+            y0s = np.asarray(y0s, dtype=float)
+            if y0s.ndim != 2 or y0s.shape[1] != self.n_state:
+                raise ModelError(f"y0s must have shape (k, {self.n_state}), got {y0s.shape}")
+            sizes.add(len(y0s))
+        if len(sizes) > 1:
+            raise ModelError(f"simulate_many: y0s and params disagree on the number of runs:"
+                             f" {sorted(sizes)}")
+        k = sizes.pop() if sizes else 1
+        sets = [{name: v[i % len(v)] for name, v in columns.items()} for i in
+                range(k if any(len(v) > 1 for v in columns.values()) else 1)]
+        ps = np.array([self.parameter_vector(s) for s in sets])
+        if y0s is None:
+            y0s = np.array([self.initial_state(s) for s in sets])
+            y0s = np.broadcast_to(y0s, (k, self.n_state))
+        if not np.all(np.isfinite(y0s)):
+            raise ModelError("y0s must be finite")
+        return np.ascontiguousarray(ps), np.ascontiguousarray(y0s, dtype=float)
+
+
+@dataclass
+class EnsembleResult:
+    """simulate_many's results: y[r] is run r's states at t (NaN after a run stopped)."""
+
+    t: np.ndarray
+    y: np.ndarray  # (k, n_state, n_t)
+    status: np.ndarray  # (k,): 0 reached the end, -1 step too small, -2 equations failed
+    success: np.ndarray
+    nfev: np.ndarray
+    njev: np.ndarray
+    nlu: np.ndarray
+    method: str
+    rtol: float
+    atol: float
+
+
+# enum nemc_method and enum nemc_status in templates/integrators.h.tmpl
+NATIVE_IDS = {"nemc.DOP853": 0, "nemc.Radau": 1}
+NATIVE_RHS_FAILED = -2
+NATIVE_MESSAGES = {  # scipy's messages for the same outcomes
+    0: "The solver successfully reached the end of the integration interval.",
+    -1: "Required step size is less than spacing between numbers.",
+}
+EPS = float(np.finfo(float).eps)
+
+
+def native_tolerances(rtol: float, atol: float) -> tuple[float, float]:
+    """rtol and atol checked as scipy's validate_tol (rtol raised to 100 eps, with a warning)."""
+    if rtol < 100 * EPS:
+        warnings.warn(f"At least one element of `rtol` is too small. Setting"
+                      f" `rtol = np.maximum(rtol, {100 * EPS})`.", stacklevel=4)
+        rtol = 100 * EPS
+    if not (atol >= 0 and math.isfinite(atol) and math.isfinite(rtol)):
+        raise ModelError(f"atol must be finite and >= 0, rtol finite; got {atol}, {rtol}")
+    return rtol, atol
+
+
+def checked_times(times: np.ndarray, span: tuple[float, ...]) -> np.ndarray:
+    """t_eval checked as solve_ivp checks it, as a contiguous float array."""
+    times = np.ascontiguousarray(times, dtype=float)
+    t0, tf = span
+    if times.ndim != 1:
+        raise ModelError("`t_eval` must be 1-dimensional.")
+    if np.any(times < min(t0, tf)) or np.any(times > max(t0, tf)):
+        raise ModelError("Values in `t_eval` are not within `t_span`.")
+    d = np.diff(times)
+    if (tf > t0 and np.any(d <= 0)) or (tf < t0 and np.any(d >= 0)):
+        raise ModelError("Values in `t_eval` are not properly sorted.")
+    return times
+
+
+def ensemble_method(scene_method: str | None) -> str:
+    if scene_method in NATIVE_METHODS:
+        return scene_method
+    return "nemc.Radau" if scene_method in IMPLICIT_METHODS else "nemc.DOP853"

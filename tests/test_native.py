@@ -1,0 +1,212 @@
+"""The native integrators (nemc.DOP853, nemc.Radau) against scipy's solve_ivp, step for step,
+against tight references, and the ensemble call against single runs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from reference import random_mechanism_yaml
+from scipy.integrate import solve_ivp
+
+import nemc
+from nemc.runtime import ModelError
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+PENDULUM = EXAMPLES / "double_pendulum.yaml"
+ONE_LINK_ARM, TWO_LINK_ARM = EXAMPLES / "robot_arm.yaml", EXAMPLES / "two_link_robot_arm.yaml"
+
+# A pendulum whose drive torque overflows to inf near t = 0.71: the equations fail there.
+OVERFLOW = """\
+name: overflow
+parameters: {m: 1, L: 1, g: 10}
+gravity: [0, -g]
+bodies:
+  rod: {mass: m, inertia: m*L**2/12, com: [L/2, 0]}
+joints:
+  O: {type: revolute, parent: ground, child: rod, at: [0, 0], coordinate: q}
+loads:
+  - {torque: exp(1000*t), body: rod, reaction: ground}
+simulation:
+  t_span: [0, 2]
+  initial: {q: 0.5}
+"""
+
+
+def scipy_run(model, method: str, span, y0, **options):
+    """scipy's solve_ivp on the model's compiled RHS (and Jacobian for Radau)."""
+    p = model.parameter_vector()
+    jac = {"jac": model._jacobian_function(p)} if method == "Radau" else {}
+    return solve_ivp(model._rhs_function(p), span, y0, method=method, **jac, **options)
+
+
+def native_steps(model, method: str, span, y0, rtol: float, atol: float):
+    """A native run returning every accepted step (simulate returns the scene's t_eval)."""
+    p = model.parameter_vector()
+    return model._simulate_native(method, span, y0, None, rtol, atol, p)
+
+
+def assert_same_steps(native, scipy, t_rtol: float, y_atol: float) -> None:
+    assert (native.nfev, native.njev, native.nlu) == (scipy.nfev, scipy.njev, scipy.nlu)
+    assert native.t.shape == scipy.t.shape
+    np.testing.assert_allclose(native.t, scipy.t, rtol=t_rtol, atol=0)
+    np.testing.assert_allclose(native.y, scipy.y, rtol=0, atol=y_atol)
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    return nemc.compile(PENDULUM)
+
+
+@pytest.fixture(scope="module")
+def chain(tmp_path_factory: pytest.TempPathFactory):
+    path = tmp_path_factory.mktemp("native") / "chain.yaml"
+    path.write_text(random_mechanism_yaml(np.random.default_rng(7), 4, False, "chain"))
+    return nemc.compile(path)
+
+
+# The error estimate is a sum that cancels to a small fraction of its terms, and numpy's BLAS
+# sums it in another order than C: steps agree to rounding times that conditioning. It is
+# worst where a step is far more accurate than asked (the first steps, states near 0: the
+# chain starts at rest) and estimate and step size then follow rounding noise.
+@pytest.mark.parametrize(("case", "t_rtol", "y_atol"), [("pendulum", 1e-9, 1e-8),
+                                                        ("chain", 1e-7, 1e-5)])
+def test_dop853_takes_scipys_steps(case: str, t_rtol: float, y_atol: float,
+                                   request: pytest.FixtureRequest) -> None:
+    model = request.getfixturevalue(case)
+    y0, span = model.initial_state(), (0.0, 5.0)
+    native = native_steps(model, "nemc.DOP853", span, y0, 1e-3, 1e-6)
+    reference = scipy_run(model, "DOP853", span, y0, rtol=1e-3, atol=1e-6)
+    assert_same_steps(native, reference, t_rtol=t_rtol, y_atol=y_atol)
+    rejected = (native.nfev - 2 - 12 * (native.t.size - 1)) / 12
+    assert rejected >= 1 and rejected == int(rejected)  # the rejected-step rule was exercised
+
+
+def test_dop853_dense_output_at_t_eval(pendulum) -> None:
+    y0, times = pendulum.initial_state(), np.linspace(0.0, 5.0, 37)
+    native = pendulum.simulate((0, 5), y0, method="nemc.DOP853", t_eval=times, rtol=1e-3,
+                               atol=1e-6)
+    reference = scipy_run(pendulum, "DOP853", (0, 5), y0, t_eval=times, rtol=1e-3, atol=1e-6)
+    assert native.nfev == reference.nfev  # 3 extra stages exactly on the steps with points
+    np.testing.assert_array_equal(native.t, times)
+    np.testing.assert_allclose(native.y, reference.y, rtol=0, atol=1e-8)
+    assert native.success and native.message == reference.message and native.status == 0
+
+
+def test_dop853_against_a_tight_reference(pendulum) -> None:
+    """At rtol 1e-10 the C solution is as close to a 1e-13 run as scipy's own is."""
+    times, y0 = np.linspace(0, 10, 11), pendulum.initial_state()
+    tight = pendulum.simulate((0, 10), method="nemc.DOP853", t_eval=times, rtol=1e-13,
+                              atol=1e-13)
+    native = pendulum.simulate((0, 10), method="nemc.DOP853", t_eval=times, rtol=1e-10,
+                               atol=1e-12)
+    reference = scipy_run(pendulum, "DOP853", (0, 10), y0, t_eval=times, rtol=1e-13,
+                          atol=1e-13)
+    np.testing.assert_allclose(tight.y, reference.y, rtol=0, atol=1e-10)
+    assert np.abs(native.y - tight.y).max() < 1e-7
+
+
+def test_dop853_backwards_and_empty_interval(pendulum) -> None:
+    y0 = pendulum.initial_state()
+    back = native_steps(pendulum, "nemc.DOP853", (2.0, 0.0), y0, 1e-3, 1e-6)
+    assert_same_steps(back, scipy_run(pendulum, "DOP853", (2.0, 0.0), y0, rtol=1e-3,
+                                      atol=1e-6), t_rtol=1e-9, y_atol=1e-8)
+    empty = pendulum.simulate((1.0, 1.0), y0, method="nemc.DOP853", t_eval=[1.0])
+    np.testing.assert_array_equal(empty.y[:, 0], y0)
+    assert empty.success
+
+
+@pytest.mark.parametrize("path", [ONE_LINK_ARM, TWO_LINK_ARM], ids=["5.3", "5.4"])
+def test_radau_takes_scipys_steps_on_the_stiff_arms(path: Path) -> None:
+    model = nemc.compile(path)
+    y0, span = model.initial_state(), tuple(model.scene["t_span"])
+    for rtol, atol, t_rtol in ((1e-3, 1e-6, 1e-9), (1e-6, 1e-9, 1e-6)):
+        native = native_steps(model, "nemc.Radau", span, y0, rtol, atol)
+        reference = scipy_run(model, "Radau", span, y0, rtol=rtol, atol=atol)
+        assert_same_steps(native, reference, t_rtol=t_rtol, y_atol=1e-7)
+
+
+def test_radau_against_a_tight_reference_and_at_t_eval() -> None:
+    """5.4 at rtol 1e-8 against DOP853 at 1e-13 (another method), at the scene's times."""
+    model = nemc.compile(TWO_LINK_ARM)
+    assert model.scene["method"] == "nemc.Radau"
+    times = np.arange(16.0)
+    tight = model.simulate((0, 15), method="nemc.DOP853", t_eval=times, rtol=1e-13, atol=1e-13)
+    native = model.simulate((0, 15), t_eval=times, rtol=1e-8, atol=1e-10)
+    assert native.method == "nemc.Radau" and native.njev >= 1 and native.nlu >= 2
+    assert np.abs(native.y - tight.y).max() < 1e-6
+    assert set(native.outputs) == set(model.output_names)
+
+
+def test_radau_builds_the_jacobian_on_first_need(pendulum) -> None:
+    assert "jacobian" not in pendulum.metadata["generated"]
+    native = pendulum.simulate((0, 1), method="nemc.Radau", t_eval=[1.0], rtol=1e-8, atol=1e-10)
+    tight = pendulum.simulate((0, 1), method="nemc.DOP853", t_eval=[1.0], rtol=1e-12,
+                              atol=1e-12)
+    assert native.success and np.abs(native.y - tight.y).max() < 1e-6
+
+
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
+@pytest.mark.parametrize("method", ["nemc.DOP853", "nemc.Radau"])
+def test_failure_is_reported_as_with_scipy(method: str, tmp_path: Path) -> None:
+    path = tmp_path / "overflow.yaml"
+    path.write_text(OVERFLOW)
+    model = nemc.compile(path)
+    native = model.simulate(method=method, rtol=1e-3, atol=1e-6)
+    assert (native.success, native.status) == (False, -1)
+    assert native.message.startswith("integration failed: at t=0.7")
+    assert "; state: q=" in native.message
+    if method == "nemc.DOP853":  # (Radau's Newton iterates reach nan first; scipy's LU refuses)
+        reference = model.simulate(method="DOP853", rtol=1e-3, atol=1e-6)
+        assert "the accelerations are not finite" in native.message
+        assert native.message == reference.message  # the same steps fail at the same stage
+
+
+def test_t_eval_is_checked(pendulum) -> None:
+    with pytest.raises(ModelError, match="not properly sorted"):
+        pendulum.simulate((0, 1), method="nemc.DOP853", t_eval=[0.5, 0.2])
+    with pytest.raises(ModelError, match="not within"):
+        pendulum.simulate((0, 1), method="nemc.DOP853", t_eval=[2.0])
+
+
+def test_default_method_is_native_when_the_scene_names_none(tmp_path: Path) -> None:
+    path = tmp_path / "no_method.yaml"
+    path.write_text(PENDULUM.read_text().replace("  method: RK45\n", ""))
+    model = nemc.compile(path)
+    assert model.scene["method"] is None
+    assert model.simulate().method == "nemc.DOP853"
+
+
+def test_ensemble_equals_single_runs(pendulum) -> None:
+    rng = np.random.default_rng(3)
+    y0s = np.zeros((6, 4))
+    y0s[:, 0], y0s[:, 2] = rng.uniform(-1, 1, 6), rng.uniform(-1, 1, 6)
+    lengths = np.linspace(0.3, 1.0, 6)
+    times = np.linspace(0, 3, 7)
+    ensemble = pendulum.simulate_many(y0s, params={"L2": lengths}, t_span=(0, 3), t_eval=times,
+                                      rtol=1e-8, atol=1e-10, threads=2)
+    assert ensemble.y.shape == (6, 4, 7) and ensemble.success.all()
+    for i in range(6):
+        single = pendulum.simulate((0, 3), y0s[i], method="nemc.DOP853", t_eval=times,
+                                   rtol=1e-8, atol=1e-10, params={"L2": lengths[i]})
+        np.testing.assert_array_equal(ensemble.y[i], single.y)  # same C, same arithmetic
+        assert ensemble.nfev[i] == single.nfev
+    one_thread = pendulum.simulate_many(y0s, params={"L2": lengths}, t_span=(0, 3),
+                                        t_eval=times, rtol=1e-8, atol=1e-10, threads=1)
+    np.testing.assert_array_equal(one_thread.y, ensemble.y)
+
+
+def test_ensemble_failures_and_checks(tmp_path: Path, pendulum) -> None:
+    path = tmp_path / "overflow.yaml"
+    path.write_text(OVERFLOW)
+    model = nemc.compile(path)
+    runs = model.simulate_many(np.array([[0.5, 0.0], [0.1, 0.0]]), t_span=(0, 2),
+                               t_eval=[0.5, 1.0, 2.0], rtol=1e-3, atol=1e-6)
+    np.testing.assert_array_equal(runs.status, [-2, -2])  # the equations failed in both
+    assert np.isfinite(runs.y[:, :, 0]).all() and np.isnan(runs.y[:, :, 1:]).all()
+    with pytest.raises(ModelError, match="disagree on the number of runs"):
+        pendulum.simulate_many(np.zeros((3, 4)), params={"L2": [0.5, 0.6]})
+    with pytest.raises(ModelError, match="method must be one of"):
+        pendulum.simulate_many(np.zeros((3, 4)), method="RK45")
