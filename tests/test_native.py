@@ -69,8 +69,9 @@ def chain(tmp_path_factory: pytest.TempPathFactory):
 # The error estimate is a sum that cancels to a small fraction of its terms, and numpy's BLAS
 # sums it in another order than C: steps agree to rounding times that conditioning. It is
 # worst where a step is far more accurate than asked (the first steps, states near 0: the
-# chain starts at rest) and estimate and step size then follow rounding noise.
-@pytest.mark.parametrize(("case", "t_rtol", "y_atol"), [("pendulum", 1e-9, 1e-8),
+# chain starts at rest) and estimate and step size then follow rounding noise. States then
+# differ by about |dy/dt| times the time points' difference.
+@pytest.mark.parametrize(("case", "t_rtol", "y_atol"), [("pendulum", 1e-9, 3e-7),
                                                         ("chain", 1e-7, 1e-5)])
 def test_dop853_takes_scipys_steps(case: str, t_rtol: float, y_atol: float,
                                    request: pytest.FixtureRequest) -> None:
