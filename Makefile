@@ -1,6 +1,6 @@
 # nemc: `make run` compiles and simulates the book's double pendulum; `make test` runs the tests;
 # `make stress` regenerates the stress report of the book's four systems (docs/stress/).
-# Both set up everything on a fresh machine (a virtual environment in .venv).
+# Each sets up everything on a fresh machine (a virtual environment in .venv).
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
