@@ -203,7 +203,7 @@ def sensitivity_section(st: Study) -> list[str]:
         start, contrast = st.contrast
         lines.append(f"- Contrast, started from {start} (higher energy): λ ≈ "
                      f"{contrast.value:.3g} /s; "
-                     + divergence_line(contrast, math.nan).removeprefix("- "))
+                     + divergence_line(contrast, math.nan).removeprefix("- ").lower())
     return lines + [""]
 
 
