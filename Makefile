@@ -1,12 +1,13 @@
-# nemc: `make run` compiles and simulates the book's double pendulum; `make test` runs the tests.
-# Both set up everything on a fresh machine (a virtual environment in .venv).
+# nemc: `make run` compiles and simulates the book's double pendulum; `make test` runs the tests;
+# `make stress` regenerates the stress report of the book's four systems (docs/stress/).
+# Each sets up everything on a fresh machine (a virtual environment in .venv).
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 export NEMC_CACHE ?= $(CURDIR)/.nemc-cache
 
-.PHONY: run test bench bench-quick lint clean
+.PHONY: run test bench bench-quick stress lint clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +28,9 @@ bench: $(STAMP)
 
 bench-quick: $(STAMP)
 	$(BIN)/nemc bench --quick
+
+stress: $(STAMP)
+	$(BIN)/nemc stress --suite book --out docs/stress
 
 lint: $(STAMP)
 	$(BIN)/ruff check nemc tests benchmarks

@@ -1,4 +1,4 @@
-"""The `nemc` command: compile, simulate, show, check, bench.
+"""The `nemc` command: compile, simulate, show, check, bench, stress.
 
 Exit status: 0 success; 2 bad input (`FILE:LINE: key.path: what is wrong`, no traceback);
 1 any other failure (e.g. the C compiler failed: the message names the C file and its error).
@@ -42,6 +42,8 @@ def make_parser() -> argparse.ArgumentParser:
                      metavar="NAME=VALUE", help="override a parameter (repeatable)")
     sim.add_argument("--csv", help="also write the table to this CSV file")
     sim.add_argument("--plot", help="write the book-style figure to this file (PNG, PDF, SVG)")
+    sim.add_argument("--error-estimate", action="store_true",
+                     help="also print the run's error against DOP853 at rtol/1000, atol/1000")
     show = commands.add_parser("show", help="print the derived equations of motion")
     show.add_argument("mechanism")
     show.add_argument("--latex", action="store_true")
@@ -49,7 +51,21 @@ def make_parser() -> argparse.ArgumentParser:
     check.add_argument("mechanism")
     bench = commands.add_parser("bench", help="run the benchmark suite (benchmarks/)")
     bench.add_argument("--quick", action="store_true", help="the quick mode (under 2 minutes)")
+    add_stress_parser(commands)
     return parser
+
+
+def add_stress_parser(commands: argparse._SubParsersAction) -> None:
+    stress = commands.add_parser(
+        "stress", help="measure accuracy, energy drift, sensitivity, stiffness, conditioning")
+    stress.add_argument("mechanism", nargs="?", help="the YAML file (or --suite)")
+    stress.add_argument("--suite", choices=["book"], help="the book's four systems + an index")
+    stress.add_argument("--out", default="generated/stress",
+                        help="folder for the Markdown and PNG (generated/stress)")
+    stress.add_argument("--horizon", type=float, default=1000.0,
+                        help="long horizon for energy drift of conservative scenes (1000 s)")
+    stress.add_argument("--set", dest="params", type=parse_assignment, action="append",
+                        default=[], metavar="NAME=VALUE", help="override a parameter")
 
 
 def cmd_compile(args: argparse.Namespace) -> int:
@@ -85,6 +101,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         print(f"{args.mechanism}: --set/options: {error}", file=sys.stderr)
         return 2
     print(report.table(model, result))
+    if args.error_estimate and result.success:
+        print_error_estimate(model, result, params)
     if args.csv:
         report.write_csv(model, result, Path(args.csv))
     if args.plot:  # smooth curves: the same run, sampled densely
@@ -95,6 +113,35 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if not result.success:
         print(f"integration failed: {result.message}", file=sys.stderr)
         return 1
+    return 0
+
+
+def print_error_estimate(model, result, params: dict) -> None:
+    from .stress import error_estimate
+
+    errors, rtol, atol = error_estimate(model, result, params)
+    listed = ", ".join(f"{name} {value:.2g}" for name, value in errors.items())
+    print(f"# error estimate (max |y - y_ref| over the table's times; y_ref: DOP853 at rtol "
+          f"{rtol:g}, atol {atol:g}): {listed}")
+
+
+def cmd_stress(args: argparse.Namespace) -> int:
+    from . import stress_report
+    from .runtime import ModelError
+
+    if (args.mechanism is None) == (args.suite is None):
+        print("nemc stress: give a mechanism file or --suite book (not both)", file=sys.stderr)
+        return 2
+    out = Path(args.out)
+    try:
+        if args.suite:
+            stress_report.run_suite(out, args.horizon)
+            return 0
+        study = stress_report.study(args.mechanism, args.horizon, params=dict(args.params))
+    except ModelError as error:
+        print(f"{args.mechanism or args.suite}: {error}", file=sys.stderr)
+        return 2
+    print(f"{study.name}: measured in {study.seconds:.1f} s -> {stress_report.write(study, out)}")
     return 0
 
 
@@ -133,6 +180,7 @@ COMMANDS = {
     "show": cmd_show,
     "check": cmd_check,
     "bench": cmd_bench,
+    "stress": cmd_stress,
 }
 
 

@@ -7,15 +7,20 @@ milliseconds.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .build import Source, build_key, cached_package
 from .load import load_package
 from .runtime import Model
+
+if TYPE_CHECKING:  # a cache hit imports no sympy
+    from .model import Mechanism
 
 
 @dataclass
@@ -45,32 +50,38 @@ def read_source(path: str | Path) -> Source:
         raise InputError([problem]) from None
 
 
-def compile_mechanism(path: str | Path, jacobian: bool | None = None) -> Compiled:
+def compile_mechanism(
+    path: str | Path, jacobian: bool | None = None, *, energy: bool = False
+) -> Compiled:
     """Build the mechanism in PATH (or load its cached build) and load it.
 
     jacobian: True generates the analytic Jacobian; None (default) generates it only when the
-    scene's method is implicit, and later on the model's first need of it."""
-    return compile_source(read_source(path), jacobian)
+    scene's method is implicit, and later on the model's first need of it.
+    energy: True adds the energy outputs when the YAML does not request them (`nemc stress`)."""
+    return compile_source(read_source(path), jacobian, energy=energy)
 
 
-def compile_source(source: Source, jacobian: bool | None) -> Compiled:
+def compile_source(source: Source, jacobian: bool | None, *, energy: bool = False) -> Compiled:
     timings: dict[str, float] = {}
-    options = {"jacobian": "auto" if jacobian is None else bool(jacobian)}
+    options: dict = {"jacobian": "auto" if jacobian is None else bool(jacobian)}
+    if energy:
+        options["energy"] = True
     key = build_key(source, options)
     with timed(timings, "lookup"):
         package = cached_package(key)
     cached = package is not None
     if package is None:
-        package = generate_and_build(source, key, jacobian, timings)
+        package = generate_and_build(source, key, jacobian, timings, energy)
     with timed(timings, "load"):
         model = load_package(package)
     if "jacobian" not in model.metadata["generated"]:
-        model.jacobian_provider = lambda: compile_source(source, True).model
+        model.jacobian_provider = lambda: compile_source(source, True, energy=energy).model
     return Compiled(model, package, cached, timings)
 
 
 def generate_and_build(
-    source: Source, key: str, jacobian: bool | None, timings: dict[str, float]
+    source: Source, key: str, jacobian: bool | None, timings: dict[str, float],
+    energy: bool = False,
 ) -> Path:
     from .build import build
     from .derive import derive, with_diagnostics
@@ -81,6 +92,8 @@ def generate_and_build(
 
     with timed(timings, "validate"):
         mechanism = validate_text(source.data, source.path)
+        if energy:
+            mechanism = with_energy_output(mechanism)
     with timed(timings, "derive"):
         equations = derive(mechanism)
         if jacobian or (jacobian is None and mechanism.simulation.method in IMPLICIT_METHODS):
@@ -92,3 +105,9 @@ def generate_and_build(
     with timed(timings, "build"):
         return build(code, key)
 
+
+
+def with_energy_output(mechanism: Mechanism) -> Mechanism:
+    """The mechanism with the energy outputs requested, whatever its YAML asks for."""
+    outputs = dataclasses.replace(mechanism.outputs, energy=True)
+    return dataclasses.replace(mechanism, outputs=outputs)

@@ -41,14 +41,22 @@ class IntegrationFailure(ArithmeticError):
     def __init__(self, t: float, y: np.ndarray, status: int, state_names: Sequence[str]):
         self.t, self.y, self.status = t, np.array(y), status
         state = ", ".join(f"{n}={v:.6g}" for n, v in zip(state_names, self.y))
-        if status > 0:
-            cause = (
-                f"the mass matrix is singular or not positive definite (at joint {status},"
-                " counting from 1 in file order)"
-            )
-        else:
-            cause = "the accelerations are not finite (a load or parameter gives inf or nan)"
-        super().__init__(f"at t={t:.9g}: {cause}; state: {state}")
+        super().__init__(f"at t={t:.9g}: {failure_cause(self.y, status, state_names)}; "
+                         f"state: {state}")
+
+
+def failure_cause(y: np.ndarray, status: int, state_names: Sequence[str]) -> str:
+    """What a failed evaluation of the equations most likely means, for a user."""
+    if not np.all(np.isfinite(y)):
+        return ("the state is not finite: the solution blew up before this step "
+                "(or the initial state holds inf or nan)")
+    if status > 0:
+        return (f"the articulated inertia through joint {status} (counting from 1 in file "
+                "order) is not positive: the mass matrix is singular or not positive definite "
+                "here, likely a mass or inertia near zero or a configuration where the "
+                "coordinates lose a degree of freedom")
+    return ("the accelerations are not finite: a load or parameter gives inf or nan here "
+            "(e.g. a division by zero in a load expression)")
 
 
 @dataclass
@@ -196,15 +204,18 @@ class Model:
         """A fast closure for integrators: buffers for p prepared once, checks done in C."""
         c_rhs, buffer, n, names = self._c["rhs"], self._buffer, self.n_state, self.state_names
         p_buffer = buffer(p)
+        last: list = [0.0, None]  # the latest (t, y): where a solver that gave up stopped
 
         def rhs(t: float, y: np.ndarray) -> np.ndarray:
             y = np.ascontiguousarray(y, dtype=np.float64)  # Radau/BDF may pass strided views
+            last[0], last[1] = t, y
             dy = np.empty(n)
             status = c_rhs(t, buffer(y), p_buffer, buffer(dy))
             if status:
                 raise IntegrationFailure(t, y, status, names)
             return dy
 
+        rhs.last = last  # type: ignore[attr-defined]
         return rhs
 
     def rhs_many(self, t: Any, y: Any, params: Mapping[str, float] | None = None) -> np.ndarray:
@@ -330,11 +341,12 @@ class Model:
             return self._simulate_native(method, span, state0, times, rtol, atol, p)
         from scipy.integrate import solve_ivp  # here: importing scipy costs more than a load
 
+        rhs = self._rhs_function(p)
         try:
             jac = self._jacobian_function(p) if method in IMPLICIT_METHODS else None
             extra = {"jac": jac} if jac is not None else {}
             sol = solve_ivp(
-                self._rhs_function(p), span, state0, method=method, t_eval=times,
+                rhs, span, state0, method=method, t_eval=times,
                 rtol=rtol, atol=atol, **extra,
             )
         except IntegrationFailure as failure:
@@ -342,7 +354,7 @@ class Model:
         outputs = self.outputs(sol.t, sol.y, params) if sol.t.size else {}
         return SimulationResult(
             t=sol.t, y=sol.y, outputs=outputs, nfev=int(sol.nfev), njev=int(sol.njev),
-            nlu=int(sol.nlu), status=int(sol.status), message=str(sol.message),
+            nlu=int(sol.nlu), status=int(sol.status), message=self._message(sol, rhs.last),
             success=bool(sol.success), method=method, rtol=rtol, atol=atol,
             params=dict(zip(self.parameter_names, p.tolist())),
         )
@@ -358,6 +370,16 @@ class Model:
             times = np.asarray(self.scene["t_eval"], dtype=float)
             return times[(times >= span[0]) & (times <= span[1])]
         return None
+
+    def _message(self, sol: Any, last: list) -> str:
+        """scipy's message; when the solver gave up, also where, the state and the likely cause."""
+        if sol.success or last[1] is None:
+            return str(sol.message)
+        t, y = last
+        state = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.state_names, y))
+        return (f"integration stopped near t={t:.9g}: {sol.message} State: {state}. Likely "
+                "cause: the solution grows without bound (a finite-time blow-up, a singular "
+                "configuration or an unstable load); `nemc stress` measures the scene")
 
     def _failed(
         self, failure: IntegrationFailure, method: str, rtol: float, atol: float,
