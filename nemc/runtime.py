@@ -375,9 +375,11 @@ class Model:
         """scipy's message; when the solver gave up, also where, the state and the likely cause."""
         if sol.success or last[1] is None:
             return str(sol.message)
-        t, y = last
+        return self._gave_up(str(sol.message), *last)
+
+    def _gave_up(self, message: str, t: float, y: np.ndarray) -> str:
         state = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.state_names, y))
-        return (f"integration stopped near t={t:.9g}: {sol.message} State: {state}. Likely "
+        return (f"integration stopped near t={t:.9g}: {message} State: {state}. Likely "
                 "cause: the solution grows without bound (a finite-time blow-up, a singular "
                 "configuration or an unstable load); `nemc stress` measures the scene")
 
@@ -445,7 +447,9 @@ class Model:
         return SimulationResult(
             t=t, y=y, outputs=self.outputs(t, y, dict(zip(self.parameter_names, p)))
             if t.size else {}, nfev=int(run.nfev), njev=int(run.njev), nlu=int(run.nlu),
-            status=status, message=NATIVE_MESSAGES[status], success=status == 0, method=method,
+            status=status, success=status == 0, method=method,
+            message=NATIVE_MESSAGES[status] if status == 0
+            else self._gave_up(NATIVE_MESSAGES[status], run.t_fail, y_fail),
             rtol=run.rtol, atol=run.atol, params=self.parameters_at(p),
         )
 
