@@ -319,8 +319,9 @@ def _flag(ctx: _Ctx, node: Node, path: str) -> bool:
 def _register(ctx: _Ctx, name: object, line: int, path: str, kind: str) -> bool:
     """Claim ``name`` for a ``kind`` of item; names are identifiers and never collide."""
     if not isinstance(name, str) or not IDENTIFIER.fullmatch(name):
+        got = _got(Node(name, line, 0)) if isinstance(name, (list, dict)) else f"got {name!r}"
         ctx.problem(line, path, f"{kind} name must be an identifier [A-Za-z_][A-Za-z0-9_]*, "
-                                f"got {name!r}")
+                                f"{got}")
         return False
     if name in RESERVED:
         ctx.problem(line, path, f"{name!r} is reserved (t, pi, ground, dot, ddot and function "
@@ -597,7 +598,7 @@ def _joints(ctx: _Ctx, node: Node | None) -> tuple[Joint, ...]:
                 ctx.joints[name] = joint
         elif not joint_node.is_map:
             ctx.problem(joint_node.line, path, f"expected a joint mapping, {_got(joint_node)}")
-    _check_tree(ctx, edges)
+    _check_tree(ctx, edges, _named_children(node))
     return tuple(ctx.joints.values())
 
 
@@ -738,7 +739,14 @@ def _named_point(ctx: _Ctx, body: str, name: str, line: int, path: str) -> Vec2 
     return None
 
 
-def _check_tree(ctx: _Ctx, edges: list[_Edge]) -> None:
+def _named_children(node: Node) -> set[object]:
+    """Every child any joint names, valid or not: a body a broken joint names is reported
+    with that joint, not as unattached too."""
+    children = [_entries(joint).get("child") for joint in _entries(node).values()]
+    return {child.value for child in children if child is not None and child.is_scalar}
+
+
+def _check_tree(ctx: _Ctx, edges: list[_Edge], named_children: set[object]) -> None:
     """Every body is the child of exactly one joint, and every chain reaches ground."""
     parent_of: dict[str, _Edge] = {}
     for edge in edges:
@@ -750,7 +758,7 @@ def _check_tree(ctx: _Ctx, edges: list[_Edge]) -> None:
         else:
             parent_of[edge.child] = edge
     for body in ctx.body_names:
-        if body not in parent_of:
+        if body not in parent_of and body not in named_children:
             ctx.problem(ctx.lines[body], ctx.names[body][1], f"body {body!r} is not attached: "
                         f"no joint has child: {body} (every body is the child of exactly one "
                         "joint)")
