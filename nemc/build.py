@@ -4,7 +4,11 @@ A build is keyed by a hash of the mechanism file and of everything that changes 
 code (nemc's source and templates, the compiler flags, the Python ABI, cffi's version). It is
 assembled in a private temporary folder and published by one atomic rename, so concurrent
 builds of the same input both succeed and leave one good build, and a killed build leaves
-only a temporary folder that the next build ignores.
+only a temporary folder that the next build ignores (and removes once it is a day old).
+
+The last file written, BUILD_OK, is a manifest of every other file's sha256. A cache entry is
+used only when every file matches it: a truncated, edited or partly deleted entry is moved
+aside and rebuilt, never imported.
 
 The package holds the readable C source, compiled on its own with the flags below, a cffi
 API-mode wrapper linked against it, the runtime (nemc/runtime.py, copied) and model.json.
@@ -17,10 +21,12 @@ import hashlib
 import io
 import json
 import os
+import shlex
 import shutil
 import subprocess
 import sysconfig
 import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -38,6 +44,7 @@ TEMPLATE_DIR = NEMC_DIR.parent / "templates"
 CC = os.environ.get("CC", "gcc")
 CFLAGS = ["-O2", "-fPIC", "-Wall", "-Wextra", "-std=c99"]  # never -ffast-math: it changes answers
 COMPLETE = "BUILD_OK"
+STALE_SCRATCH_S = 24 * 3600  # a temporary build folder this old was left by a killed build
 
 
 @dataclass(frozen=True)
@@ -83,29 +90,90 @@ def build_key(source: Source, options: dict | None = None) -> str:
     return hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()[:24]
 
 
+def file_digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def write_manifest(package: Path, key: str) -> None:
+    """Record every file's hash in BUILD_OK, written last: its presence marks a whole build."""
+    files = {p.name: file_digest(p) for p in sorted(package.iterdir()) if p.is_file()}
+    (package / COMPLETE).write_text(json.dumps({"key": key, "files": files}, indent=1) + "\n")
+
+
+def is_intact(package: Path, key: str) -> bool:
+    """Whether PACKAGE is a complete build of KEY whose files all match its manifest."""
+    try:
+        manifest = json.loads((package / COMPLETE).read_text())
+        files = manifest["files"]
+        return manifest["key"] == key and bool(files) and all(
+            file_digest(package / name) == digest for name, digest in files.items())
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return False
+
+
+def discard(path: Path) -> None:
+    """Remove a broken cache entry: first renamed aside (atomic), so no process can load it."""
+    aside = path.with_name(f".broken-{path.name}-{os.getpid()}-{time.time_ns()}")
+    try:
+        os.rename(path, aside)
+    except OSError:  # gone already, or another process moved it first
+        return
+    remove(aside)
+
+
+def remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        with contextlib.suppress(OSError):
+            path.unlink()
+
+
 def cached_package(key: str) -> Path | None:
+    """The intact cache entry of KEY, or None; a broken entry is discarded (and so rebuilt)."""
     path = cache_root() / key
-    return path if (path / COMPLETE).is_file() else None
+    if is_intact(path, key):
+        return path
+    if path.exists():
+        discard(path)
+    return None
+
+
+def compiler() -> list[str]:
+    """The C compiler command: $CC as the environment gives it at import (a command line)."""
+    return shlex.split(CC) or ["gcc"]
+
+
+def start(command: list[str]) -> subprocess.Popen:
+    """Start a compiler job; a compiler that cannot be run is a BuildError saying what to do."""
+    try:
+        return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    except OSError as error:
+        raise BuildError(f"cannot run the C compiler {command[0]!r} ({error.strerror}): install "
+                         "gcc, or set the CC environment variable to a working C compiler "
+                         f"(CC is {CC!r})") from None
 
 
 def compile_c(c_file: Path, wrapper_file: Path, out_file: Path) -> None:
     """Compile the model's C and the cffi wrapper in parallel, then link the extension."""
     include = sysconfig.get_paths()["include"]
+    cc = compiler()
     jobs = [
-        [CC, *CFLAGS, "-c", str(c_file), "-o", str(c_file.with_suffix(".o"))],
-        [CC, "-O2", "-fPIC", "-I", include, "-c", str(wrapper_file),
+        [*cc, *CFLAGS, "-c", str(c_file), "-o", str(c_file.with_suffix(".o"))],
+        [*cc, "-O2", "-fPIC", "-I", include, "-c", str(wrapper_file),
          "-o", str(wrapper_file.with_suffix(".o"))],
     ]
-    running = [subprocess.Popen(j, stdout=subprocess.PIPE, stderr=subprocess.STDOUT) for j in jobs]
+    running = [start(job) for job in jobs]
     for job, process in zip(jobs, running):
         output = process.communicate()[0].decode(errors="replace")
         if process.returncode:
             raise BuildError(f"the C compiler failed on {job[-3]}:\n$ {' '.join(job)}\n{output}")
-    link = [CC, "-shared", str(c_file.with_suffix(".o")), str(wrapper_file.with_suffix(".o")),
+    link = [*cc, "-shared", str(c_file.with_suffix(".o")), str(wrapper_file.with_suffix(".o")),
             "-o", str(out_file), "-lm"]
-    result = subprocess.run(link, capture_output=True, text=True)
-    if result.returncode:
-        raise BuildError(f"linking failed:\n$ {' '.join(link)}\n{result.stdout}{result.stderr}")
+    process = start(link)
+    output = process.communicate()[0].decode(errors="replace")
+    if process.returncode:
+        raise BuildError(f"linking failed:\n$ {' '.join(link)}\n{output}")
 
 
 def write_package(code: Emitted, folder: Path) -> None:
@@ -117,12 +185,31 @@ def write_package(code: Emitted, folder: Path) -> None:
     (folder / f"{code.name}.c").write_text(code.c_source)
 
 
+def scratch_folder(root: Path, name: str) -> Path:
+    """A private temporary folder in the cache; unusable cache folders are a BuildError."""
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+        remove_stale_scratch(root)
+        return Path(tempfile.mkdtemp(prefix=f".tmp-{name}-", dir=root))
+    except OSError as error:
+        raise BuildError(f"cannot write to the nemc cache folder {root} ({error.strerror}): "
+                         "set NEMC_CACHE to a writable folder") from None
+
+
+def remove_stale_scratch(root: Path) -> None:
+    """Delete what killed builds left long ago (a live build is never that old)."""
+    cutoff = time.time() - STALE_SCRATCH_S
+    for leftover in [*root.glob(".tmp-*"), *root.glob(".broken-*")]:
+        with contextlib.suppress(OSError):
+            if leftover.lstat().st_mtime < cutoff:
+                remove(leftover)
+
+
 def build(code: Emitted, key: str) -> Path:
     """Build into the cache and publish atomically; returns the package folder."""
     root = cache_root()
-    root.mkdir(parents=True, exist_ok=True)
     final = root / key
-    scratch = Path(tempfile.mkdtemp(prefix=f".tmp-{code.name}-", dir=root))
+    scratch = scratch_folder(root, code.name)
     try:
         package = scratch / "package"
         write_package(code, package)
@@ -135,28 +222,41 @@ def build(code: Emitted, key: str) -> Path:
         extension = package / ("_native" + sysconfig.get_config_var("EXT_SUFFIX"))
         compile_c(package / f"{code.name}.c", wrapper, extension)
         (package / f"{code.name}.o").unlink()
-        (package / COMPLETE).write_text(key + "\n")
-        publish(package, final)
+        write_manifest(package, key)
+        publish(package, final, key)
+    except OSError as error:  # e.g. the disk filled up while writing the package
+        raise BuildError(f"cannot write the build in the nemc cache folder {root} "
+                         f"({error.strerror}: {error.filename}): free some space or set "
+                         "NEMC_CACHE to a writable folder") from None
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     return final
 
 
-def publish(package: Path, final: Path) -> None:
-    """Move a finished build into place, unless another process already published it."""
-    if (final / COMPLETE).is_file():
+def publish(package: Path, final: Path, key: str) -> None:
+    """Move a finished build into place, unless another process already published one."""
+    if is_intact(final, key):
         return
-    if final.exists():  # an incomplete leftover: replace it
-        shutil.rmtree(final, ignore_errors=True)
+    if final.exists():  # a broken leftover: move it aside first
+        discard(final)
     try:
         os.rename(package, final)
-    except OSError:
-        if not (final / COMPLETE).is_file():
+    except OSError:  # another process published between our check and our rename
+        if not is_intact(final, key):
             raise
 
 
 def export(package: Path, out_dir: Path, name: str) -> Path:
     """Copy a built package to OUT_DIR/<name>/, replacing any previous one in one rename."""
+    try:
+        return copy_out(package, out_dir, name)
+    except OSError as error:
+        where = f": {error.filename}" if error.filename else ""
+        raise BuildError(f"cannot write the output folder {out_dir} ({error.strerror}{where}): "
+                         "choose a writable folder with -o/--output") from None
+
+
+def copy_out(package: Path, out_dir: Path, name: str) -> Path:
     out_dir.mkdir(parents=True, exist_ok=True)
     target = out_dir / name
     staging = Path(tempfile.mkdtemp(prefix=f".{name}-", dir=out_dir))

@@ -7,6 +7,7 @@ Exit status: 0 success; 2 bad input (`FILE:LINE: key.path: what is wrong`, no tr
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -25,6 +26,24 @@ def parse_assignment(text: str) -> tuple[str, float]:
         raise argparse.ArgumentTypeError(f"{name}: expected a number, got {value!r}") from None
 
 
+def finite_number(text: str) -> float:
+    """An option's value: a finite number (argparse reports anything else, exit status 2)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def positive_number(text: str) -> float:
+    value = finite_number(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
+    return value
+
+
 def make_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="nemc", description="Newton-Euler Mechanism Compiler")
     commands = parser.add_subparsers(dest="command", required=True)
@@ -33,11 +52,12 @@ def make_parser() -> argparse.ArgumentParser:
     comp.add_argument("-o", "--output", default="generated", help="output folder (generated)")
     sim = commands.add_parser("simulate", help="run the scene and print the table")
     sim.add_argument("mechanism")
-    sim.add_argument("--t-end", type=float, help="end time (the scene's t_span end by default)")
+    sim.add_argument("--t-end", type=finite_number,
+                     help="end time (the scene's t_span end by default)")
     sim.add_argument("--method", help="nemc.DOP853 nemc.Radau (native), or scipy's RK45 RK23"
                      " DOP853 Radau BDF LSODA (default: the scene's, else nemc.DOP853)")
-    sim.add_argument("--rtol", type=float)
-    sim.add_argument("--atol", type=float)
+    sim.add_argument("--rtol", type=positive_number)
+    sim.add_argument("--atol", type=positive_number)
     sim.add_argument("--set", dest="params", type=parse_assignment, action="append", default=[],
                      metavar="NAME=VALUE", help="override a parameter (repeatable)")
     sim.add_argument("--csv", help="also write the table to this CSV file")
@@ -94,6 +114,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     params = dict(args.params)
     span = model.scene["t_span"] or [0.0, 10.0]
     t_span = (span[0], args.t_end) if args.t_end is not None else None
+    if t_span is not None and not t_span[1] > t_span[0]:
+        print(f"{args.mechanism}: --t-end: must be after the start time {span[0]:g}, got "
+              f"{args.t_end:g}", file=sys.stderr)
+        return 2
     try:
         result = model.simulate(t_span, method=args.method, rtol=args.rtol, atol=args.atol,
                                 params=params)
@@ -185,6 +209,7 @@ COMMANDS = {
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; every expected failure is one message on stderr, never a traceback."""
     args = make_parser().parse_args(argv)
     try:
         return COMMANDS[args.command](args)
@@ -192,11 +217,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(error, file=sys.stderr)
         return 2
     except BuildError as error:
-        print(f"nemc: build failed: {error}", file=sys.stderr)
+        print(f"nemc: {error}", file=sys.stderr)
         return 1
     except BrokenPipeError:  # e.g. `nemc simulate ... | head`
         sys.stderr.close()
         return 0
+    except OSError as error:  # e.g. --csv or --plot into a folder that cannot be written
+        where = f" {error.filename}" if error.filename else ""
+        print(f"nemc: cannot write{where}: {error.strerror or error}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -29,6 +29,8 @@ from nemc.model import TIME, rate_symbol
 MAX_DEPTH = 100
 MAX_LENGTH = 100_000
 MAX_DIGITS = 1000  # of an integer literal, and roughly of an exact power's result
+MAX_FILE_TOKENS = 50_000  # in all the expressions of one file: bounds a file's parse time
+MAX_MINMAX_ARGUMENTS = 16  # in all min() and max() calls of one expression (see call())
 
 # name -> (sympy function, least and most number of arguments; None: no upper bound)
 FUNCTIONS: dict[str, tuple[Callable[..., sympy.Expr], int, int | None]] = {
@@ -64,6 +66,26 @@ class ExprError(ValueError):
         self.offset = offset
 
 
+class Budget:
+    """The tokens all the expressions of one file may still use; shared by their scopes.
+
+    Parsing costs up to ~0.1 ms a token (sympy evaluates every function call), so a file
+    of many long expressions is refused rather than parsed for minutes."""
+
+    def __init__(self, tokens: int = MAX_FILE_TOKENS):
+        self.tokens = tokens
+
+    @property
+    def exhausted(self) -> bool:
+        return self.tokens < 0
+
+    def charge(self, count: int) -> None:
+        self.tokens -= count
+        if self.exhausted:
+            raise ExprError(f"the file's expressions have more than {MAX_FILE_TOKENS} tokens in "
+                            "all; simplify them or use parameters", 0)
+
+
 @dataclass(frozen=True)
 class Scope:
     """What an expression may refer to.
@@ -78,6 +100,7 @@ class Scope:
     time: bool = False
     refused: Mapping[str, str] = field(default_factory=dict)
     where: str = "here"  # e.g. "in body fields (parameters and constants only)"
+    budget: Budget | None = None  # the file's, shared by every scope of one file
 
 
 _TOKEN = re.compile(
@@ -131,8 +154,11 @@ def parse_expression(text: str, scope: Scope) -> sympy.Expr:
         raise ExprError(f"expression is too long ({len(text)} characters, at most {MAX_LENGTH})", 0)
     if not text.strip():
         raise ExprError("expected an expression, got an empty string", 0)
+    tokens = tokenize(text)
+    if scope.budget is not None:
+        scope.budget.charge(len(tokens))
     try:
-        result = _Parser(tokenize(text), scope).parse()
+        result = _Parser(tokens, scope).parse()
     except ExprError:
         raise
     except ZeroDivisionError:
@@ -165,6 +191,7 @@ class _Parser:
         self.pos = 0
         self.depth = 0
         self.scope = scope
+        self.minmax_arguments = 0
 
     @property
     def token(self) -> Token:
@@ -191,22 +218,30 @@ class _Parser:
         return result
 
     def sum(self) -> sympy.Expr:
-        result = self.product()
+        """Terms are added in one step: adding them one by one costs time quadratic in their
+        number (sympy rebuilds the growing sum each time)."""
+        terms = [self.product()]
         while self.token.kind == "op" and self.token.text in "+-":
             op = self.advance().text
             right = self.product()
-            result = result + right if op == "+" else result - right
-            _check_size(result, self.token.offset)
-        return result
+            terms.append(right if op == "+" else -right)
+        if len(terms) == 1:
+            return terms[0]
+        return _check_size(sympy.Add(*terms), self.token.offset)
 
     def product(self) -> sympy.Expr:
-        result = self.unary()
+        """Numerator and denominator factors are each multiplied in one step (see sum)."""
+        factors: tuple[list[sympy.Expr], list[sympy.Expr]] = ([self.unary()], [])
         while self.token.kind == "op" and self.token.text in ("*", "/"):
             op = self.advance().text
-            right = self.unary()
-            result = result * right if op == "*" else result / right
-            _check_size(result, self.token.offset)
-        return result
+            factors[op == "/"].append(_check_size(self.unary(), self.token.offset))
+        numerator, denominator = factors
+        if len(numerator) == 1 and not denominator:
+            return numerator[0]
+        result = sympy.Mul(*numerator)
+        if denominator:
+            result = _check_size(result, self.token.offset) / sympy.Mul(*denominator)
+        return _check_size(result, self.token.offset)
 
     def unary(self) -> sympy.Expr:
         self.depth += 1
@@ -266,6 +301,11 @@ class _Parser:
         if len(args) < least or (most is not None and len(args) > most):
             raise ExprError(f"{name.text}() takes {_arity(least, most)}, got {len(args)}",
                             name.offset)
+        if most is None:  # sympy compares every pair of min/max arguments: quadratic, slow
+            self.minmax_arguments += len(args)
+            if self.minmax_arguments > MAX_MINMAX_ARGUMENTS:
+                raise ExprError(f"min() and max() take at most {MAX_MINMAX_ARGUMENTS} arguments "
+                                "in all in one expression", name.offset)
         return _check_size(function(*args), name.offset)
 
     def rate(self, name: Token) -> sympy.Expr:
@@ -322,7 +362,7 @@ def _check_size(value: sympy.Expr, offset: int) -> sympy.Expr:
             magnitude = abs(float(value))
         except (OverflowError, ValueError):
             magnitude = math.inf
-        if magnitude == math.inf or (magnitude == 0 and value != 0):
+        if magnitude == math.inf or (magnitude == 0 and not value.is_zero):
             raise ExprError("a number in the expression is out of range (beyond about 1e308 "
                             "or below about 1e-308)", offset)
     elif isinstance(value, sympy.Rational) and _bits(value) > 4 * MAX_DIGITS:

@@ -15,8 +15,11 @@ import yaml
 
 from nemc.errors import InputError, Problem
 
-MAX_BYTES = 10_000_000
-MAX_NODES = 100_000
+# Bounds on what one file may cost: PyYAML's composer is pure Python (~0.6 s a megabyte to
+# scan, ~50 us a node), so these keep any file under a few seconds and ~100 MB. The largest
+# example is 2 KB; a 100-link chain is about 25 KB.
+MAX_BYTES = 1_000_000
+MAX_NODES = 100_000  # composed (checked while composing) and after expanding aliases
 MAX_NESTING = 64
 
 Scalar = None | bool | int | float | str
@@ -115,6 +118,8 @@ def parse_text(text: str | bytes, file: str) -> Node:
     except _TooDeep as exc:
         raise _error(file, exc.line, f"YAML is nested more than {MAX_NESTING} levels deep") \
             from None
+    except _TooMany as exc:
+        raise _error(file, exc.line, f"document has more than {MAX_NODES} nodes") from None
     if root is None:
         raise _error(file, 1, "file is empty (no YAML document); expected a mapping with "
                               "name, bodies and joints")
@@ -131,15 +136,26 @@ class _TooDeep(Exception):
         self.line = line
 
 
+class _TooMany(Exception):
+    def __init__(self, line: int):
+        super().__init__(line)
+        self.line = line
+
+
 class _Loader(yaml.SafeLoader):
-    """PyYAML's safe composer with a nesting limit (it recurses once per level)."""
+    """PyYAML's safe composer with a nesting limit (it recurses once per level) and a node
+    limit (a megabyte of ``[0,0,0,...]`` would otherwise cost a minute and half a gigabyte)."""
 
     def __init__(self, stream: str):
         super().__init__(stream)
         self.nesting = 0
+        self.nodes = 0
 
     def compose_node(self, parent: yaml.Node | None, index: object) -> yaml.Node:
         self.nesting += 1
+        self.nodes += 1
+        if self.nodes > MAX_NODES:
+            raise _TooMany(self.peek_event().start_mark.line + 1)
         if self.nesting > MAX_NESTING:
             raise _TooDeep(self.peek_event().start_mark.line + 1)
         try:

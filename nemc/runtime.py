@@ -78,6 +78,17 @@ class SimulationResult:
     params: dict[str, float] = field(default_factory=dict)
 
 
+def _real_array(value: Any, what: str) -> np.ndarray:
+    """VALUE as a numpy array of real numbers (bool, int, float); anything else is refused."""
+    try:
+        array = np.asarray(value)
+    except (ValueError, TypeError) as error:  # e.g. ragged nested lists
+        raise ModelError(f"{what} must be an array of real numbers ({error})") from None
+    if array.dtype.kind not in "biuf":
+        raise ModelError(f"{what} must be real numbers, got dtype {array.dtype}")
+    return array
+
+
 def read_metadata(path: Path) -> dict:
     return json.loads(Path(path).read_text())
 
@@ -125,15 +136,27 @@ class Model:
 
     def parameter_vector(self, params: Mapping[str, float] | None = None) -> np.ndarray:
         """The C parameter array for these overrides, checked (finite, masses positive)."""
-        key = tuple(sorted(params.items())) if params else ()
+        overrides = self._overrides(params)
+        key = tuple(sorted(overrides.items()))
         if key == self._checked[0]:
             return self._checked[1]
         p = self._default_p.copy()
-        for name, value in (params or {}).items():
-            p[self._parameter_index(name)] = self._finite(name, value)
+        for name, value in overrides.items():
+            p[self._parameter_index(name)] = value
         self._check_masses(p)
         self._checked = (key, p)
         return p
+
+    def _overrides(self, params: Any) -> dict[str, float]:
+        """``params`` as name -> finite float; anything but a mapping of names is refused."""
+        if params is None:
+            return {}
+        if not isinstance(params, Mapping):
+            raise ModelError(f"params must be a mapping name -> value, got {type(params).__name__}")
+        for name in params:
+            if not isinstance(name, str):
+                raise ModelError(f"parameter names are strings, got {name!r}")
+        return {name: self._finite(name, value) for name, value in params.items()}
 
     def _parameter_index(self, name: str) -> int:
         if name in self.parameter_names:
@@ -149,9 +172,11 @@ class Model:
 
     @staticmethod
     def _finite(name: str, value: Any) -> float:
+        if isinstance(value, (str, bytes)) or np.iscomplexobj(value):
+            raise ModelError(f"parameter {name!r}: expected a real number, got {value!r}")
         try:
             number = float(value)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ModelError(f"parameter {name!r}: expected a number, got {value!r}") from None
         if not math.isfinite(number):
             raise ModelError(f"parameter {name!r}: must be finite, got {number}")
@@ -166,12 +191,28 @@ class Model:
                 raise ModelError(f"{key} must be > 0 and finite, got {value:g} at these parameters")
 
     def _state(self, y: Any) -> np.ndarray:
-        array = np.asarray(y)
-        if np.iscomplexobj(array) or array.dtype.kind not in "fiub":
-            raise ModelError(f"state must be real numbers, got dtype {array.dtype}")
+        """One state as a new-or-checked contiguous float64 array of shape (n_state,)."""
+        array = _real_array(y, "state")
         if array.shape != (self.n_state,):
             raise ModelError(f"state must have shape ({self.n_state},), got {array.shape}")
         return np.ascontiguousarray(array, dtype=np.float64)
+
+    @staticmethod
+    def _time(t: Any) -> float:
+        """One time: a real scalar."""
+        array = _real_array(t, "time t")
+        if array.ndim != 0:
+            raise ModelError(f"time t must be a scalar, got shape {array.shape}")
+        return float(array)
+
+    @staticmethod
+    def _times_for(t: Any, count: int) -> np.ndarray:
+        """Times for COUNT states: a real scalar or an array of shape (COUNT,)."""
+        array = _real_array(t, "times t")
+        if array.ndim != 0 and array.shape != (count,):
+            raise ModelError(f"times t must be a scalar or have shape ({count},), "
+                             f"got {array.shape}")
+        return np.ascontiguousarray(np.broadcast_to(array.astype(np.float64), (count,)))
 
     def initial_state(self, params: Mapping[str, float] | None = None) -> np.ndarray:
         """The scene's initial state (unlisted values 0) at these parameters."""
@@ -198,7 +239,7 @@ class Model:
 
     def rhs(self, t: float, y: Any, params: Mapping[str, float] | None = None) -> np.ndarray:
         """dy/dt at (t, y)."""
-        return self._rhs_function(self.parameter_vector(params))(float(t), self._state(y))
+        return self._rhs_function(self.parameter_vector(params))(self._time(t), self._state(y))
 
     def _rhs_function(self, p: np.ndarray):
         """A fast closure for integrators: buffers for p prepared once, checks done in C."""
@@ -221,7 +262,7 @@ class Model:
     def rhs_many(self, t: Any, y: Any, params: Mapping[str, float] | None = None) -> np.ndarray:
         """dy/dt at many states in one C call: y of shape (n_state, n), t scalar or (n,)."""
         ys = self._states(y)
-        ts = np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=float), ys.shape[:1]))
+        ts = self._times_for(t, len(ys))
         dys = np.empty_like(ys)
         self._many("rhs_many", ts, ys, self.parameter_vector(params), dys)
         return dys.T
@@ -235,8 +276,8 @@ class Model:
 
     def _states(self, y: Any) -> np.ndarray:
         """(n_state, n) -> contiguous (n, n_state) rows for the C loops."""
-        array = np.asarray(y)
-        if array.ndim != 2 or array.shape[0] != self.n_state or array.dtype.kind not in "fiu":
+        array = _real_array(y, "states")
+        if array.ndim != 2 or array.shape[0] != self.n_state:
             expected = f"({self.n_state}, n)"
             raise ModelError(f"states must be real with shape {expected}, got {array.shape}")
         return np.ascontiguousarray(array.T, dtype=np.float64)
@@ -246,8 +287,8 @@ class Model:
         differences of the compiled RHS only in a standalone package built without it."""
         function = self._jacobian_function(self.parameter_vector(params))
         if function is not None:
-            return function(float(t), self._state(y))
-        return self._finite_difference_jacobian(float(t), self._state(y), params)
+            return function(self._time(t), self._state(y))
+        return self._finite_difference_jacobian(self._time(t), self._state(y), params)
 
     def _has_jacobian(self) -> bool:
         if "jacobian" not in self._c and self.jacobian_provider is not None:
@@ -304,9 +345,10 @@ class Model:
         """The scene's outputs: floats for one state, arrays for y of shape (n_state, n_t)."""
         if not self.output_names:
             return {}
-        single = np.ndim(y) == 1
-        ys = self._states(np.asarray(y).reshape(self.n_state, -1) if single else y)
-        ts = np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=float), ys.shape[:1]))
+        array = _real_array(y, "states")
+        single = array.ndim == 1
+        ys = self._state(array).reshape(1, -1) if single else self._states(array)
+        ts = self._times_for(t, len(ys))
         out = np.empty((len(ys), len(self.output_names)))
         self._many("outputs", ts, ys, self.parameter_vector(params), out)
         columns = {name: out[:, k] for k, name in enumerate(self.output_names)}

@@ -12,6 +12,7 @@ import keyword
 import math
 import os
 import re
+import sys
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,7 +20,7 @@ from pathlib import Path
 import sympy
 
 from nemc.errors import InputError, Problem
-from nemc.expr import RESERVED, ExprError, Scope, parse_expression, suggest
+from nemc.expr import RESERVED, Budget, ExprError, Scope, parse_expression, suggest
 from nemc.model import (
     GROUND,
     Body,
@@ -60,6 +61,10 @@ LOAD_KEYS = {
 }
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 ZERO2: Vec2 = (sympy.S.Zero, sympy.S.Zero)
+# An exported package is imported by its name: it must not hide a module it or its runtime
+# needs (a model named json would make the runtime's own `import json` import the model).
+SHADOWED_MODULES = frozenset({*sys.stdlib_module_names, "numpy", "scipy", "cffi",
+                              "_cffi_backend", "nemc"})
 FIXED_WHERE = "in body, joint, gravity and initial-condition fields (parameters and constants only)"
 
 
@@ -105,6 +110,7 @@ class _Ctx:
     joint_keys: list[str] = field(default_factory=list)  # every key under joints
     joints: dict[str, Joint] = field(default_factory=dict)
     joint_coordinates: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    budget: Budget = field(default_factory=Budget)  # tokens left for the file's expressions
 
     def problem(self, line: int, key: str, message: str) -> None:
         self.problems.append(Problem(self.file, line, key, message))
@@ -127,7 +133,7 @@ class _Ctx:
         refused = {name: f"{name!r} is {_article(kind_)} {kind_}, not allowed {where}"
                    for name, (kind_, _) in self.names.items() if name not in names}
         rates = frozenset(self.coordinates) if kind == "load" else frozenset()
-        return Scope(names, rates, kind == "load", refused, where)
+        return Scope(names, rates, kind == "load", refused, where, self.budget)
 
 
 def _article(word: str) -> str:
@@ -217,6 +223,8 @@ def _expr(ctx: _Ctx, node: Node, path: str, scope: Scope) -> sympy.Expr | None:
         shown = value if len(value) <= 60 else value[:57] + "..."
         ctx.problem(node.line, path, f"{exc.message} (in expression {shown!r}, "
                                      f"at character {exc.offset + 1})")
+        if ctx.budget.exhausted:  # stop: every later expression would say the same
+            raise InputError(sorted(ctx.problems, key=lambda p: p.line)) from None
         return None
 
 
@@ -267,7 +275,8 @@ def _vec2(ctx: _Ctx, node: Node, path: str, scope: Scope | None = None) -> Vec2 
 
 def _number(ctx: _Ctx, node: Node, path: str) -> float | None:
     """A finite number: YAML number or an expression without names (``2*pi``)."""
-    expr = _expr(ctx, node, path, Scope(where="here (a plain number is expected)"))
+    expr = _expr(ctx, node, path, Scope(where="here (a plain number is expected)",
+                                        budget=ctx.budget))
     if expr is None:
         return None
     value = _value(ctx, expr)
@@ -310,8 +319,9 @@ def _flag(ctx: _Ctx, node: Node, path: str) -> bool:
 def _register(ctx: _Ctx, name: object, line: int, path: str, kind: str) -> bool:
     """Claim ``name`` for a ``kind`` of item; names are identifiers and never collide."""
     if not isinstance(name, str) or not IDENTIFIER.fullmatch(name):
+        got = _got(Node(name, line, 0)) if isinstance(name, (list, dict)) else f"got {name!r}"
         ctx.problem(line, path, f"{kind} name must be an identifier [A-Za-z_][A-Za-z0-9_]*, "
-                                f"got {name!r}")
+                                f"{got}")
         return False
     if name in RESERVED:
         ctx.problem(line, path, f"{name!r} is reserved (t, pi, ground, dot, ddot and function "
@@ -406,6 +416,10 @@ def _module_name(ctx: _Ctx, node: Node | None) -> str | None:
     if not IDENTIFIER.fullmatch(name) or keyword.iskeyword(name):
         ctx.problem(node.line, "name", "expected an identifier [A-Za-z_][A-Za-z0-9_]* that is "
                                        f"not a Python keyword (it names a module), got {name!r}")
+        return None
+    if name in SHADOWED_MODULES:
+        ctx.problem(node.line, "name", f"{name!r} is the name of a Python module the generated "
+                                       "package would hide when imported; choose another name")
         return None
     return name
 
@@ -584,7 +598,7 @@ def _joints(ctx: _Ctx, node: Node | None) -> tuple[Joint, ...]:
                 ctx.joints[name] = joint
         elif not joint_node.is_map:
             ctx.problem(joint_node.line, path, f"expected a joint mapping, {_got(joint_node)}")
-    _check_tree(ctx, edges)
+    _check_tree(ctx, edges, _named_children(node))
     return tuple(ctx.joints.values())
 
 
@@ -725,7 +739,14 @@ def _named_point(ctx: _Ctx, body: str, name: str, line: int, path: str) -> Vec2 
     return None
 
 
-def _check_tree(ctx: _Ctx, edges: list[_Edge]) -> None:
+def _named_children(node: Node) -> set[object]:
+    """Every child any joint names, valid or not: a body a broken joint names is reported
+    with that joint, not as unattached too."""
+    children = [_entries(joint).get("child") for joint in _entries(node).values()]
+    return {child.value for child in children if child is not None and child.is_scalar}
+
+
+def _check_tree(ctx: _Ctx, edges: list[_Edge], named_children: set[object]) -> None:
     """Every body is the child of exactly one joint, and every chain reaches ground."""
     parent_of: dict[str, _Edge] = {}
     for edge in edges:
@@ -737,7 +758,7 @@ def _check_tree(ctx: _Ctx, edges: list[_Edge]) -> None:
         else:
             parent_of[edge.child] = edge
     for body in ctx.body_names:
-        if body not in parent_of:
+        if body not in parent_of and body not in named_children:
             ctx.problem(ctx.lines[body], ctx.names[body][1], f"body {body!r} is not attached: "
                         f"no joint has child: {body} (every body is the child of exactly one "
                         "joint)")

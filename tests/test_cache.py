@@ -1,0 +1,274 @@
+"""The build cache under stress: concurrent builds, a build killed in the middle, corrupted
+entries, a missing compiler, folders that cannot be written."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from nemc import build
+from nemc.build import COMPLETE, build_key, cached_package, is_intact
+from nemc.cli import main
+from nemc.pipeline import generate_and_build, read_source
+
+ROOT = Path(__file__).resolve().parent.parent
+COMPOUND = ROOT / "examples" / "compound_pendulum.yaml"
+TINY = """\
+name: tiny
+parameters: {m: 2, L: 0.5}
+gravity: [0, -9.81]
+bodies: {rod: {mass: m, inertia: m*L**2/12, com: [L/2, 0]}}
+joints: {O: {type: revolute, parent: ground, child: rod, coordinate: q}}
+"""
+
+
+@pytest.fixture
+def cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    folder = tmp_path / "cache"
+    monkeypatch.setenv("NEMC_CACHE", str(folder))
+    return folder
+
+
+def entries(cache: Path) -> list[Path]:
+    return sorted(p for p in cache.iterdir() if not p.name.startswith("."))
+
+
+def leftovers(cache: Path) -> list[Path]:
+    return sorted(p for p in cache.iterdir() if p.name.startswith("."))
+
+
+def environment(cache: Path, **extra: str) -> dict[str, str]:
+    return {**os.environ, "NEMC_CACHE": str(cache), "PYTHONPATH": str(ROOT), **extra}
+
+
+def start_compile(path: Path, env: dict[str, str]) -> subprocess.Popen:
+    """A separate process: compile PATH, print the RHS at a fixed state and whether cached."""
+    code = ("import sys, nemc.pipeline as p; c = p.compile_mechanism(sys.argv[1]); "
+            "print(c.cached, repr(c.model.rhs(0.25, [0.3, -0.1]).tolist()))")
+    return subprocess.Popen([sys.executable, "-c", code, str(path)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env, start_new_session=True)
+
+
+def run_cli(args: list[str], env: dict[str, str]) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "nemc.cli", *args], capture_output=True,
+                          text=True, env=env, timeout=120)
+
+
+def test_concurrent_builds_of_the_same_and_of_different_models(cache: Path,
+                                                               tmp_path: Path) -> None:
+    tiny = tmp_path / "tiny.yaml"
+    tiny.write_text(TINY)
+    env = environment(cache)
+    paths = [COMPOUND, tiny, COMPOUND, tiny]
+    processes = [start_compile(path, env) for path in paths]
+    results = [p.communicate(timeout=180) for p in processes]
+    assert [p.returncode for p in processes] == [0] * 4, [err for _, err in results]
+    values = [out.split(" ", 1)[1] for out, _ in results]
+    assert values[0] == values[2] and values[1] == values[3] and values[0] != values[1]
+    built = entries(cache)
+    assert len(built) == 2 and all(is_intact(p, p.name) for p in built)
+    assert leftovers(cache) == []
+    again = start_compile(COMPOUND, env)
+    out, err = again.communicate(timeout=120)
+    assert out.split(" ", 1) == ["True", values[0]], err  # one good entry, reused
+
+
+FAKE_CC = """\
+#!/bin/sh
+# a C compiler that, while the file SLOW exists, announces itself and hangs before compiling
+if [ -e "{slow}" ]; then touch "{started}"; sleep 120; fi
+exec gcc "$@"
+"""
+
+
+def fake_compiler(folder: Path) -> tuple[Path, Path, Path]:
+    slow, started, script = folder / "SLOW", folder / "STARTED", folder / "slowcc"
+    script.write_text(FAKE_CC.format(slow=slow, started=started))
+    script.chmod(0o755)
+    return script, slow, started
+
+
+def wait_for(condition: Callable[[], bool], seconds: float) -> None:
+    deadline = time.monotonic() + seconds
+    while not condition():
+        assert time.monotonic() < deadline, "timed out"
+        time.sleep(0.05)
+
+
+def test_a_build_killed_during_gcc_leaves_the_cache_usable(cache: Path, tmp_path: Path) -> None:
+    script, slow, started = fake_compiler(tmp_path)
+    slow.touch()
+    env = environment(cache, CC=str(script))
+    victim = start_compile(COMPOUND, env)
+    wait_for(lambda: started.exists() or victim.poll() is not None, 120)
+    assert victim.poll() is None, victim.communicate()
+    os.killpg(victim.pid, signal.SIGKILL)  # the process and its compilers, mid-build
+    victim.communicate(timeout=30)
+    assert entries(cache) == [] and len(leftovers(cache)) == 1  # only its scratch folder
+
+    slow.unlink()
+    survivor = start_compile(COMPOUND, env)
+    out, err = survivor.communicate(timeout=180)
+    assert survivor.returncode == 0 and out.startswith("False "), err
+    built = entries(cache)
+    assert len(built) == 1 and is_intact(built[0], built[0].name)
+
+    day_old = time.time() - build.STALE_SCRATCH_S - 60
+    for leftover in leftovers(cache):
+        os.utime(leftover, (day_old, day_old))
+    shutil.rmtree(built[0])
+    survivor = start_compile(COMPOUND, env)
+    assert survivor.communicate(timeout=180)[0].startswith("False ")
+    assert leftovers(cache) == []  # the killed build's folder is gone once stale
+
+
+def truncate_extension(entry: Path) -> None:
+    extension = next(entry.glob("_native.*"))
+    extension.write_bytes(extension.read_bytes()[:1000])
+
+
+def rewrite(name: str, data: bytes) -> Callable[[Path], None]:
+    return lambda entry: (entry / name).write_bytes(data)
+
+
+def delete(pattern: str) -> Callable[[Path], None]:
+    return lambda entry: next(entry.glob(pattern)).unlink()
+
+
+def wrong_key(entry: Path) -> None:
+    manifest = json.loads((entry / COMPLETE).read_text())
+    (entry / COMPLETE).write_text(json.dumps({**manifest, "key": "0" * 24}))
+
+
+def replace_by_file(entry: Path) -> None:
+    shutil.rmtree(entry)
+    entry.write_text("not a build")
+
+
+CORRUPTIONS: dict[str, Callable[[Path], None]] = {
+    "truncated extension": truncate_extension,
+    "garbage extension": lambda entry: next(entry.glob("_native.*")).write_bytes(b"\0" * 64),
+    "missing extension": delete("_native.*"),
+    "garbage metadata": rewrite("model.json", b"{not json"),
+    "edited metadata": lambda entry: (entry / "model.json").write_text(
+        (entry / "model.json").read_text().replace('"W"', '"X"')),
+    "missing metadata": delete("model.json"),
+    "missing runtime": delete("_runtime.py"),
+    "garbage manifest": rewrite(COMPLETE, b"\xff\xfe garbage"),
+    "empty manifest": rewrite(COMPLETE, b"{}"),
+    "old-style manifest": lambda entry: (entry / COMPLETE).write_text(entry.name + "\n"),
+    "manifest of another key": wrong_key,
+    "missing manifest": delete(COMPLETE),
+    "a file instead of a folder": replace_by_file,
+    "an empty folder": lambda entry: (shutil.rmtree(entry), entry.mkdir()),
+}
+
+
+@pytest.fixture(scope="module")
+def pristine(tmp_path_factory: pytest.TempPathFactory) -> tuple[str, Path]:
+    """One good build of COMPOUND, never loaded (corrupting a loaded extension in place would
+    crash this process; nemc itself never writes into a published entry)."""
+    source = read_source(COMPOUND)
+    key = build_key(source, {"jacobian": "auto"})  # the key compile_mechanism uses
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("NEMC_CACHE", str(tmp_path_factory.mktemp("pristine")))
+        return key, generate_and_build(source, key, None, {})
+
+
+@pytest.mark.parametrize("corrupt", CORRUPTIONS.values(), ids=CORRUPTIONS.keys())
+def test_a_corrupted_entry_is_detected(cache: Path, pristine: tuple[str, Path],
+                                       corrupt) -> None:
+    key, good = pristine
+    cache.mkdir()
+    shutil.copytree(good, cache / key)
+    assert cached_package(key) == cache / key
+    corrupt(cache / key)
+    assert cached_package(key) is None  # detected before anything is imported
+    assert entries(cache) == [] and leftovers(cache) == []  # moved aside and removed
+
+
+def test_a_broken_entry_is_replaced_by_the_next_build(cache: Path,
+                                                      pristine: tuple[str, Path]) -> None:
+    key, good = pristine
+    cache.mkdir()
+    shutil.copytree(good, cache / key)
+    truncate_extension(cache / key)
+    package = generate_and_build(read_source(COMPOUND), key, None, {})  # publish replaces it
+    assert package == cache / key and is_intact(package, key) and cached_package(key) == package
+    assert entries(cache) == [package] and leftovers(cache) == []
+
+
+def test_a_truncated_extension_is_never_loaded(cache: Path) -> None:
+    """In a fresh process (nothing imported yet): rebuilt, and the right numbers come out."""
+    env = environment(cache)
+    out_good, err = start_compile(COMPOUND, env).communicate(timeout=120)
+    truncate_extension(entries(cache)[0])
+    process = start_compile(COMPOUND, env)
+    out, err = process.communicate(timeout=120)
+    assert process.returncode == 0, err
+    assert out.split(" ", 1) == ["False", out_good.split(" ", 1)[1]]
+
+
+def test_missing_compiler_is_a_clear_build_error(cache: Path, tmp_path: Path,
+                                                 monkeypatch: pytest.MonkeyPatch, capsys) -> None:
+    monkeypatch.setattr(build, "CC", str(tmp_path / "no-such-cc"))
+    out = tmp_path / "out"
+    assert main(["compile", str(COMPOUND), "-o", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "cannot run the C compiler" in err and "set the CC environment variable" in err
+    assert not out.exists() and entries(cache) == [] and leftovers(cache) == []
+
+
+def test_a_failing_compiler_is_a_build_error(cache: Path, tmp_path: Path,
+                                             monkeypatch: pytest.MonkeyPatch, capsys) -> None:
+    script = tmp_path / "badcc"
+    script.write_text("#!/bin/sh\necho 'badcc: internal error' >&2\nexit 3\n")
+    script.chmod(0o755)
+    monkeypatch.setattr(build, "CC", str(script))
+    assert main(["compile", str(COMPOUND), "-o", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err
+    assert "the C compiler failed on" in err and "badcc: internal error" in err
+    assert entries(cache) == [] and leftovers(cache) == []
+
+
+@pytest.mark.parametrize("env_change, message", [
+    ({"CC": "/nonexistent/cc"}, "set the CC environment variable"),
+    ({"PATH": ""}, "install gcc"),
+])
+def test_missing_compiler_from_the_command_line(cache: Path, tmp_path: Path, env_change,
+                                                message: str) -> None:
+    done = run_cli(["compile", str(COMPOUND), "-o", str(tmp_path / "out")],
+                   environment(cache, **env_change))
+    assert done.returncode == 1 and message in done.stderr
+    assert "Traceback" not in done.stderr and done.stderr.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_unwritable_output_folder(cache: Path, tmp_path: Path, capsys) -> None:
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    assert main(["compile", str(COMPOUND), "-o", str(blocker / "out")]) == 1
+    err = capsys.readouterr().err
+    assert f"cannot write the output folder {blocker / 'out'}" in err
+    assert "choose a writable folder with -o/--output" in err
+    assert blocker.read_text() == ""
+    done = run_cli(["compile", str(COMPOUND), "-o", str(blocker)], environment(cache))
+    assert done.returncode == 1 and "Traceback" not in done.stderr
+    assert "choose a writable folder" in done.stderr
+
+
+def test_unwritable_cache_folder(tmp_path: Path) -> None:
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    done = run_cli(["compile", str(COMPOUND)], environment(blocker / "cache"))
+    assert done.returncode == 1 and "Traceback" not in done.stderr
+    assert "set NEMC_CACHE to a writable folder" in done.stderr

@@ -1,0 +1,155 @@
+"""Fuzzing the loader: random YAML documents, random expressions and mutations of the valid
+example files. The only outcomes allowed are a valid Mechanism or an InputError whose every
+problem is located (the file, a line inside it, a message). Validation only: no C compiled."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from nemc.errors import InputError
+from nemc.model import Mechanism
+from nemc.validate import JOINT_KEYS, JOINT_TYPES, LOAD_KEYS, TOP_KEYS, validate_text
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = {p.stem: p.read_text() for p in sorted((ROOT / "examples").glob("*.yaml"))}
+FILE = "fuzz.yaml"
+
+FUZZ = settings(derandomize=True, deadline=None, max_examples=150, database=None,
+                suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+
+# the words a mechanism file is made of, so random documents get past the first checks
+WORDS = sorted({*TOP_KEYS, *JOINT_TYPES, *(k for keys in JOINT_KEYS.values() for k in keys),
+                *(k for keys in LOAD_KEYS.values() for k in keys), "mass", "inertia", "com",
+                "points", "ground", "origin", "b1", "b2", "A", "B", "q1", "q2", "m", "L", "P",
+                "t", "pi", "RK45", "Radau", "reactions", "energy", "expressions", "t_span",
+                "initial", "t_eval", "step", "method", "rtol", "atol", "a", "b", "k", "length",
+                "damping", "rest", "frame", "body", "reaction"})
+EXPRESSION_ALPHABET = "mLq12.e+-*/()^ ,_tpisncoxdabqr'\"[]{}:;#\\\t\x00é"
+
+
+def expressions() -> st.SearchStrategy[str]:
+    tokens = st.sampled_from(["m", "L", "q1", "t", "pi", "dot(q1)", "sin(", "max(", "sqrt(",
+                              "(", ")", "+", "-", "*", "/", "**", "^", ",", "1", "0", "2.5e3",
+                              "1e999", "1e-999", "10**10**10", ".", "__import__", "'x'", " "])
+    return st.one_of(st.lists(tokens, max_size=12).map("".join),
+                     st.text(EXPRESSION_ALPHABET, max_size=20))
+
+
+def scalars() -> st.SearchStrategy[object]:
+    return st.one_of(st.none(), st.booleans(), st.integers(-10**30, 10**30),
+                     st.floats(allow_nan=True, allow_infinity=True), st.sampled_from(WORDS),
+                     expressions(), st.text(max_size=8))
+
+
+def documents() -> st.SearchStrategy[object]:
+    keys = st.one_of(st.sampled_from(WORDS), st.text(max_size=6))
+    return st.recursive(scalars(), lambda inner: st.one_of(
+        st.lists(inner, max_size=4), st.dictionaries(keys, inner, max_size=5)), max_leaves=30)
+
+
+def assert_clean(text: str | bytes) -> Mechanism | None:
+    """Validate; the outcome must be a Mechanism or a located InputError."""
+    size = text.count(b"\n" if isinstance(text, bytes) else "\n") + 1
+    try:
+        return validate_text(text, FILE)
+    except InputError as error:
+        assert error.problems
+        for problem in error.problems:
+            assert problem.file == FILE and 1 <= problem.line <= size, problem
+            assert problem.message and "Node(" not in problem.message, problem
+            assert str(problem).startswith(f"{FILE}:{problem.line}: ")
+        return None
+
+
+@FUZZ
+@given(documents())
+def test_random_documents(document: object) -> None:
+    assert_clean(yaml.safe_dump(document, allow_unicode=True))
+
+
+@FUZZ
+@given(st.dictionaries(st.sampled_from(["mass", "inertia", "com", "points", "mas"]),
+                       st.one_of(scalars(), st.lists(scalars(), max_size=3)), max_size=4),
+       st.sampled_from(["b1", "ground", "dot", "int", "x0", "1b"]))
+def test_random_bodies_on_a_valid_frame(body: dict, name: str) -> None:
+    """Random body fields where everything else is right, so validation goes deep."""
+    document = {"name": "fuzz", "parameters": {"m": 1, "L": 2},
+                "bodies": {name: body, "b2": {"mass": 1, "inertia": 1}},
+                "joints": {"A": {"type": "revolute", "parent": "ground", "child": name,
+                                 "coordinate": "q1"},
+                           "B": {"type": "revolute", "parent": name, "child": "b2",
+                                 "coordinate": "q2"}},
+                "loads": [{"torque": "m*dot(q1)", "body": "b2"}]}
+    assert_clean(yaml.safe_dump(document))
+
+
+@FUZZ
+@given(expressions(), st.sampled_from(["bodies.b1.mass", "loads.torque", "parameters.k",
+                                       "simulation.t_span", "gravity"]))
+def test_random_expressions_in_every_kind_of_field(expression: str, field: str) -> None:
+    quoted = yaml.safe_dump(expression, default_style="'").strip()
+    text = EXAMPLES["double_pendulum"]
+    replacements = {
+        "bodies.b1.mass": ("mass: m1", f"mass: {quoted}"),
+        "loads.torque": ("outputs:", f"loads:\n  - torque: {quoted}\n    body: link1\noutputs:"),
+        "parameters.k": ("parameters:\n", f"parameters:\n  k: {quoted}\n"),
+        "simulation.t_span": ("t_span: [0, 5]", f"t_span: [0, {quoted}]"),
+        "gravity": ("gravity: [0, -g]", f"gravity: [{quoted}, -g]"),
+    }
+    old, new = replacements[field]
+    assert old in text, old
+    assert_clean(text.replace(old, new, 1))
+
+
+@st.composite
+def mutated_examples(draw: st.DrawFn) -> str:
+    """A valid example with a few lines deleted, duplicated, swapped, cut or scribbled on."""
+    lines = EXAMPLES[draw(st.sampled_from(sorted(EXAMPLES)))].splitlines(keepends=True)
+    for _ in range(draw(st.integers(1, 4))):
+        i = draw(st.integers(0, len(lines) - 1))
+        kind = draw(st.sampled_from(["delete", "duplicate", "swap", "cut", "insert", "word"]))
+        if kind == "delete" and len(lines) > 1:
+            del lines[i]
+        elif kind == "duplicate":
+            lines.insert(i, lines[i])
+        elif kind == "swap":
+            j = draw(st.integers(0, len(lines) - 1))
+            lines[i], lines[j] = lines[j], lines[i]
+        elif kind == "cut":
+            at = draw(st.integers(0, len(lines[i])))
+            lines[i] = lines[i][:at] + "\n"
+        elif kind == "insert":
+            at = draw(st.integers(0, len(lines[i])))
+            junk = draw(st.text("[]{}:,-&*!|>'\"#%@` \t\n0.eN" + "abq", max_size=4))
+            lines[i] = lines[i][:at] + junk + lines[i][at:]
+        else:  # replace one word by another mechanism word
+            words = re.findall(r"[A-Za-z_]\w*", lines[i])
+            if words:
+                lines[i] = lines[i].replace(draw(st.sampled_from(words)),
+                                            draw(st.sampled_from(WORDS)), 1)
+    return "".join(lines)
+
+
+@FUZZ
+@given(mutated_examples())
+def test_mutated_examples(text: str) -> None:
+    assert_clean(text)
+
+
+@FUZZ
+@given(st.sampled_from(sorted(EXAMPLES)), st.integers(0, 10**6), st.binary(max_size=3))
+def test_byte_level_damage(example: str, position: int, junk: bytes) -> None:
+    data = EXAMPLES[example].encode()
+    at = position % (len(data) + 1)
+    assert_clean(data[:at] + junk + data[at + len(junk) // 2:])
+
+
+def test_every_example_is_valid() -> None:
+    """The mutations start from valid files (else the fuzz would only test refusals)."""
+    for name, text in EXAMPLES.items():
+        assert isinstance(assert_clean(text), Mechanism), name
