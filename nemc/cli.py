@@ -34,8 +34,8 @@ def make_parser() -> argparse.ArgumentParser:
     sim = commands.add_parser("simulate", help="run the scene and print the table")
     sim.add_argument("mechanism")
     sim.add_argument("--t-end", type=float, help="end time (the scene's t_span end by default)")
-    sim.add_argument("--method", help="nemc.DOP853 nemc.Radau (native), or scipy's RK45 RK23"
-                     " DOP853 Radau BDF LSODA (default: the scene's, else nemc.DOP853)")
+    sim.add_argument("--method", help="nemc.DOP853 nemc.Radau nemc.Vern9 (native), or scipy's"
+                     " RK45 RK23 DOP853 Radau BDF LSODA (default: the scene's, else nemc.DOP853)")
     sim.add_argument("--rtol", type=float)
     sim.add_argument("--atol", type=float)
     sim.add_argument("--set", dest="params", type=parse_assignment, action="append", default=[],
