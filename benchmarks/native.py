@@ -6,7 +6,9 @@ Contenders, measured in one run, interleaved, medians over rounds (benchmarks/ru
 - solve_ivp DOP853 + lambdify(cse): the baseline of benchmarks/run.py (sympy lambdify of nemc's
   own M and f, numpy.linalg.solve), scipy's best method at these errors;
 - solve_ivp DOP853 + nemc's C RHS (`Model.simulate(method="DOP853")`);
-- nemc.DOP853: the same algorithm and steps, the loop in C.
+- nemc.DOP853: the same algorithm and steps, the loop in C;
+- nemc.Vern9: Verner's 9(8) pair in C, at the loosest rtol of the ladder that reaches the
+  same error (its own).
 Systems: the book's double pendulum over [0, 20] at final errors near 1e-9 and 1e-12 (the
 loosest rtol of a ladder that reaches the error; atol = rtol * 1e-3; the DOP853 contenders take
 the same steps, so one rtol serves all three); the book's stiff 5.4 over [0, 15] at rtol 1e-8;
@@ -61,10 +63,11 @@ def reference(model, span, y0, times=None) -> np.ndarray:
     return ours
 
 
-def rtol_for(model, span, y0, ref: np.ndarray, target: float) -> float:
-    """The loosest rtol of the ladder whose nemc.DOP853 error is at most target."""
+def rtol_for(model, span, y0, ref: np.ndarray, target: float,
+             method: str = "nemc.DOP853") -> float:
+    """The loosest rtol of the ladder whose error with the method is at most target."""
     for rtol in LADDER:
-        y = final_state(model, "nemc.DOP853", span, y0, rtol, rtol * 1e-3)[0]
+        y = final_state(model, method, span, y0, rtol, rtol * 1e-3)[0]
         if np.abs(y - ref).max() <= target:
             return rtol
     return LADDER[-1]
@@ -84,20 +87,23 @@ def pendulum_rows(rounds: int) -> list[dict[str, Any]]:
     rows = []
     for target in (1e-9, 1e-12):
         rtol = rtol_for(model, span, y0, ref, target)
-        atol = rtol * 1e-3
         contenders = {
-            "solve_ivp DOP853 + lambdify(cse)": ("DOP853", baseline.rhs_cse),
-            "solve_ivp DOP853 + nemc C RHS": ("DOP853", c_rhs),
-            "nemc.DOP853": ("nemc.DOP853", None),
+            "solve_ivp DOP853 + lambdify(cse)": ("DOP853", baseline.rhs_cse, rtol),
+            "solve_ivp DOP853 + nemc C RHS": ("DOP853", c_rhs, rtol),
+            "nemc.DOP853": ("nemc.DOP853", None, rtol),
+            "nemc.Vern9": ("nemc.Vern9", None,
+                           rtol_for(model, span, y0, ref, target, "nemc.Vern9")),
         }
-        calls = {name: partial(final_state, model, m, span, y0, rtol, atol, r)
-                 for name, (m, r) in contenders.items()}
+        rtols = {name: r_tol for name, (_, _, r_tol) in contenders.items()}
+        calls = {name: partial(final_state, model, m, span, y0, r_tol, r_tol * 1e-3, r)
+                 for name, (m, r, r_tol) in contenders.items()}
         times = time_cells(calls, rounds)
         base = times["solve_ivp DOP853 + lambdify(cse)"]["median"]
         for name, call in calls.items():
             y, nfev = call()
             rows.append({
-                "system": "double pendulum [0, 20]", "target_error": target, "rtol": rtol,
+                "system": "double pendulum [0, 20]", "target_error": target,
+                "rtol": rtols[name],
                 "contender": name, "error": float(np.abs(y - ref).max()), "nfev": int(nfev),
                 "seconds": times[name]["median"], "min": times[name]["min"],
                 "max": times[name]["max"], "speedup_vs_lambdify": base / times[name]["median"],

@@ -54,8 +54,8 @@ def make_parser() -> argparse.ArgumentParser:
     sim.add_argument("mechanism")
     sim.add_argument("--t-end", type=finite_number,
                      help="end time (the scene's t_span end by default)")
-    sim.add_argument("--method", help="nemc.DOP853 nemc.Radau (native), or scipy's RK45 RK23"
-                     " DOP853 Radau BDF LSODA (default: the scene's, else nemc.DOP853)")
+    sim.add_argument("--method", help="nemc.DOP853 nemc.Radau nemc.Vern9 (native), or scipy's"
+                     " RK45 RK23 DOP853 Radau BDF LSODA (default: the scene's, else nemc.DOP853)")
     sim.add_argument("--rtol", type=positive_number)
     sim.add_argument("--atol", type=positive_number)
     sim.add_argument("--set", dest="params", type=parse_assignment, action="append", default=[],

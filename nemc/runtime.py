@@ -22,7 +22,7 @@ import numpy as np
 
 SCIPY_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 # Integrators in the model's own C (templates/integrators.c.tmpl), no Python in the loop.
-NATIVE_METHODS = ("nemc.DOP853", "nemc.Radau")
+NATIVE_METHODS = ("nemc.DOP853", "nemc.Radau", "nemc.Vern9")
 METHODS = SCIPY_METHODS + NATIVE_METHODS
 IMPLICIT_METHODS = ("Radau", "BDF", "LSODA", "nemc.Radau")  # these get the analytic Jacobian
 DEFAULT_T_SPAN = (0.0, 10.0)
@@ -606,7 +606,7 @@ class EnsembleResult:
 
 
 # enum nemc_method and enum nemc_status in templates/integrators.h.tmpl
-NATIVE_IDS = {"nemc.DOP853": 0, "nemc.Radau": 1}
+NATIVE_IDS = {"nemc.DOP853": 0, "nemc.Radau": 1, "nemc.Vern9": 2}
 NATIVE_RHS_FAILED = -2
 NATIVE_MESSAGES = {  # scipy's messages for the same outcomes
     0: "The solver successfully reached the end of the integration interval.",

@@ -41,7 +41,8 @@ from nemc.model import (
 )
 from nemc.parse import Node, parse_text
 
-METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA", "nemc.DOP853", "nemc.Radau")
+METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA", "nemc.DOP853", "nemc.Radau",
+           "nemc.Vern9")
 JOINT_TYPES = ("revolute", "prismatic", "free", "weld")
 LOAD_KINDS = ("torque", "force", "spring", "joint_spring")
 IMPLICIT_POINTS = ("origin", "com")

@@ -1,5 +1,5 @@
-"""The native integrators (nemc.DOP853, nemc.Radau) against scipy's solve_ivp, step for step,
-against tight references, and the ensemble call against single runs."""
+"""The native integrators (nemc.DOP853, nemc.Radau, nemc.Vern9) against scipy's solve_ivp, step
+for step, against tight references, and the ensemble call against single runs."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from nemc.runtime import ModelError
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"
+COMPOUND = EXAMPLES / "compound_pendulum.yaml"
 ONE_LINK_ARM, TWO_LINK_ARM = EXAMPLES / "robot_arm.yaml", EXAMPLES / "two_link_robot_arm.yaml"
 
 # A pendulum whose drive torque overflows to inf near t = 0.71: the equations fail there.
@@ -118,6 +119,49 @@ def test_dop853_backwards_and_empty_interval(pendulum) -> None:
     assert empty.success
 
 
+def test_vern9_converges_with_order_9() -> None:
+    """Final error against a tight DOP853 reference falls as (steps)^-9 (DOP853's here: ^-7.9)."""
+    model = nemc.compile(COMPOUND)
+    span, y0 = (0.0, 10.0), model.initial_state()
+    ref = model.simulate(span, method="DOP853", rtol=1e-13, atol=1e-15, t_eval=[10.0]).y[:, -1]
+    steps, errors = [], []
+    for rtol in 10.0 ** -np.arange(4, 10):
+        run = native_steps(model, "nemc.Vern9", span, y0, rtol, rtol * 1e-3)
+        steps.append(run.t.size - 1)
+        errors.append(np.abs(run.y[:, -1] - ref).max())
+    slope = np.polyfit(np.log(steps), np.log(errors), 1)[0]
+    assert 8.5 < -slope < 10.5
+
+
+def test_vern9_at_tight_tolerance_beats_dop853(pendulum) -> None:
+    """At rtol 1e-12 Vern9 meets a DOP853 rtol 1e-13 reference with fewer evaluations."""
+    span, times = (0.0, 10.0), [10.0]
+    tight = pendulum.simulate(span, method="nemc.DOP853", t_eval=times, rtol=1e-13, atol=1e-15)
+    vern9 = pendulum.simulate(span, method="nemc.Vern9", t_eval=times, rtol=1e-12, atol=1e-15)
+    dop853 = pendulum.simulate(span, method="nemc.DOP853", t_eval=times, rtol=1e-12, atol=1e-15)
+    assert vern9.success and vern9.method == "nemc.Vern9"
+    assert np.abs(vern9.y - tight.y).max() < 1e-10
+    assert vern9.nfev < 0.85 * dop853.nfev
+
+
+def test_vern9_dense_output_and_backwards(pendulum) -> None:
+    """Points inside steps (one more Vern9 step each) are as accurate as the steps' ends."""
+    y0, times = pendulum.initial_state(), np.linspace(0.0, 3.0, 31)
+    tight = pendulum.simulate((0, 3), y0, method="nemc.DOP853", t_eval=times, rtol=1e-13,
+                              atol=1e-15)
+    native = pendulum.simulate((0, 3), y0, method="nemc.Vern9", t_eval=times, rtol=1e-10,
+                               atol=1e-13)
+    steps = native_steps(pendulum, "nemc.Vern9", (0, 3), y0, 1e-10, 1e-13)
+    assert np.abs(steps.y[:, -1] - tight.y[:, -1]).max() < 1e-8
+    assert np.abs(native.y - tight.y).max() < 1e-8
+    np.testing.assert_array_equal(native.y[:, -1], steps.y[:, -1])  # end point: the step's own
+    interior = ~np.isin(times, steps.t)
+    assert native.nfev == steps.nfev + 14 * interior.sum()  # 14 stages per interior point
+    back = pendulum.simulate((3, 0), tight.y[:, -1], method="nemc.Vern9", t_eval=[0.0],
+                             rtol=1e-10, atol=1e-13)
+    assert np.abs(back.y[:, 0] - y0).max() < 1e-7
+
+
 @pytest.mark.parametrize("path", [ONE_LINK_ARM, TWO_LINK_ARM], ids=["5.3", "5.4"])
 def test_radau_takes_scipys_steps_on_the_stiff_arms(path: Path) -> None:
     model = nemc.compile(path)
@@ -163,6 +207,16 @@ def test_failure_is_reported_as_with_scipy(method: str, tmp_path: Path) -> None:
         reference = model.simulate(method="DOP853", rtol=1e-3, atol=1e-6)
         assert "the accelerations are not finite" in native.message
         assert native.message == reference.message  # the same steps fail at the same stage
+
+
+def test_vern9_reports_a_step_too_small_as_scipy(tmp_path: Path) -> None:
+    """Vern9's stages stay short of the overflow (t ~ 0.71): its steps shrink to nothing first."""
+    path = tmp_path / "overflow.yaml"
+    path.write_text(OVERFLOW)
+    native = nemc.compile(path).simulate(method="nemc.Vern9", rtol=1e-3, atol=1e-6)
+    assert (native.success, native.status) == (False, -1)
+    assert native.message == "Required step size is less than spacing between numbers."
+    assert 0.6 < native.t[-1] < 0.72
 
 
 def test_t_eval_is_checked(pendulum) -> None:
@@ -211,3 +265,13 @@ def test_ensemble_failures_and_checks(tmp_path: Path, pendulum) -> None:
         pendulum.simulate_many(np.zeros((3, 4)), params={"L2": [0.5, 0.6]})
     with pytest.raises(ModelError, match="method must be one of"):
         pendulum.simulate_many(np.zeros((3, 4)), method="RK45")
+
+
+def test_vern9_ensemble_equals_single_runs(pendulum) -> None:
+    y0s = np.array([[0.3, 0.0, -0.2, 0.0], [1.0, 0.5, 0.0, 0.0]])
+    runs = pendulum.simulate_many(y0s, method="nemc.Vern9", t_span=(0, 2), t_eval=[1.0, 2.0],
+                                  rtol=1e-10, atol=1e-12)
+    for i in range(2):
+        single = pendulum.simulate((0, 2), y0s[i], method="nemc.Vern9", t_eval=[1.0, 2.0],
+                                   rtol=1e-10, atol=1e-12)
+        np.testing.assert_array_equal(runs.y[i], single.y)
