@@ -25,6 +25,7 @@ only unit generalized forces applied, which gives the columns of M^-1 for diagno
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -415,8 +416,10 @@ def dynamics_program(mech: m.Mechanism, value: Callable) -> Program:
     return ArticulatedBody(mech, value).run()
 
 
+@functools.cache
 def generalized_force_symbols(n: int) -> tuple[sympy.Symbol, ...]:
-    return tuple(sympy.Symbol(f"generalized_force_{k}", real=True) for k in range(n))
+    """Q_k as symbols no name from the file can equal (the emitter prints them as Q[k])."""
+    return tuple(sympy.Dummy(f"generalized_force_{k}", real=True) for k in range(n))
 
 
 def inverse_mass_program(mech: m.Mechanism, value: Callable) -> Program:

@@ -51,6 +51,8 @@ class SymbolTablePrinter(C99CodePrinter):
         except KeyError:
             raise ValueError(f"no C name for symbol {expr.name!r}") from None
 
+    _print_Dummy = _print_Symbol
+
 
 def template(name: str) -> Template:
     return Template((TEMPLATES / name).read_text())

@@ -37,7 +37,7 @@ def rewrite(expr: sympy.Expr) -> sympy.Expr:
 def shared_cse(groups: dict[str, tuple[sympy.Expr, ...]]) -> Block:
     """One CSE over all groups; each group keeps its own (reduced) expressions."""
     flat = [expr for exprs in groups.values() for expr in exprs]
-    symbols = sympy.numbered_symbols("x", real=True)
+    symbols = sympy.numbered_symbols("x", cls=sympy.Dummy, real=True)  # never a file's x0
     temporaries, reduced = sympy.cse(flat, symbols=symbols, order="none")
     split, start = {}, 0
     for name, exprs in groups.items():

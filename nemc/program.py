@@ -58,7 +58,8 @@ class ProgramBuilder:
     def __init__(self, prefix: str = "w"):
         self._steps: list[Step] = []
         self._known: dict[sympy.Expr, sympy.Symbol] = {}
-        self._names = sympy.numbered_symbols(prefix, real=True)
+        # Dummies: never equal to a symbol of the file, even one named like w3
+        self._names = sympy.numbered_symbols(prefix, cls=sympy.Dummy, real=True)
 
     def let(self, expr: sympy.Expr | float) -> sympy.Expr:
         expr = sympy.sympify(expr)

@@ -11,6 +11,7 @@ sin(w) was computed), so the tangents call no extra functions.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 
 import sympy
@@ -18,8 +19,10 @@ import sympy
 from .program import Program, ProgramBuilder
 
 
+@functools.cache
 def seed_symbols(n_state: int) -> tuple[sympy.Symbol, ...]:
-    return tuple(sympy.Symbol(f"seed_{k}", real=True) for k in range(n_state))
+    """The tangent of y[k], as symbols no name from the file can equal (printed seed[k])."""
+    return tuple(sympy.Dummy(f"seed_{k}", real=True) for k in range(n_state))
 
 
 def tangent_program(primal: Program, state: Sequence[sympy.Symbol]) -> Program:

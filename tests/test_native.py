@@ -205,7 +205,7 @@ def test_failure_is_reported_as_with_scipy(method: str, tmp_path: Path) -> None:
     assert "; state: q=" in native.message
     if method == "nemc.DOP853":  # (Radau's Newton iterates reach nan first; scipy's LU refuses)
         reference = model.simulate(method="DOP853", rtol=1e-3, atol=1e-6)
-        assert "the accelerations are not finite" in native.message
+        assert "not finite" in native.message
         assert native.message == reference.message  # the same steps fail at the same stage
 
 
@@ -215,7 +215,8 @@ def test_vern9_reports_a_step_too_small_as_scipy(tmp_path: Path) -> None:
     path.write_text(OVERFLOW)
     native = nemc.compile(path).simulate(method="nemc.Vern9", rtol=1e-3, atol=1e-6)
     assert (native.success, native.status) == (False, -1)
-    assert native.message == "Required step size is less than spacing between numbers."
+    assert "Required step size is less than spacing between numbers." in native.message
+    assert "integration stopped near t=0.7" in native.message  # where, and the state
     assert 0.6 < native.t[-1] < 0.72
 
 
