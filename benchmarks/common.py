@@ -236,7 +236,8 @@ total = time.perf_counter() - t
 sources = sorted(Path(c.package).glob("*.c"))
 print(json.dumps({"timings": c.timings, "cached": c.cached, "import": imported,
                   "total_in_process": total, "c_bytes": sum(p.stat().st_size for p in sources),
-                  "c_lines": sum(p.read_text().count(chr(10)) for p in sources)}))
+                  "c_lines": sum(p.read_text().count(chr(10)) for p in sources),
+                  "package": str(c.package)}))
 """
 CACHED_SCRIPT = (
     "import nemc, sys, time; t=time.perf_counter(); nemc.compile(sys.argv[1]);"
@@ -265,11 +266,13 @@ def python_run(code: str, args: Sequence[str], timeout: float,
     return done.stdout.strip().splitlines()[-1], wall
 
 
-def compile_phases(path: Path, timeout: float, cached_repeats: int) -> dict[str, Any]:
+def compile_phases(path: Path, timeout: float, cached_repeats: int,
+                   cache: Path | None = None) -> dict[str, Any]:
     """Cold build in a fresh process with a fresh NEMC_CACHE (phases from `Compiled.timings`,
-    generated C size), then cached loads in fresh processes on that cache."""
-    with tempfile.TemporaryDirectory(prefix="nemc-bench-cache-") as cache:
-        env = dict(os.environ, NEMC_CACHE=cache)
+    generated C size), then cached loads in fresh processes on that cache. CACHE: an empty
+    folder to build in and keep (cold["package"] is the build), else a temporary one."""
+    with tempfile.TemporaryDirectory(prefix="nemc-bench-cache-") as scratch:
+        env = dict(os.environ, NEMC_CACHE=str(cache or scratch))
         out, wall = python_run(COLD_SCRIPT, [str(path)], timeout, env)
         cold = json.loads(out)
         cold["process_wall"] = wall

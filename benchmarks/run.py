@@ -368,6 +368,7 @@ def compile_step(name: str, path: Path, config: Config, result: dict[str, Any]) 
     except StageFailed as error:
         result["notes"].append(f"{name}: cold compile {error}; it and larger chains skipped")
         return "stop" if n else "skip"
+    phases["cold"].pop("package", None)  # a temporary folder, gone
     result["phases"][name] = phases
     stages = ", ".join(f"{k} {v:.2f}" for k, v in phases["cold"]["timings"].items())
     print(f"  {stages} s; C {phases['cold']['c_bytes'] / 1e3:.0f} kB; cached load "
