@@ -60,6 +60,7 @@ BASELINE = LABELS["cse"]
 NEMC_RHS = ("nemc model.rhs", "nemc closure", "nemc rhs_many (per state)")
 RHS_CONTENDERS = NEMC_RHS + tuple(LABELS.values())
 ERROR_TARGETS = (1e-9, 1e-12)
+NEAR = 5.0  # "an error near the target": at most NEAR x target
 
 
 @dataclass(frozen=True)
@@ -75,6 +76,7 @@ class Config:
     many_states: int
     baseline_variants: tuple[str, ...]
     baseline_timeout: float  # derive + lambdify of all variants of one system
+    explicit_max_n: int  # the explicit symbolic RHS only up to this many coordinates
     wp_systems: tuple[str, ...]
     wp_methods: tuple[str, ...]  # scipy methods; nemc's native methods are added when present
     wp_rtols: tuple[float, ...]
@@ -91,17 +93,17 @@ class Config:
 
 MODES = {
     "smoke": Config(
-        "smoke", ("double_pendulum",), (2,), 2, 0.005, 64, ("cse",), 60.0, ("double_pendulum",),
+        "smoke", ("double_pendulum",), (2,), 2, 0.005, 64, ("cse",), 60.0, 2, ("double_pendulum",),
         ("RK45",), (1e-6,), 11, 1, 5.0, 5.0, 1, 60.0, 60.0, False, 60.0,
     ),
     "quick": Config(
         "quick", ("double_pendulum",), (2, 4, 8), 5, 0.02, 1000, ("cse", "plain", "explicit"),
-        40.0, ("double_pendulum",), ("RK45", "DOP853", "LSODA"), (1e-3, 1e-6, 1e-9, 1e-12), 21,
+        40.0, 4, ("double_pendulum",), ("RK45", "DOP853", "LSODA"), (1e-3, 1e-6, 1e-9, 1e-12), 21,
         3, 2.0, 2.0, 3, 60.0, 30.0, False, 60.0,
     ),
     "full": Config(
         "full", tuple(BOOK_SYSTEMS), (2, 4, 8, 16, 32), 5, 0.05, 1000,
-        ("cse", "plain", "explicit"), 300.0, ("double_pendulum", "chain8", "chain32"),
+        ("cse", "plain", "explicit"), 300.0, 8, ("double_pendulum", "chain8", "chain32"),
         SCIPY_WP_METHODS, (1e-3, 1e-6, 1e-9, 1e-12), 101, 5, 8.0, 10.0, 5, 300.0, 120.0, True,
         600.0,
     ),
@@ -294,9 +296,9 @@ def bench_work_precision(name: str, path: Path, model, baselines: Baselines,
 
 
 def best_at(rows: Sequence[dict[str, Any]], target: float) -> dict[str, Any] | None:
-    """The fastest run with final error <= target."""
+    """The fastest run with final error near the target (at most NEAR x target)."""
     fit = [r for r in rows if r.get("seconds") and r.get("error") is not None
-           and r["error"] <= target]
+           and r["error"] <= NEAR * target]
     return min(fit, key=lambda r: r["seconds"]["median"], default=None)
 
 
@@ -337,6 +339,11 @@ def run_system(name: str, path: Path, config: Config, result: dict[str, Any]) ->
     result["setup"][name] = {"nemc.compile (cached)": seconds}
     variants = config.baseline_variants if name in config.book_systems or \
         common.chain_size(name) in config.chain_ns else ("cse",)
+    if model.n_state // 2 > config.explicit_max_n and "explicit" in variants:
+        variants = tuple(v for v in variants if v != "explicit")
+        result["notes"].append(f"{name}: {LABELS['explicit']} not tried: over "
+                               f"{config.explicit_max_n} coordinates in this mode (FIELD-NOTES: "
+                               "infeasible at 8 links)")
     baselines = build_baselines(path, variants, config.baseline_timeout)
     result["setup"][name].update(baselines.seconds)
     for label, why in baselines.notes.items():
@@ -485,9 +492,10 @@ def md_work_precision(wp: dict[str, Any]) -> list[str]:
 
 def md_contenders(name: str, table: Sequence[dict[str, Any]]) -> list[str]:
     lines = [f"### Fastest run reaching an error target: {name}", "",
-             "Per contender, the fastest configuration of the sweep whose final error is at or "
-             "below the target (– : none reached it). Ratio: lambdify(cse)'s best / this.", "",
-             "| contender | " + " | ".join(f"error <= {t:g}" for t in ERROR_TARGETS) + " |",
+             "Per contender, the fastest configuration of the sweep whose final error is near "
+             f"the target (at most {NEAR:g}x it; – : none reached it). Ratio: lambdify(cse)'s "
+             "best / this. Peers were timed in their own processes, in this run.", "",
+             "| contender | " + " | ".join(f"error near {t:g}" for t in ERROR_TARGETS) + " |",
              "|" + " --- |" * (1 + len(ERROR_TARGETS))]
     base = {t: min((e["best"]["seconds"]["median"] for e in table if e["target"] == t
                     and e["best"] and BASELINE in e["contender"]), default=None)
