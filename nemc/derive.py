@@ -1,11 +1,10 @@
-"""Newton-Euler derivation: a validated Mechanism -> M(q) qdd = f(t, q, dq), symbolically.
+"""Derivation: a validated Mechanism -> the equations of motion, symbolically.
 
-As the book does it: kinematics of each body (angle, origin, mass center) built joint by joint
-from the ground, velocities and accelerations by differentiation, Newton's and Euler's
-equations per body with the joint reactions as unknowns. The reactions are eliminated by
-projecting each body's equations onto the free directions of the joints (the partial
-velocities d v_C / d dq and d omega / d dq): reactions do no work along them. The mass matrix is
-never inverted symbolically; the generated C solves M qdd = f numerically.
+The compiled right-hand side comes from the articulated-body algorithm (nemc/articulated.py): a
+straight-line program whose size grows linearly with the number of bodies. The mass-matrix form
+M(q) qdd = f(t, q, dq) of the book (Newton-Euler per body, the reactions eliminated by projecting
+each body's equations onto the joints' free directions) is derived only on request: `nemc show`
+prints it, and the tests check both forms against an independent Lagrangian derivation.
 
 Constants are folded and derived parameters replaced by their definitions here, so every
 expression this stage returns is in the coordinates, their rates, time and the runtime
@@ -14,14 +13,19 @@ expression this stage returns is in the coordinates, their rates, time and the r
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import dataclasses
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from functools import cached_property
 
 import sympy
 
 from . import model as m
+from .articulated import dynamics_program, inverse_mass_program
 from .kinematics import Kinematics, applied_loads
 from .outputs import derive_outputs
+from .program import Program
+from .tangent import tangent_program
 from .values import resolve_values
 
 
@@ -36,16 +40,31 @@ class Equations:
     parameters: tuple[sympy.Symbol, ...]  # the runtime parameter vector p, in order
     parameter_defaults: tuple[float, ...]
     derived_parameters: tuple[tuple[str, sympy.Expr], ...]  # name -> expression of parameters
-    mass_matrix: sympy.Matrix
-    forcing: sympy.Matrix
+    dynamics: Program  # the accelerations qdd(t, q, dq)
     outputs: tuple[tuple[str, sympy.Expr], ...]  # may contain the acceleration symbols
     checks: tuple[tuple[str, sympy.Expr], ...]  # key path -> expression that must be > 0
     initial_state: tuple[sympy.Expr, ...]
-    jacobian: tuple[sympy.Matrix, sympy.Matrix] | None = None  # (R, S): see jacobian.py
+    jacobian: Program | None = None  # d qdd / d y along seed[]: see tangent.py
+    inverse_mass: Program | None = None  # M^-1 Q at rest, with the jacobian
 
     @property
     def n(self) -> int:
         return len(self.coordinates)
+
+    @cached_property
+    def mass_forcing(self) -> tuple[sympy.Matrix, sympy.Matrix]:
+        """M and f of the book's form M(q) qdd = f(t, q, dq), in runtime symbols."""
+        mass, forcing = newton_euler(self.mechanism, Kinematics(self.mechanism))
+        runtime = runtime_values(self.mechanism)
+        return mass.applyfunc(runtime), forcing.applyfunc(runtime)
+
+    @property
+    def mass_matrix(self) -> sympy.Matrix:
+        return self.mass_forcing[0]
+
+    @property
+    def forcing(self) -> sympy.Matrix:
+        return self.mass_forcing[1]
 
 
 def newton_euler(mech: m.Mechanism, kin: Kinematics) -> tuple[sympy.Matrix, sympy.Matrix]:
@@ -77,17 +96,21 @@ def newton_euler(mech: m.Mechanism, kin: Kinematics) -> tuple[sympy.Matrix, symp
     return mass, forcing
 
 
+def runtime_values(mech: m.Mechanism) -> Callable[[object], sympy.Expr]:
+    """expression -> the same in runtime symbols (constants folded, derived parameters expanded)."""
+    fold = resolve_values(mech).substitutions
+
+    def runtime(expr: object) -> sympy.Expr:
+        return sympy.sympify(expr).xreplace(fold)
+
+    return runtime
+
+
 def derive(mech: m.Mechanism) -> Equations:
-    """The whole derivation stage: Newton-Euler, outputs, runtime symbols only."""
+    """The whole derivation stage: the accelerations' program, outputs, runtime symbols only."""
     values = resolve_values(mech)
     kin = Kinematics(mech)
-    mass, forcing = newton_euler(mech, kin)
-    outputs = derive_outputs(mech, kin)
-    fold = values.substitutions
-
-    def runtime(expr):
-        return sympy.sympify(expr).xreplace(fold) if fold else sympy.sympify(expr)
-
+    runtime = runtime_values(mech)
     checks = tuple(
         (f"bodies.{b.name}.{field}", runtime(getattr(b, field)))
         for b in mech.bodies
@@ -101,11 +124,20 @@ def derive(mech: m.Mechanism) -> Equations:
         parameters=values.runtime_symbols,
         parameter_defaults=values.runtime_defaults,
         derived_parameters=values.derived,
-        mass_matrix=mass.xreplace(fold),
-        forcing=forcing.xreplace(fold),
-        outputs=tuple((name, runtime(expr)) for name, expr in outputs),
+        dynamics=dynamics_program(mech, runtime),
+        outputs=tuple((name, runtime(expr)) for name, expr in derive_outputs(mech, kin)),
         checks=checks,
         initial_state=initial_state(mech, runtime),
+    )
+
+
+def with_diagnostics(eqs: Equations) -> Equations:
+    """Add the Jacobian (forward-mode derivative of the program) and M^-1 for diagnostics."""
+    state = [s for pair in zip(eqs.coordinates, eqs.speeds) for s in pair]
+    return dataclasses.replace(
+        eqs,
+        jacobian=tangent_program(eqs.dynamics, state),
+        inverse_mass=inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism)),
     )
 
 

@@ -18,8 +18,11 @@ from sympy.printing.c import C99CodePrinter
 
 from . import __version__
 from . import model as m
+from .articulated import generalized_force_symbols
 from .derive import Equations
 from .optimize import Block
+from .program import Guard, Program
+from .tangent import seed_symbols
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 
@@ -65,7 +68,11 @@ def symbol_table(eqs: Equations, block: Block) -> dict[sympy.Symbol, str]:
         names[q], names[u] = f"y[{2 * i}]", f"y[{2 * i + 1}]"
     names.update({a: f"qdd[{i}]" for i, a in enumerate(eqs.accelerations)})
     names.update({s: f"p[{k}]" for k, s in enumerate(eqs.parameters)})
+    names.update({s: f"Q[{k}]" for k, s in enumerate(generalized_force_symbols(eqs.n))})
+    names.update({s: f"seed[{k}]" for k, s in enumerate(seed_symbols(2 * eqs.n))})
     names.update({s: s.name for s, _ in block.temporaries})
+    for program in block.programs.values():
+        names.update({s: s.name for s, _ in program.assignments()})
     return names
 
 
@@ -90,6 +97,24 @@ def body(
     return "\n".join(lines)
 
 
+def program_body(
+    printer: SymbolTablePrinter, program: Program, results: str, indent: str = "    "
+) -> str:
+    """Straight-line C of a program: its named steps, its guards, then `results[i] = ...;`."""
+    lines = []
+    for step in program.steps:
+        if isinstance(step, Guard):
+            lines.append(f"{indent}if (!({printer.doprint(step.value)} > 0.0))")
+            lines.append(f"{indent}    return {step.status};")
+        else:
+            lines.append(f"{indent}const double {step[0].name} = {printer.doprint(step[1])};")
+    lines += [
+        f"{indent}{results}[{i}] = {printer.doprint(expr)};"
+        for i, expr in enumerate(program.results)
+    ]
+    return "\n".join(lines)
+
+
 def indexed(array: str, exprs: tuple[sympy.Expr, ...]) -> list[tuple[str, sympy.Expr]]:
     return [(f"{array}[{k}]", expr) for k, expr in enumerate(exprs)]
 
@@ -111,9 +136,12 @@ def outputs_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, p
 def jacobian_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str) -> str:
     if eqs.jacobian is None:
         return ""
-    terms = indexed("R", block.groups["jacobian_r"]) + indexed("S", block.groups["jacobian_s"])
+    programs = block.programs
     return template("jacobian.c.tmpl").substitute(
-        prefix=prefix, jacobian_terms=body(printer, block, terms)
+        prefix=prefix,
+        primal=program_body(printer, programs["dynamics"], "qdd"),
+        tangent=program_body(printer, programs["jacobian"], "dqdd", indent=" " * 8),
+        inverse_mass=program_body(printer, programs["inverse_mass"], "qdd"),
     )
 
 
@@ -126,7 +154,6 @@ def _all_symbols(block: Block, expr: sympy.Expr) -> set[sympy.Symbol]:
 
 def c_source(eqs: Equations, block: Block, prefix: str) -> str:
     mech, printer = eqs.mechanism, SymbolTablePrinter(symbol_table(eqs, block))
-    mass_forcing = indexed("M", block.groups["mass"]) + indexed("f", block.groups["forcing"])
     return template("model.c.tmpl").substitute(
         name=mech.name,
         version=__version__,
@@ -138,7 +165,7 @@ def c_source(eqs: Equations, block: Block, prefix: str) -> str:
         n_coord=eqs.n,
         n_state=2 * eqs.n,
         prefix=prefix,
-        mass_forcing=body(printer, block, mass_forcing),
+        dynamics=program_body(printer, block.programs["dynamics"], "qdd"),
         check_names=comment_text(", ".join(key for key, _ in eqs.checks)),
         checks=body(printer, block, indexed("out", block.groups["checks"])),
         initial=body(printer, block, indexed("y0", block.groups["initial"])),
@@ -149,9 +176,9 @@ def c_source(eqs: Equations, block: Block, prefix: str) -> str:
 
 def generated_functions(eqs: Equations) -> list[str]:
     """The C functions a model gets: outputs and jacobian only when needed."""
-    optional = [("outputs", bool(eqs.outputs)), ("jacobian", eqs.jacobian is not None)]
-    always = ["rhs", "rhs_many", "mass_matrix", "checks", "initial_state"]
-    return always + [f for f, yes in optional if yes]
+    diagnostics = ["jacobian", "inverse_mass_matrix"] if eqs.jacobian is not None else []
+    outputs = ["outputs"] if eqs.outputs else []
+    return ["rhs", "rhs_many", "checks", "initial_state"] + outputs + diagnostics
 
 
 def cdef(prefix: str, functions: list[str]) -> str:
@@ -159,7 +186,6 @@ def cdef(prefix: str, functions: list[str]) -> str:
         f"int {prefix}rhs(double t, const double *y, const double *p, double *dy);",
         f"int {prefix}rhs_many(int n, const double *ts, const double *ys, const double *p,"
         " double *dys);",
-        f"int {prefix}mass_matrix(double t, const double *y, const double *p, double *mass);",
         f"void {prefix}checks(const double *p, double *out);",
         f"void {prefix}initial_state(const double *p, double *y0);",
     ]
@@ -171,6 +197,10 @@ def cdef(prefix: str, functions: list[str]) -> str:
     if "jacobian" in functions:
         lines.append(
             f"int {prefix}jacobian(double t, const double *y, const double *p, double *jac);"
+        )
+    if "inverse_mass_matrix" in functions:
+        lines.append(
+            f"int {prefix}inverse_mass_matrix(const double *y, const double *p, double *minv);"
         )
     return "\n".join(lines) + "\n"
 

@@ -51,7 +51,8 @@ class Kinematics:
         self.bodies: dict[str, BodyKinematics] = {
             m.GROUND: BodyKinematics(sympy.S.Zero, vec([0, 0]))
         }
-        for joint in _joints_parent_first(mech.joints):
+        self._joint_of = {joint.child: joint for joint in mech.joints}
+        for joint in joints_parent_first(mech.joints):
             self.bodies[joint.child] = self._place_child(joint)
 
     def _place_child(self, joint: m.Joint) -> BodyKinematics:
@@ -78,6 +79,28 @@ class Kinematics:
         kin = self.bodies[body]
         return kin.origin + rotation(kin.angle) * vec(xy)
 
+    def velocity(self, body: str, xy: m.Vec2) -> Vec:
+        """Ground velocity of a point fixed in `body`, built joint by joint from the ground
+        (no differentiation: linear in the depth of the tree, where `rate` is quadratic)."""
+        if body == m.GROUND:
+            return vec([0, 0])
+        kin, omega = self.bodies[body], self.rate(self.angle(body))
+        arm = rotation(kin.angle) * vec(xy)
+        return self.origin_velocity(body) + omega * vec([-arm[1], arm[0]])
+
+    def origin_velocity(self, body: str) -> Vec:
+        joint = self._joint_of[body]
+        if joint.type == "free":
+            return vec([m.rate_symbol(c) for c in joint.coordinates[:2]])
+        if joint.type != "prismatic":
+            return self.velocity(joint.parent, joint.at)
+        axis = vec(joint.axis)
+        unit = axis / sympy.sqrt(axis.dot(axis))
+        q, u = m.symbol(joint.coordinates[0]), m.rate_symbol(joint.coordinates[0])
+        slide_point = [joint.at[0] + unit[0] * q, joint.at[1] + unit[1] * q]
+        along = rotation(self.angle(joint.parent)) * unit * u
+        return self.velocity(joint.parent, slide_point) + along
+
     def rate(self, expr: sympy.Matrix | sympy.Expr) -> sympy.Matrix | sympy.Expr:
         """d/dt of an expression of q, dq and t, with qdd as the symbols of the accelerations."""
         total = sympy.diff(expr, m.TIME)
@@ -90,7 +113,7 @@ class Kinematics:
         return [sympy.diff(expr, u) for u in self.u]
 
 
-def _joints_parent_first(joints: Iterable[m.Joint]) -> list[m.Joint]:
+def joints_parent_first(joints: Iterable[m.Joint]) -> list[m.Joint]:
     placed, pending, ordered = {m.GROUND}, list(joints), []
     while pending:
         ready = [j for j in pending if j.parent in placed]

@@ -1,5 +1,7 @@
-"""Optimization before emission: one common-subexpression elimination shared by everything the
-model emits, and the rewrite rules that make the C cheap and exact (x*x rather than pow(x, 2)).
+"""Optimization before emission: the rewrite rules that make the C cheap and exact (x*x rather
+than pow(x, 2)) applied to the programs of the dynamics (already made of short named steps), and
+one common-subexpression elimination shared by the other expressions the model emits (outputs,
+checks, the initial state).
 
 sympy's default CSE ordering is superlinear on large systems (31 s against 0.2 s with
 order='none' on an 8-link chain; FIELD-NOTES.md), so the canonical ordering is skipped.
@@ -7,12 +9,13 @@ order='none' on an 8-link chain; FIELD-NOTES.md), so the canonical ordering is s
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import sympy
 from sympy.codegen.rewriting import create_expand_pow_optimization, optimize
 
 from .derive import Equations
+from .program import Guard, Program
 
 # integer powers up to 4 of any base -> products (pow(x, 2) is slower and no more exact)
 REWRITES = [create_expand_pow_optimization(4, base_req=lambda base: True)]
@@ -24,11 +27,7 @@ class Block:
 
     temporaries: tuple[tuple[sympy.Symbol, sympy.Expr], ...]
     groups: dict[str, tuple[sympy.Expr, ...]]
-
-
-def lower_triangle(matrix: sympy.Matrix) -> tuple[sympy.Expr, ...]:
-    n = matrix.shape[0]
-    return tuple(matrix[i, j] for i in range(n) for j in range(i + 1))
+    programs: dict[str, Program] = field(default_factory=dict)  # rewritten, by name
 
 
 def rewrite(expr: sympy.Expr) -> sympy.Expr:
@@ -47,14 +46,23 @@ def shared_cse(groups: dict[str, tuple[sympy.Expr, ...]]) -> Block:
     return Block(tuple((s, rewrite(e)) for s, e in temporaries), split)
 
 
+def rewrite_program(program: Program) -> Program:
+    steps = tuple(
+        step if isinstance(step, Guard) else (step[0], rewrite(step[1])) for step in program.steps
+    )
+    return Program(steps, tuple(rewrite(sympy.sympify(r)) for r in program.results))
+
+
 def optimize_equations(eqs: Equations) -> Block:
     groups = {
-        "mass": lower_triangle(eqs.mass_matrix),
-        "forcing": tuple(eqs.forcing),
         "outputs": tuple(expr for _, expr in eqs.outputs),
         "checks": tuple(expr for _, expr in eqs.checks),
         "initial": eqs.initial_state,
     }
-    if eqs.jacobian is not None:
-        groups["jacobian_r"], groups["jacobian_s"] = (tuple(m) for m in eqs.jacobian)
-    return shared_cse(groups)
+    programs = {"dynamics": eqs.dynamics, "jacobian": eqs.jacobian,
+                "inverse_mass": eqs.inverse_mass}
+    block = shared_cse(groups)
+    block.programs.update(
+        {name: rewrite_program(prog) for name, prog in programs.items() if prog is not None}
+    )
+    return block

@@ -61,7 +61,7 @@ def energy(mech: m.Mechanism, kin: Kinematics) -> Named:
     g = vec(mech.gravity)
     for body in mech.bodies:
         r_c = kin.position(body.name, body.com)
-        v_c, omega = kin.rate(r_c), kin.rate(kin.angle(body.name))
+        v_c, omega = kin.velocity(body.name, body.com), kin.rate(kin.angle(body.name))
         kinetic += body.mass * v_c.dot(v_c) / 2 + body.inertia * omega**2 / 2
         potential -= body.mass * g.dot(r_c)
     for load in mech.loads:
@@ -80,7 +80,7 @@ def energy(mech: m.Mechanism, kin: Kinematics) -> Named:
 
 def point_motion(kin: Kinematics, point: m.PointRef) -> Named:
     r = kin.position(point.body, point.xy)
-    v = kin.rate(r)
+    v = kin.velocity(point.body, point.xy)
     return [
         (f"{point.label}.x", r[0]),
         (f"{point.label}.y", r[1]),

@@ -73,9 +73,8 @@ def generate_and_build(
     source: Source, key: str, jacobian: bool | None, timings: dict[str, float]
 ) -> Path:
     from .build import build
-    from .derive import derive
+    from .derive import derive, with_diagnostics
     from .emit import emit
-    from .jacobian import with_jacobian
     from .optimize import optimize_equations
     from .runtime import IMPLICIT_METHODS
     from .validate import validate_text
@@ -85,7 +84,7 @@ def generate_and_build(
     with timed(timings, "derive"):
         equations = derive(mechanism)
         if jacobian or (jacobian is None and mechanism.simulation.method in IMPLICIT_METHODS):
-            equations = with_jacobian(equations)
+            equations = with_diagnostics(equations)
     with timed(timings, "optimize"):
         block = optimize_equations(equations)
     with timed(timings, "emit"):

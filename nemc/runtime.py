@@ -36,7 +36,10 @@ class IntegrationFailure(ArithmeticError):
         self.t, self.y, self.status = t, np.array(y), status
         state = ", ".join(f"{n}={v:.6g}" for n, v in zip(state_names, self.y))
         if status > 0:
-            cause = f"the mass matrix is singular or not positive definite (pivot {status})"
+            cause = (
+                f"the mass matrix is singular or not positive definite (at joint {status},"
+                " counting from 1 in file order)"
+            )
         else:
             cause = "the accelerations are not finite (a load or parameter gives inf or nan)"
         super().__init__(f"at t={t:.9g}: {cause}; state: {state}")
@@ -83,8 +86,8 @@ class Model:
         self._c = {
             name: getattr(lib, prefix + name)
             for name in (
-                "rhs", "rhs_many", "mass_matrix", "checks", "initial_state", "outputs",
-                "jacobian",
+                "rhs", "rhs_many", "checks", "initial_state", "outputs", "jacobian",
+                "inverse_mass_matrix",
             )
             if hasattr(lib, prefix + name)
         }
@@ -265,15 +268,18 @@ class Model:
         return jac
 
     def mass_matrix(self, y: Any, params: Mapping[str, float] | None = None) -> np.ndarray:
-        """The mass matrix M(q) of M qdd = f at state y, (n_coord, n_coord)."""
+        """The mass matrix M(q) of M qdd = f at state y, (n_coord, n_coord), for diagnostics:
+        the inverse of M^-1, whose columns the C code computes (built on first need)."""
         n = len(self.coordinate_names)
-        mass = np.empty((n, n))
+        inverse = np.empty((n, n))
         p, state = self.parameter_vector(params), self._state(y)
+        if not self._has_jacobian():
+            raise ModelError("this standalone package was built without the mass matrix")
         buffer = self._buffer
-        status = self._c["mass_matrix"](0.0, buffer(state), buffer(p), buffer(mass))
+        status = self._c["inverse_mass_matrix"](buffer(state), buffer(p), buffer(inverse))
         if status:
             raise IntegrationFailure(0.0, state, status, self.state_names)
-        return mass
+        return np.linalg.inv(inverse)
 
     def outputs(
         self, t: Any, y: Any, params: Mapping[str, float] | None = None

@@ -100,6 +100,22 @@ def test_random_mechanism_rhs_matches_reference(seed: int, random_dir: Path) -> 
     check_rhs(model, ref, seed)
 
 
+# Larger mechanisms (the recursive derivation's territory); the reference's own symbolic
+# derivation grows fast with depth, so: two 12-body trees and a 9-body chain.
+LARGE_CASES = [(3, 12, True), (7, 12, True), (6, 9, False)]
+
+
+@pytest.mark.parametrize(("seed", "n_bodies", "tree"), LARGE_CASES)
+def test_large_random_mechanism_matches_reference(
+    seed: int, n_bodies: int, tree: bool, random_dir: Path
+) -> None:
+    text = random_mechanism_yaml(np.random.default_rng(seed), n_bodies, tree, f"large{seed}")
+    path = random_dir / f"large{seed}.yaml"
+    path.write_text(text)
+    model, ref = _build(str(path))
+    check_rhs(model, ref, seed)
+
+
 # ---------------------------------------------------------------------------------------------
 # The book's closed forms
 

@@ -1,0 +1,44 @@
+"""The Jacobian of the right-hand side by forward-mode differentiation of its program.
+
+For every assignment w = e(a, b, ...) of the accelerations' program (nemc/program.py) the
+tangent program assigns dw = de/da * da + de/db * db + ..., where the tangents of the state
+y[k] are the seed symbols seed[k]. Evaluated once per column of the Jacobian with seed = e_col
+(a loop in the generated C, reusing the primal values), it gives d qdd / d y exactly, at a cost
+linear in the program's size; M is never inverted symbolically. Derivatives are rewritten in
+terms of names the primal program already has (d cos(w)/dw = -sin(w) becomes -w', when w' =
+sin(w) was computed), so the tangents call no extra functions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import sympy
+
+from .program import Program, ProgramBuilder
+
+
+def seed_symbols(n_state: int) -> tuple[sympy.Symbol, ...]:
+    return tuple(sympy.Symbol(f"seed_{k}", real=True) for k in range(n_state))
+
+
+def tangent_program(primal: Program, state: Sequence[sympy.Symbol]) -> Program:
+    """The directional derivatives of primal's results along seed (one per state entry)."""
+    tangent: dict[sympy.Symbol, sympy.Expr] = dict(zip(state, seed_symbols(len(state))))
+    known = {expr: name for name, expr in primal.assignments()}
+    builder = ProgramBuilder("dw")
+
+    def derivative(expr: sympy.Expr) -> sympy.Expr:
+        expr = sympy.sympify(expr)
+        terms = [
+            sympy.diff(expr, symbol).xreplace(known) * tangent[symbol]
+            for symbol in expr.free_symbols
+            if symbol in tangent
+        ]
+        return sympy.Add(*terms)
+
+    for name, expr in primal.assignments():
+        change = derivative(expr)
+        if change != 0:
+            tangent[name] = builder.let(change)
+    return builder.finish(derivative(result) for result in primal.results)
