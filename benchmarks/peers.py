@@ -96,6 +96,7 @@ def mechanics_model(path: Path) -> MechanicsModel:
         B = me.ReferenceFrame(f"F_{joint.child}")
         offset = sp.sympify(joint.offset).xreplace(fold)
         at = Po.locatenew(f"A_{joint.name}", vec(P, joint.at))
+        at.v2pt_theory(Po, N, P)  # velocities joint by joint, as a PyDy user writes them
         if joint.type == "revolute":
             base = P if joint.angle == "relative" else N
             B.orient_axis(base, base.z, qi + offset)
@@ -103,14 +104,15 @@ def mechanics_model(path: Path) -> MechanicsModel:
             rel[joint.name] = qi if joint.angle == "relative" else qi - angle_of(P, N, frames)
         else:
             B.orient_axis(P, P.z, offset)
-            axis = vec(P, joint.axis)
-            Bo = at.locatenew(f"O_{joint.child}", qi * axis.normalize())
+            axis = vec(P, joint.axis).normalize()
+            Bo = at.locatenew(f"O_{joint.child}", qi * axis)
+            Bo.set_vel(P, qi.diff(me.dynamicsymbols._t) * axis)
+            Bo.v1pt_theory(at, N, P)
             rel[joint.name] = qi
         frames[joint.child], origins[joint.child] = B, Bo
-        Bo.set_vel(N, Bo.pos_from(origin).dt(N))
         body = mech.body(joint.child)
         com = Bo.locatenew(f"C_{joint.child}", vec(B, body.com))
-        com.set_vel(N, com.pos_from(origin).dt(N))
+        com.v2pt_theory(Bo, N, B)
         mass, inertia = (sp.sympify(v).xreplace(fold) for v in (body.mass, body.inertia))
         bodies.append(me.RigidBody(joint.child, com, B, mass, (me.inertia(B, 0, 0, inertia), com)))
         loads.append((com, mass * vec(N, mech.gravity)))

@@ -34,8 +34,10 @@ import common  # noqa: E402 (the benchmarks folder is not a package)
 import peers  # noqa: E402
 from common import RESULTS, StageFailed, fmt_time, spread  # noqa: E402
 
-TARGETS_32 = {"cold compile (derive + emit + compile)": 20.0, "cached load": 0.05,
-              "RHS in C": 2e-6}  # issue 5, for 32 bodies, on the project's 2-core machine
+# issue 5's targets for 32 bodies, on the project's 2-core machine
+TARGETS_32 = {"cold compile (derive + emit + compile)": 20.0,
+              "cached load: first call in a fresh process (imports included)": 0.05,
+              "cached load: second call": 0.05, "RHS in C": 2e-6}
 MECHANICS_SCRIPT = (
     "import json, sys; sys.path.insert(0, sys.argv[2]); import peers;"
     " print(json.dumps(peers.mechanics_model(__import__('pathlib').Path(sys.argv[1]))"
@@ -60,7 +62,7 @@ class Config:
 MODES = {
     "smoke": Config("smoke", (2, 3), 60.0, 30.0, 60.0, 1, 2, 0.005, 256, False),
     "quick": Config("quick", (2, 4, 8), 60.0, 30.0, 60.0, 3, 5, 0.02, 10000, False),
-    "full": Config("full", (2, 4, 8, 16, 32, 64), 300.0, 120.0, 300.0, 5, 7, 0.05, 10000, True),
+    "full": Config("full", (2, 4, 8, 16, 32, 64), 300.0, 300.0, 300.0, 5, 7, 0.05, 10000, True),
 }
 
 
@@ -274,7 +276,9 @@ def md_targets(rows: dict[int, dict[str, Any]]) -> list[str]:
     if not ours:
         return ["## Issue 5's targets at 32 bodies: not measured (see the notes)", ""]
     measured = {"cold compile (derive + emit + compile)": ours["cold_total"],
-                "cached load": ours["cached_load"]["median"],
+                "cached load: first call in a fresh process (imports included)":
+                    ours["cached_load"]["median"],
+                "cached load: second call": ours["cached_load_again"]["median"],
                 "RHS in C": ours["rhs"]["C (rhs_many, per state)"]["median"]}
     lines = ["## Issue 5's targets at 32 bodies (this run, this machine)", "",
              "| quantity | target | measured |", "| --- | --- | --- |"]
