@@ -71,6 +71,9 @@ def make_parser() -> argparse.ArgumentParser:
     check.add_argument("mechanism")
     bench = commands.add_parser("bench", help="run the benchmark suite (benchmarks/)")
     bench.add_argument("--quick", action="store_true", help="the quick mode (under 2 minutes)")
+    bench.add_argument("--sizes", help="chain sizes, comma-separated (e.g. 2,4,8)")
+    bench.add_argument("--scaling", action="store_true",
+                       help="the scaling benchmark (benchmarks/scaling.py) instead of the suite")
     add_stress_parser(commands)
     return parser
 
@@ -189,12 +192,17 @@ def cmd_check(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     import runpy
 
-    suite = Path(__file__).resolve().parent.parent / "benchmarks" / "run.py"
+    script = "scaling.py" if args.scaling else "run.py"
+    suite = Path(__file__).resolve().parent.parent / "benchmarks" / script
     if not suite.is_file():
         print(f"the benchmark suite is not here: {suite}", file=sys.stderr)
         return 1
-    sys.argv = [str(suite)] + (["--quick"] if args.quick else [])
-    runpy.run_path(str(suite), run_name="__main__")
+    sys.argv = [str(suite)] + (["--quick"] if args.quick else []) + (
+        ["--sizes", args.sizes] if args.sizes else [])
+    try:
+        runpy.run_path(str(suite), run_name="__main__")
+    except SystemExit as done:
+        return int(done.code or 0)
     return 0
 
 

@@ -1,4 +1,4 @@
-"""The benchmark suite runs end to end (a tiny subset; speed is never asserted in tests)."""
+"""The benchmark scripts run end to end (tiny subsets; speed is never asserted in tests)."""
 
 from __future__ import annotations
 
@@ -11,14 +11,37 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def test_benchmark_smoke_mode_writes_results(tmp_path: Path) -> None:
-    env = {**os.environ, "NEMC_CACHE": str(tmp_path / "cache")}
+def run_script(script: str, tmp_path: Path) -> Path:
+    env = {**os.environ, "NEMC_CACHE": str(tmp_path / "cache"),
+           "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
     out = tmp_path / "results"
     done = subprocess.run(
-        [sys.executable, str(ROOT / "benchmarks" / "run.py"), "--smoke", "--out", str(out)],
+        [sys.executable, str(ROOT / "benchmarks" / script), "--smoke", "--out", str(out)],
         capture_output=True, text=True, env=env, timeout=300,
     )
     assert done.returncode == 0, done.stderr[-3000:]
+    return out
+
+
+def test_suite_smoke_mode_writes_results(tmp_path: Path) -> None:
+    out = run_script("run.py", tmp_path)
     result = json.loads((out / "latest.json").read_text())
-    assert set(result) >= {"environment", "rhs", "work_precision", "phases"}, sorted(result)
+    assert set(result) >= {"environment", "rhs", "work_precision", "phases", "peers"}
+    assert result["environment"]["git"]["commit"], result["environment"]["git"]
+    # every contender that was measured agrees with nemc's RHS
+    for name, rhs in result["rhs"].items():
+        assert max(rhs["agreement"].values()) < 1e-10, (name, rhs["agreement"])
+    rows = result["work_precision"]["double_pendulum"]["rows"]
+    assert {r["contender"] for r in rows} >= {"nemc", "lambdify(cse)"}
+    assert all(r["success"] and r["error"] < 1e-2 for r in rows), rows
     assert (out / "latest.md").read_text().startswith("# nemc benchmark results")
+    assert (out / "work_precision_double_pendulum.png").stat().st_size > 0
+
+
+def test_scaling_smoke_mode_fits_exponents(tmp_path: Path) -> None:
+    out = run_script("scaling.py", tmp_path)
+    result = json.loads((out / "scaling-latest.json").read_text())
+    assert sorted(int(n) for n in result["rows"]) == [2, 3]
+    fitted = result["fits"]["nemc generated C (bytes)"]
+    assert fitted["n"] == [2, 3] and fitted["exponent"] > 0, fitted
+    assert (out / "scaling_rhs.png").stat().st_size > 0
