@@ -7,6 +7,7 @@ contenders interleaved and repeated (`interleaved`), and reports medians with th
 
 from __future__ import annotations
 
+import argparse
 import datetime as dt
 import gc
 import importlib
@@ -359,3 +360,15 @@ def write_json(result: dict[str, Any], path: Path) -> None:
 
 def stamp() -> str:
     return dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+
+
+def mode_parser(description: str, quick_help: str, smoke_help: str) -> argparse.ArgumentParser:
+    """The options every benchmark script takes: --quick | --smoke, --sizes, --out."""
+    parser = argparse.ArgumentParser(description=description)
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--quick", action="store_true", help=quick_help)
+    group.add_argument("--smoke", action="store_true", help=smoke_help)
+    parser.add_argument("--sizes", type=lambda s: tuple(int(v) for v in s.split(",")),
+                        help="chain sizes, comma-separated (default: the mode's)")
+    parser.add_argument("--out", type=Path, help="results folder (benchmarks/results)")
+    return parser

@@ -567,14 +567,10 @@ def write_outputs(result: dict[str, Any], folder: Path, latest: bool) -> list[Pa
 
 
 def parse_args(argv: Sequence[str]) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    group = parser.add_mutually_exclusive_group()
-    group.add_argument("--quick", action="store_true", help="n in {2, 4, 8}; under 2 minutes")
-    group.add_argument("--smoke", action="store_true",
-                       help="a tiny subset (< 20 s) for tests; writes to a temporary folder")
-    parser.add_argument("--sizes", type=lambda s: tuple(int(v) for v in s.split(",")),
-                        help="chain sizes, comma-separated (default: the mode's)")
-    parser.add_argument("--out", type=Path, help="results folder (benchmarks/results)")
+    parser = common.mode_parser(
+        __doc__.splitlines()[0], "n in {2, 4, 8}; under 2 minutes",
+        "a tiny subset (< 20 s) for tests; writes to a temporary folder",
+    )
     return parser.parse_args(argv)
 
 

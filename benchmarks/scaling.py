@@ -326,13 +326,9 @@ def plot(result: dict[str, Any], folder: Path) -> list[Path]:
 
 
 def parse_args(argv: Sequence[str]) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    group = parser.add_mutually_exclusive_group()
-    group.add_argument("--quick", action="store_true", help="n in {2, 4, 8}, no peers")
-    group.add_argument("--smoke", action="store_true", help="n in {2, 3}, for tests")
-    parser.add_argument("--sizes", type=lambda s: tuple(int(v) for v in s.split(",")),
-                        help="chain sizes, comma-separated (default: the mode's)")
-    parser.add_argument("--out", type=Path, help="results folder (benchmarks/results)")
+    parser = common.mode_parser(
+        __doc__.splitlines()[0], "n in {2, 4, 8}, no peers", "n in {2, 3}, for tests"
+    )
     return parser.parse_args(argv)
 
 

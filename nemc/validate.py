@@ -40,9 +40,8 @@ from nemc.model import (
     symbol,
 )
 from nemc.parse import Node, parse_text
+from nemc.runtime import METHODS  # the scene accepts exactly what simulate accepts
 
-METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA", "nemc.DOP853", "nemc.Radau",
-           "nemc.Vern9")
 JOINT_TYPES = ("revolute", "prismatic", "free", "weld")
 LOAD_KINDS = ("torque", "force", "spring", "joint_spring")
 IMPLICIT_POINTS = ("origin", "com")
