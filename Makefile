@@ -32,6 +32,7 @@ bench: $(PEERS_STAMP)
 	$(BIN)/nemc bench
 	$(BIN)/python benchmarks/scaling.py
 	$(BIN)/python benchmarks/stiff.py
+	$(BIN)/python benchmarks/native.py
 
 bench-quick: $(STAMP)
 	$(BIN)/nemc bench --quick

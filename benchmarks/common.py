@@ -24,6 +24,8 @@ from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
 GENERATED = ROOT / "generated"
@@ -159,6 +161,24 @@ def timed(call: Callable[[], Any]) -> tuple[float, Any]:
     start = time.perf_counter()
     out = call()
     return time.perf_counter() - start, out
+
+
+def random_states(n_state: int, count: int, seed: int = 1, bound: float = 1.5) -> np.ndarray:
+    """`count` random states, uniform in [-bound, bound], as the (n_state, count) array that
+    `Model.rhs_many` takes, but a view (`.T`) of C-contiguous (count, n_state) rows: rhs_many hands
+    those rows to its C loop without a transposed copy, so a timing measures the C loop itself."""
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-bound, bound, size=(count, n_state)).T
+
+
+def native_methods(explicit_only: bool = False) -> tuple[str, ...]:
+    """nemc's own integrators (C loops), as nemc.runtime lists them (a new one is picked up);
+    explicit_only: without those that take the Jacobian (nemc.Radau)."""
+    from nemc import runtime
+
+    methods = tuple(getattr(runtime, "NATIVE_METHODS", ()))
+    implicit = set(getattr(runtime, "IMPLICIT_METHODS", ())) if explicit_only else set()
+    return tuple(m for m in methods if m not in implicit)
 
 
 # -- systems ----------------------------------------------------------------------------------

@@ -370,6 +370,8 @@ def peer_work_precision(peer: Peer, model, spec: dict[str, Any]) -> list[dict[st
             rows.append(row)
             if not times or times[0] > spec["cell_cap"]:
                 break
+            if row["error"] is not None and row["error"] <= spec.get("stop_below", -1.0):
+                break  # the tightest error wanted is reached: tighter tolerances are not needed
     return rows
 
 

@@ -39,6 +39,7 @@ from common import (  # noqa: E402
     StageFailed,
     fmt_time,
     interleaved,
+    native_methods,
     spread,
     summary,
     timed,
@@ -110,19 +111,12 @@ MODES = {
 }
 
 
-def native_methods() -> tuple[str, ...]:
-    """nemc's own integrators (C loops), when this nemc has them."""
-    from nemc import runtime
-
-    return tuple(getattr(runtime, "NATIVE_METHODS", ()))
-
-
 # -- 1. RHS cost --------------------------------------------------------------------------------
 
 
 def test_states(model, count: int, seed: int = 1) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    return rng.uniform(-1.5, 1.5, size=(model.n_state, count))
+    """(n_state, count), a view of C-contiguous rows: rhs_many times its C loop, not a copy."""
+    return common.random_states(model.n_state, count, seed)
 
 
 def rhs_contenders(model, baselines: Baselines, config: Config) -> dict[str, tuple[Callable, int]]:
@@ -428,7 +422,8 @@ def ratio(t: dict[str, Any]) -> str:
 def md_rhs(rhs: dict[str, Any]) -> list[str]:
     lines = ["## 1. RHS cost per call (median, min–max over rounds)", "",
              "Ratio: lambdify(cse) time / this contender's time (higher is faster). "
-             "`rhs_many` is nemc's C loop over 1000 states, per state: the C cost itself.", ""]
+             "`rhs_many` is nemc's C loop over 1000 states (rows in place, no copy), per state: "
+             "the C cost itself.", ""]
     lines += ["| system | states | " + " | ".join(RHS_CONTENDERS) + " |",
               "|" + " --- |" * (2 + len(RHS_CONTENDERS))]
     for name, r in rhs.items():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -45,3 +46,29 @@ def test_scaling_smoke_mode_fits_exponents(tmp_path: Path) -> None:
     fitted = result["fits"]["nemc generated C (bytes)"]
     assert fitted["n"] == [2, 3] and fitted["exponent"] > 0, fitted
     assert (out / "scaling_rhs.png").stat().st_size > 0
+
+
+def test_native_smoke_mode_writes_the_equal_error_table(tmp_path: Path) -> None:
+    out = run_script("native.py", tmp_path)
+    result = json.loads((out / "native-latest.json").read_text())
+    assert result["environment"]["git"]["commit"], result["environment"]["git"]
+    rows = result["rows"]
+    assert {r["section"] for r in rows} == {"equal error", "5.4", "ensemble"}
+    for row in rows:  # every contender ran: a positive time and a finite error
+        assert row["median"] > 0 and row["min"] > 0, row
+        assert math.isfinite(row["error"]), row
+    equal = {r["contender"]: r for r in rows if r["section"] == "equal error"}
+    assert {"solve_ivp DOP853 + lambdify(cse)", "nemc.DOP853"} <= set(equal), sorted(equal)
+    for name, row in equal.items():  # the ladder found an rtol reaching the target
+        assert row["reached"] and row["error"] <= row["target_error"], (name, row)
+    if result["peers"]["heyoka"]:
+        assert "heyoka taylor_adaptive" in equal, sorted(equal)
+    else:
+        assert any(n.startswith("heyoka: skipped") for n in result["notes"]), result["notes"]
+    arm = {r["contender"]: r for r in rows if r["section"] == "5.4"}
+    assert arm["nemc.Radau"]["error"] < 1e-6, arm  # rtol 1e-8 against the tight reference
+    ensemble = [r for r in rows if r["section"] == "ensemble"]
+    assert all(r["all_succeeded"] and r["error"] < 1e-12 for r in ensemble), ensemble
+    text = (out / "native-latest.md").read_text()
+    assert text.startswith("# nemc native integrators at equal error")
+    assert "speed-up vs lambdify(cse)" in text
