@@ -46,6 +46,7 @@ class Equations:
     initial_state: tuple[sympy.Expr, ...]
     jacobian: Program | None = None  # d qdd / d y along seed[]: see tangent.py
     inverse_mass: Program | None = None  # M^-1 Q at rest, with the jacobian
+    taylor: bool = False  # emit nemc.Taylor's coefficients of dynamics (nemc/taylor.py)
 
     @property
     def n(self) -> int:

@@ -23,6 +23,7 @@ from .derive import Equations
 from .optimize import Block
 from .program import Guard, Program
 from .tangent import seed_symbols
+from .taylor import TAYLOR_MAX_ORDER, TaylorUnsupported, series_code
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 
@@ -245,9 +246,10 @@ def metadata(eqs: Equations, prefix: str) -> dict:
 # ---- native integrators (issue 9): appended to every model's C and cdef --------------------
 
 
-def native_section(eqs: Equations, prefix: str) -> str:
+def native_section(eqs: Equations, prefix: str, taylor: str) -> str:
     """The model-independent integrators and the model's thin entry points to them. Radau only
-    in builds with the Jacobian: it halves the compile time the integrators add elsewhere."""
+    in builds with the Jacobian: it halves the compile time the integrators add elsewhere;
+    Taylor (the model's own coefficients) only in builds that ask for it."""
     jacobian = f"{prefix}jacobian" if eqs.jacobian is not None else "NULL"
     entry = template("integrators_entry.c.tmpl").substitute(
         name=eqs.mechanism.name, prefix=prefix, jacobian=jacobian
@@ -255,7 +257,30 @@ def native_section(eqs: Equations, prefix: str) -> str:
     sections = ["integrators.h.tmpl", "integrators.c.tmpl"]
     if eqs.jacobian is not None:  # Radau needs the Jacobian: built with it, on first need
         sections.append("radau.c.tmpl")
-    return "\n" + "".join(template(name).template for name in sections) + entry
+    return "\n" + "".join(template(name).template for name in sections) + taylor + entry
+
+
+def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, str | None]:
+    """nemc.Taylor's C when the build asks for it: (source, None), or ("", why it cannot be)."""
+    if not eqs.taylor:
+        return "", None
+    state = [s for pair in zip(eqs.coordinates, eqs.speeds) for s in pair]
+    rows = [f"x{i}" for i in range(len(state))]
+    try:
+        code = series_code(eqs.dynamics, state, rows, m.TIME, printer.doprint)
+    except TaylorUnsupported as why:
+        return "", str(why)
+    declarations = [f"double *{row} = x + {i} * TAYLOR_STRIDE;" for i, row in enumerate(rows)]
+
+    def block(lines: tuple[str, ...] | list[str], indent: str) -> str:
+        return "\n".join(indent + line for line in lines)
+
+    return template("taylor.c.tmpl").substitute(
+        max_order=TAYLOR_MAX_ORDER, n_series=max(code.n_series, 1),
+        declarations=block(declarations + list(code.declarations), "    "),
+        constants=block(code.constants, "    "), start=block(code.start, "    "),
+        loop=block(code.loop, "        "),
+    ), None
 
 
 def native_cdef(prefix: str) -> str:
@@ -273,12 +298,18 @@ def native_cdef(prefix: str) -> str:
 
 def emit(eqs: Equations, block: Block) -> Emitted:
     prefix = f"{eqs.mechanism.name}_"
+    taylor, taylor_unavailable = taylor_section(eqs, SymbolTablePrinter(symbol_table(eqs, block)))
+    info = metadata(eqs, prefix)
+    if taylor:
+        info["generated"].append("taylor")
+    if taylor_unavailable:
+        info["taylor_unavailable"] = taylor_unavailable
     return Emitted(
         name=eqs.mechanism.name,
-        c_source=c_source(eqs, block, prefix) + native_section(eqs, prefix),
+        c_source=c_source(eqs, block, prefix) + native_section(eqs, prefix, taylor),
         cdef=cdef(prefix, generated_functions(eqs)) + native_cdef(prefix),
         package_init=template("package_init.py.tmpl").substitute(
             name=eqs.mechanism.name, version=__version__
         ),
-        metadata=metadata(eqs, prefix),
+        metadata=info,
     )

@@ -51,37 +51,46 @@ def read_source(path: str | Path) -> Source:
 
 
 def compile_mechanism(
-    path: str | Path, jacobian: bool | None = None, *, energy: bool = False
+    path: str | Path, jacobian: bool | None = None, *, energy: bool = False,
+    taylor: bool | None = None,
 ) -> Compiled:
     """Build the mechanism in PATH (or load its cached build) and load it.
 
     jacobian: True generates the analytic Jacobian; None (default) generates it only when the
     scene's method is implicit, and later on the model's first need of it.
+    taylor: the same for nemc.Taylor's coefficient code (scene method nemc.Taylor).
     energy: True adds the energy outputs when the YAML does not request them (`nemc stress`)."""
-    return compile_source(read_source(path), jacobian, energy=energy)
+    return compile_source(read_source(path), jacobian, energy=energy, taylor=taylor)
 
 
-def compile_source(source: Source, jacobian: bool | None, *, energy: bool = False) -> Compiled:
+def compile_source(source: Source, jacobian: bool | None, *, energy: bool = False,
+                   taylor: bool | None = None) -> Compiled:
     timings: dict[str, float] = {}
     options: dict = {"jacobian": "auto" if jacobian is None else bool(jacobian)}
     if energy:
         options["energy"] = True
+    if taylor is not None:
+        options["taylor"] = bool(taylor)
     key = build_key(source, options)
     with timed(timings, "lookup"):
         package = cached_package(key)
     cached = package is not None
     if package is None:
-        package = generate_and_build(source, key, jacobian, timings, energy)
+        package = generate_and_build(source, key, jacobian, timings, energy, taylor)
     with timed(timings, "load"):
         model = load_package(package)
-    if "jacobian" not in model.metadata["generated"]:
-        model.jacobian_provider = lambda: compile_source(source, True, energy=energy).model
+
+    def variant(*, jacobian: bool, taylor: bool) -> Model:
+        """This mechanism's build with these parts (the model's first need of one)."""
+        return compile_source(source, jacobian, energy=energy, taylor=taylor).model
+
+    model.variant_provider = variant
     return Compiled(model, package, cached, timings)
 
 
 def generate_and_build(
     source: Source, key: str, jacobian: bool | None, timings: dict[str, float],
-    energy: bool = False,
+    energy: bool = False, taylor: bool | None = None,
 ) -> Path:
     from .build import build
     from .derive import derive, with_diagnostics
@@ -94,17 +103,19 @@ def generate_and_build(
         mechanism = validate_text(source.data, source.path)
         if energy:
             mechanism = with_energy_output(mechanism)
+    method = mechanism.simulation.method
     with timed(timings, "derive"):
         equations = derive(mechanism)
-        if jacobian or (jacobian is None and mechanism.simulation.method in IMPLICIT_METHODS):
+        if jacobian or (jacobian is None and method in IMPLICIT_METHODS):
             equations = with_diagnostics(equations)
+        if taylor or (taylor is None and method == "nemc.Taylor"):
+            equations = dataclasses.replace(equations, taylor=True)
     with timed(timings, "optimize"):
         block = optimize_equations(equations)
     with timed(timings, "emit"):
         code = emit(equations, block)
     with timed(timings, "build"):
         return build(code, key)
-
 
 
 def with_energy_output(mechanism: Mechanism) -> Mechanism:

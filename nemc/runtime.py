@@ -22,7 +22,7 @@ import numpy as np
 
 SCIPY_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 # Integrators in the model's own C (templates/integrators.c.tmpl), no Python in the loop.
-NATIVE_METHODS = ("nemc.DOP853", "nemc.Radau", "nemc.Vern9")
+NATIVE_METHODS = ("nemc.DOP853", "nemc.Radau", "nemc.Vern9", "nemc.Taylor")
 METHODS = SCIPY_METHODS + NATIVE_METHODS
 IMPLICIT_METHODS = ("Radau", "BDF", "LSODA", "nemc.Radau")  # these get the analytic Jacobian
 DEFAULT_T_SPAN = (0.0, 10.0)
@@ -117,8 +117,9 @@ class Model:
             if hasattr(lib, prefix + name)
         }
         self._default_p = np.array(metadata["parameter_defaults"], dtype=float)
-        # Builds the variant with the C Jacobian on first need (set by nemc; None standalone).
-        self.jacobian_provider: Callable[[], Model] | None = None
+        # Builds a variant with more parts (the C Jacobian, nemc.Taylor's code) on first need
+        # (set by nemc; None in a standalone package).
+        self.variant_provider: Callable[..., Model] | None = None
         self._checked: tuple[tuple, np.ndarray] = ((), self._default_p)
 
     @property
@@ -290,12 +291,20 @@ class Model:
             return function(self._time(t), self._state(y))
         return self._finite_difference_jacobian(self._time(t), self._state(y), params)
 
-    def _has_jacobian(self) -> bool:
-        if "jacobian" not in self._c and self.jacobian_provider is not None:
-            upgraded = self.jacobian_provider()
+    def _has(self, part: str) -> bool:
+        """Whether the build has this part ("jacobian", "taylor"); builds and switches to the
+        variant that adds it, keeping the others, on first need."""
+        generated = self.metadata["generated"]
+        unavailable = f"{part}_unavailable" in self.metadata  # asked for before, impossible
+        if part not in generated and not unavailable and self.variant_provider is not None:
+            upgraded = self.variant_provider(**{name: name in generated or name == part
+                                                for name in ("jacobian", "taylor")})
             self._c, self._lib, self._ffi = upgraded._c, upgraded._lib, upgraded._ffi
-            self.jacobian_provider = None
-        return "jacobian" in self._c
+            self.metadata = upgraded.metadata
+        return part in self.metadata["generated"]
+
+    def _has_jacobian(self) -> bool:
+        return self._has("jacobian")
 
     def _jacobian_function(self, p: np.ndarray):
         """A fast closure d rhs/d y for implicit integrators, or None without a C Jacobian."""
@@ -443,6 +452,12 @@ class Model:
         if method in IMPLICIT_METHODS and not self._has_jacobian():
             raise ModelError(f"{method} needs the analytic Jacobian, and this build has none:"
                              " compile it with jacobian=True (or a scene method that is implicit)")
+        if method == "nemc.Taylor" and not self._has("taylor"):
+            why = self.metadata.get("taylor_unavailable")
+            raise ModelError(f"nemc.Taylor is not available for {self.name}: " + (
+                f"its equations use {why}, which has no Taylor recurrence here; use nemc.Vern9"
+                " or nemc.DOP853" if why else "this build has no Taylor code (compile it with"
+                " taylor=True, or name nemc.Taylor as the scene's method)"))
         entry = getattr(self._lib, self.metadata["c_prefix"] + function, None)
         if entry is None:
             raise ModelError(f"{method}: this build has no native integrators (rebuild it)")
@@ -606,7 +621,7 @@ class EnsembleResult:
 
 
 # enum nemc_method and enum nemc_status in templates/integrators.h.tmpl
-NATIVE_IDS = {"nemc.DOP853": 0, "nemc.Radau": 1, "nemc.Vern9": 2}
+NATIVE_IDS = {"nemc.DOP853": 0, "nemc.Radau": 1, "nemc.Vern9": 2, "nemc.Taylor": 3}
 NATIVE_RHS_FAILED = -2
 NATIVE_MESSAGES = {  # scipy's messages for the same outcomes
     0: "The solver successfully reached the end of the integration interval.",

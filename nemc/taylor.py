@@ -1,0 +1,276 @@
+"""Taylor-mode arithmetic of the accelerations' program, printed as C (nemc.Taylor).
+
+Taylor's method integrates y' = f(t, y) by expanding the solution at each step into its Taylor
+series y(t + h) = sum_k x[k] h^k, with x[k] = y^(k)(t) / k!. The coefficients come from automatic
+differentiation in Taylor mode (Jorba & Zou 2005; heyoka, Biscani & Izzo 2021): every operation
+of the program gets the recurrence that gives coefficient k of its result from coefficients
+0..k of its operands (a product is a Cauchy sum, a quotient, sin and cos, exp, log and powers
+have the classic recurrences), and the state's next coefficients follow from the equations of
+motion, x_q[k + 1] = x_dq[k] / (k + 1) and x_dq[k + 1] = qdd[k] / (k + 1).
+
+This module turns the program (nemc/program.py) into the body of one C function: parameter-only
+values as scalars before the loop over k, one series (a row of coefficients) per
+non-constant intermediate inside it. An operation without a recurrence here (abs, sign,
+min/max, tan, atan...: non-smooth, or not worth a recurrence yet) on a value that changes in time
+makes the program unsupported: TaylorUnsupported names it, and the model is built without
+nemc.Taylor.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import sympy
+
+from .program import Guard, Program
+
+# highest order the generated code supports: rows of TAYLOR_STRIDE = TAYLOR_MAX_ORDER + 1
+TAYLOR_MAX_ORDER = 40
+
+
+class TaylorUnsupported(ValueError):
+    """The program uses an operation with no Taylor recurrence here."""
+
+
+@dataclass(frozen=True)
+class SeriesCode:
+    """The C of the Taylor coefficients: declarations, scalar constants, the loop body."""
+
+    n_series: int  # rows of the work array
+    declarations: tuple[str, ...]  # `double *name = work + j * TAYLOR_STRIDE;`
+    constants: tuple[str, ...]  # before the loop: parameter-only values, constant guards
+    start: tuple[str, ...]  # before the loop: the time series
+    loop: tuple[str, ...]  # inside `for (k = 0; k < order; ++k)`
+
+
+class SeriesWriter:
+    """Writes the coefficient-k code of expressions, naming series rows as it needs them."""
+
+    def __init__(self, scalar: Callable[[sympy.Expr], str], state: dict[sympy.Symbol, str],
+                 time: sympy.Symbol):
+        self.scalar = scalar  # prints a parameter-only expression as C
+        self.series: dict[sympy.Expr, str] = dict(state)  # expression -> its row's name
+        self.varying: set[sympy.Symbol] = {*state, time}  # symbols that change with time
+        self.time = time
+        self.declarations: list[str] = []
+        self.constants: list[str] = []
+        self.loop: list[str] = []
+        self.uses_time = False
+        self._rows = 0
+        self._scalars: dict[sympy.Expr, str] = {}  # parameter-only factor -> its constant
+
+    def scalar_value(self, expr: sympy.Expr) -> str:
+        """A parameter-only value as C: a number in place, anything else a named constant
+        computed once, before the loop (so the loop reloads no parameter)."""
+        if expr.is_Number:
+            return self.scalar(expr)
+        if expr not in self._scalars:
+            name = f"c{len(self._scalars)}"
+            self.constants.append(f"const double {name} = {self.scalar(expr)};")
+            self._scalars[expr] = name
+        return self._scalars[expr]
+
+    # -- rows -------------------------------------------------------------------------------
+
+    def new_row(self, name: str) -> str:
+        self.declarations.append(f"double *{name} = work + {self._rows} * TAYLOR_STRIDE;")
+        self._rows += 1
+        return name
+
+    def temporary(self) -> str:
+        return self.new_row(f"s{self._rows}")
+
+    def row_of(self, expr: sympy.Expr) -> str:
+        """The name of a row holding expr's series, computing it into a temporary if needed."""
+        if expr in self.series:
+            return self.series[expr]
+        if expr == self.time:
+            self.uses_time = True
+            self.series[expr] = "tt"
+            return "tt"
+        coefficient = self.coefficient(expr)
+        name = self.series.get(expr)  # a recurrence may have named it meanwhile
+        if name is None:
+            name = self.temporary()
+            self.loop.append(f"{name}[k] = {coefficient};")
+            self.series[expr] = name
+        return name
+
+    # -- coefficient k of an expression -------------------------------------------------------
+
+    def is_constant(self, expr: sympy.Expr) -> bool:
+        """Parameter-only: computed once per step, before the loop over the orders."""
+        return not (expr.free_symbols & self.varying)
+
+    def coefficient(self, expr: sympy.Expr) -> str:
+        """C for coefficient k of a time-varying expr (its earlier coefficients computed)."""
+        if expr in self.series or expr == self.time:
+            return f"{self.row_of(expr)}[k]"
+        if expr.is_Add:
+            return self.add(expr.args)
+        if expr.is_Mul:
+            return self.product(expr.args)
+        if expr.is_Pow:
+            return f"{self.power(*expr.args)}[k]"
+        if isinstance(expr, (sympy.sin, sympy.cos)):
+            return f"{self.trigonometric(expr)}[k]"
+        if isinstance(expr, (sympy.sinh, sympy.cosh)):
+            return f"{self.hyperbolic(expr)}[k]"
+        if isinstance(expr, sympy.exp):
+            return f"{self.unary('series_exp', expr)}[k]"
+        if isinstance(expr, sympy.log):
+            return f"{self.unary('series_log', expr)}[k]"
+        raise TaylorUnsupported(f"{type(expr).__name__.lower()} of a time-varying value")
+
+    def add(self, args: Sequence[sympy.Expr]) -> str:
+        varying = [a for a in args if not self.is_constant(a)]
+        constant = sympy.Add(*[a for a in args if self.is_constant(a)])
+        terms = [self.coefficient(a) for a in varying]
+        if constant != 0:
+            terms.append(f"(k == 0 ? {self.scalar_value(constant)} : 0.0)")
+        return "(" + " + ".join(terms) + ")"
+
+    def product(self, args: Sequence[sympy.Expr]) -> str:
+        factor = sympy.Mul(*[a for a in args if self.is_constant(a)])
+        varying = [a for a in args if not self.is_constant(a)]
+        numerator = [a for a in varying if not is_reciprocal(a)]
+        denominator = [a.args[0] ** -a.args[1] for a in varying if is_reciprocal(a)]
+        if len(numerator) == 1 and not denominator:
+            row = None
+            value = self.coefficient(numerator[0])
+        else:
+            row = self.quotient(numerator, denominator)
+            value = f"{row}[k]"
+        if factor == 1:
+            return value
+        if factor == -1:
+            return f"-{value}"
+        return f"{self.scalar_value(factor)} * {value}"
+
+    def cauchy(self, factors: Sequence[sympy.Expr]) -> str:
+        """The row of a product of time-varying factors (one Cauchy sum per extra factor)."""
+        key = sympy.Mul(*factors)
+        if key in self.series:
+            return self.series[key]
+        row = self.row_of(factors[0])
+        for count in range(2, len(factors) + 1):
+            partial = sympy.Mul(*factors[:count])
+            if partial in self.series:
+                row = self.series[partial]
+                continue
+            other = self.row_of(factors[count - 1])
+            name = self.temporary()
+            self.loop.append(f"{name}[k] = series_product({row}, {other}, k);")
+            self.series[partial] = row = name
+        return row
+
+    def quotient(self, numerator: Sequence[sympy.Expr],
+                 denominator: Sequence[sympy.Expr]) -> str:
+        top = self.cauchy(numerator) if numerator else None
+        if not denominator:
+            assert top is not None
+            return top
+        bottom = self.cauchy(denominator)
+        name = self.temporary()
+        if top is None:
+            self.loop.append(f"{name}[k] = series_reciprocal({bottom}, {name}, k);")
+        else:
+            self.loop.append(f"{name}[k] = series_quotient({top}, {bottom}, {name}, k);")
+        self.series[sympy.Mul(*numerator) / sympy.Mul(*denominator)] = name
+        return name
+
+    def power(self, base: sympy.Expr, exponent: sympy.Expr) -> str:
+        expr = base**exponent
+        if expr in self.series:
+            return self.series[expr]
+        if not self.is_constant(exponent):
+            raise TaylorUnsupported("a power with a time-varying exponent")
+        if exponent == -1:
+            return self.quotient([], [base])
+        if exponent.is_Integer and 2 <= exponent <= 8:
+            return self.cauchy([base] * int(exponent))
+        if exponent.is_Integer and exponent < 0:
+            return self.quotient([], [base**-exponent])
+        row = self.row_of(base)
+        name = self.temporary()
+        self.loop.append(
+            f"{name}[k] = series_power({row}, {name}, {self.scalar_value(exponent)}, k);")
+        self.series[expr] = name
+        return name
+
+    def paired(self, expr: sympy.Expr, kinds: tuple[type, type], helper: str) -> str:
+        """sin and cos (or sinh and cosh) of one argument come together, from one recurrence."""
+        argument = expr.args[0]
+        first, second = (kind(argument) for kind in kinds)
+        if expr not in self.series:
+            row = self.row_of(argument)
+            a, b = self.temporary(), self.temporary()
+            self.loop.append(f"{helper}({row}, {a}, {b}, k);")
+            self.series[first], self.series[second] = a, b
+        return self.series[expr]
+
+    def trigonometric(self, expr: sympy.Expr) -> str:
+        return self.paired(expr, (sympy.sin, sympy.cos), "series_sincos")
+
+    def hyperbolic(self, expr: sympy.Expr) -> str:
+        return self.paired(expr, (sympy.sinh, sympy.cosh), "series_sinhcosh")
+
+    def unary(self, helper: str, expr: sympy.Expr) -> str:
+        if expr not in self.series:
+            row = self.row_of(expr.args[0])
+            name = self.temporary()
+            self.loop.append(f"{name}[k] = {helper}({row}, {name}, k);")
+            self.series[expr] = name
+        return self.series[expr]
+
+
+def is_reciprocal(expr: sympy.Expr) -> bool:
+    return bool(expr.is_Pow and expr.args[1].is_Integer and expr.args[1] < 0)
+
+
+def series_code(program: Program, state: Sequence[sympy.Symbol], state_rows: Sequence[str],
+                time: sympy.Symbol, scalar: Callable[[sympy.Expr], str]) -> SeriesCode:
+    """The Taylor-coefficient code of the accelerations' program; state[i]'s row is
+    state_rows[i] (q's then dq's interleaved, as y). Raises TaylorUnsupported."""
+    writer = SeriesWriter(scalar, dict(zip(state, state_rows)), time)
+    for step in program.steps:
+        if isinstance(step, Guard):
+            guard(writer, step)
+            continue
+        name, expr = step
+        if writer.is_constant(expr):
+            writer.constants.append(f"const double {name.name} = {scalar(expr)};")
+            continue
+        value = writer.coefficient(expr)
+        same = re.fullmatch(r"(\w+)\[k\]", value)  # already a row (sin, a product...): alias it
+        if same:
+            writer.series[name] = same.group(1)
+        else:
+            writer.series[name] = writer.new_row(name.name)
+            writer.loop.append(f"{name.name}[k] = {value};")
+        writer.varying.add(name)
+    for i, result in enumerate(program.results):
+        q_row, dq_row = state_rows[2 * i], state_rows[2 * i + 1]
+        value = (f"(k == 0 ? {writer.scalar_value(result)} : 0.0)" if writer.is_constant(result)
+                 else writer.coefficient(result))
+        writer.loop.append(f"{q_row}[k + 1] = {dq_row}[k] / (k + 1);")
+        writer.loop.append(f"{dq_row}[k + 1] = {value} / (k + 1);")
+    start = ("tt[0] = t;", "for (int j = 1; j <= order; ++j)", "    tt[j] = j == 1 ? 1.0 : 0.0;")
+    # lines are relative to the block they sit in: "    " marks one more level
+    if writer.uses_time:
+        writer.declarations.append(f"double *tt = work + {writer._rows} * TAYLOR_STRIDE;")
+        writer._rows += 1
+    return SeriesCode(writer._rows, tuple(writer.declarations), tuple(writer.constants),
+                      start if writer.uses_time else (), tuple(writer.loop))
+
+
+def guard(writer: SeriesWriter, step: Guard) -> None:
+    """A singular articulated inertia is checked at the expansion point (coefficient 0)."""
+    if writer.is_constant(step.value):
+        writer.constants += [f"if (!({writer.scalar(step.value)} > 0.0))",
+                             f"    return {step.status};"]
+        return
+    value = writer.coefficient(step.value)
+    writer.loop += [f"if (k == 0 && !({value} > 0.0))", f"    return {step.status};"]
