@@ -127,9 +127,11 @@ def program_body(
 # CHUNK_STEPS steps is printed as consecutive part functions of at most that many steps, which
 # its caller runs in order. A value one part defines and a later part (or the results) uses
 # travels through an array on the caller's stack; the operations are the same, so are the
-# numbers.
+# numbers. gcc CPU seconds for the model's C of a 32/64-body chain with the Jacobian: 11.8/33.8
+# in one body each, 3.6-3.9/6.1-7.0 with parts of 100 to 300 steps, 4.4/7.3 with 400; the RHS
+# costs the same or less (docs/decisions.md).
 
-CHUNK_STEPS = 400
+CHUNK_STEPS = 300
 
 
 @dataclass(frozen=True)
