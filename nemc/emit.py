@@ -101,9 +101,12 @@ def body(
 
 
 def program_body(
-    printer: SymbolTablePrinter, program: Program, results: str, indent: str = "    "
+    printer: SymbolTablePrinter, program: Program, results: str, indent: str = "    ",
+    passed: dict[sympy.Symbol, str] | None = None,
 ) -> str:
-    """Straight-line C of a program: its named steps, its guards, then `results[i] = ...;`."""
+    """Straight-line C of a program: its named steps, its guards, then `results[i] = ...;`.
+    passed: the names to hand on to other functions, each copied there right after its step."""
+    passed = passed or {}
     lines = []
     for step in program.steps:
         if isinstance(step, Guard):
@@ -111,11 +114,182 @@ def program_body(
             lines.append(f"{indent}    return {step.status};")
         else:
             lines.append(f"{indent}const double {step[0].name} = {printer.doprint(step[1])};")
+            if step[0] in passed:
+                lines.append(f"{indent}{passed[step[0]]} = {step[0].name};")
     lines += [
         f"{indent}{results}[{i}] = {printer.doprint(expr)};"
         for i, expr in enumerate(program.results)
     ]
     return "\n".join(lines)
+
+
+# ---- long programs in parts (issue 5) ------------------------------------------------------
+# gcc's register allocation is superlinear in a function's size: a program longer than
+# CHUNK_STEPS steps is printed as consecutive part functions of at most that many steps, which
+# its caller runs in order. A value one part defines and a later part (or the results) uses
+# travels through an array on the caller's stack; the operations are the same, so are the
+# numbers. gcc CPU seconds for the model's C of a 32/64-body chain with the Jacobian: 11.8/33.8
+# in one body each, 3.6-3.9/6.1-7.0 with parts of 100 to 300 steps, 4.4/7.3 with 400; the RHS
+# costs the same or less (docs/decisions.md).
+
+CHUNK_STEPS = 300
+
+
+@dataclass(frozen=True)
+class Printed:
+    """A program printed as C: the functions that go before its caller, the caller's body."""
+
+    functions: str
+    body: str
+
+
+@dataclass(frozen=True)
+class Caller:
+    """Where a program is printed: the function running it, its inputs, where results go."""
+
+    function: str  # the part functions are <function>_part<k>
+    what: str  # what the program computes, for the parts' comments
+    inputs: tuple[str, ...]  # C parameter declarations the program's expressions may read
+    results: str  # the array the results are written to
+    array: str  # the array passing values from part to part
+    indent: str = "    "
+
+
+def split_steps(program: Program, chunk_steps: int) -> list[Program]:
+    """Consecutive parts of at most chunk_steps steps, of near-equal size; the last part
+    carries the results."""
+    count = -(-program.size // chunk_steps)
+    size = -(-program.size // count)
+    steps = [program.steps[start : start + size] for start in range(0, program.size, size)]
+    return [Program(part, ()) for part in steps[:-1]] + [Program(steps[-1], program.results)]
+
+
+def symbols_used(program: Program) -> set[sympy.Symbol]:
+    used: set[sympy.Symbol] = set()
+    for step in program.steps:
+        used |= (step.value if isinstance(step, Guard) else step[1]).free_symbols
+    for result in program.results:
+        used |= sympy.sympify(result).free_symbols
+    return used
+
+
+def passed_values(
+    parts: list[Program], used_elsewhere: set[sympy.Symbol]
+) -> list[sympy.Symbol]:
+    """The values a part defines that a later part, or the code in used_elsewhere, reads."""
+    read_later, passed = set(used_elsewhere), set()
+    for part in reversed(parts):
+        passed |= {name for name, _ in part.assignments() if name in read_later}
+        read_later |= symbols_used(part)
+    return [name for part in parts for name, _ in part.assignments() if name in passed]
+
+
+def has_guard(program: Program) -> bool:
+    return any(isinstance(step, Guard) for step in program.steps)
+
+
+def parameter_name(declaration: str) -> str:
+    return declaration.split()[-1].lstrip("*")
+
+
+def part_function(
+    printer: SymbolTablePrinter, part: Program, caller: Caller, number: int, count: int,
+    passed: dict[sympy.Symbol, str],
+) -> str:
+    """One part as a static function; it returns a guard's status when it has guards."""
+    names = [name for name, _ in part.assignments()]
+    defined_here = set(names)
+    elsewhere = {name: c for name, c in passed.items() if name not in defined_here}
+    part_printer = SymbolTablePrinter({**printer.names, **elsewhere})
+    mine = {name: passed[name] for name in names if name in passed}
+    text = program_body(part_printer, part, caller.results, passed=mine)
+    declarations = [*caller.inputs, f"double *{caller.array}"]
+    if part.results:
+        declarations.append(f"double *{caller.results}")
+    unused = [parameter_name(d) for d in declarations
+              if not re.search(rf"\b{parameter_name(d)}\b", text)]
+    guarded = has_guard(part)
+    steps = f"{names[0].name} to {names[-1].name}" if names else "no named steps"
+    return "\n".join([
+        "",
+        f"/* {caller.what}, part {number} of {count}: {steps}. */",
+        f"static {'int' if guarded else 'void'} {caller.function}_part{number}"
+        f"({', '.join(declarations)})",
+        "{",
+        *([f"    {' '.join(f'(void){name};' for name in unused)}"] if unused else []),
+        text,
+        *(["    return 0;"] if guarded else []),
+        "}",
+        "",
+    ])
+
+
+def part_calls(parts: list[Program], caller: Caller, n_passed: int) -> str:
+    """The caller's body: the array, then each part in order, returning a non-zero status."""
+    arguments = ", ".join([*(parameter_name(d) for d in caller.inputs), caller.array])
+    indent = caller.indent
+    lines = [f"{indent}double {caller.array}[{max(n_passed, 1)}];"
+             " /* intermediates passed between the parts */"]
+    if any(has_guard(part) for part in parts):
+        lines.append(f"{indent}int status;")
+    for number, part in enumerate(parts, start=1):
+        last = f", {caller.results}" if number == len(parts) else ""
+        call = f"{caller.function}_part{number}({arguments}{last});"
+        if has_guard(part):
+            lines += [f"{indent}status = {call}", f"{indent}if (status)",
+                      f"{indent}    return status;"]
+        else:
+            lines.append(f"{indent}{call}")
+    return "\n".join(lines)
+
+
+def in_parts(
+    printer: SymbolTablePrinter, program: Program, caller: Caller, chunk_steps: int,
+    used_elsewhere: set[sympy.Symbol] | None = None,
+) -> tuple[Printed, dict[sympy.Symbol, str]]:
+    """The program as part functions and the calls to them; also the array entry of each value
+    passed, for code elsewhere that reads them (used_elsewhere)."""
+    parts = split_steps(program, chunk_steps)
+    values = passed_values(parts, used_elsewhere or set())
+    passed = {name: f"{caller.array}[{k}]" for k, name in enumerate(values)}
+    functions = "".join(
+        part_function(printer, part, caller, number, len(parts), passed)
+        for number, part in enumerate(parts, start=1)
+    )
+    return Printed(functions, part_calls(parts, caller, len(values))), passed
+
+
+def print_program(
+    printer: SymbolTablePrinter, program: Program, caller: Caller, chunk_steps: int
+) -> Printed:
+    """One body when the program is short, parts when it is long."""
+    if program.size <= chunk_steps:
+        return Printed("", program_body(printer, program, caller.results, caller.indent))
+    return in_parts(printer, program, caller, chunk_steps)[0]
+
+
+DYNAMICS = Caller("accelerations", "The accelerations",
+                  ("double t", "const double *y", "const double *p"), "qdd", "v")
+INVERSE_MASS = Caller("inverse_mass_times", "M^-1 Q",
+                      ("const double *y", "const double *p", "const double *Q"), "qdd", "v")
+PRIMAL = Caller("jacobian_primal", "The accelerations and what their derivative reads",
+                DYNAMICS.inputs, "qdd", "v")
+TANGENT = Caller("jacobian_tangent", "The derivative of the accelerations along seed",
+                 ("double t", "const double *y", "const double *p", "const double *seed",
+                  "const double *v"), "dqdd", "dv", indent=" " * 8)
+
+
+def jacobian_programs(
+    printer: SymbolTablePrinter, primal: Program, tangent: Program, chunk_steps: int
+) -> tuple[Printed, Printed]:
+    """The primal (run once) and its tangent (once per column): in parts when either is long,
+    the primal then also passing on every value the tangent reads."""
+    if max(primal.size, tangent.size) <= chunk_steps:
+        return (Printed("", program_body(printer, primal, PRIMAL.results)),
+                Printed("", program_body(printer, tangent, TANGENT.results, TANGENT.indent)))
+    primal_code, passed = in_parts(printer, primal, PRIMAL, chunk_steps, symbols_used(tangent))
+    tangent_printer = SymbolTablePrinter({**printer.names, **passed})
+    return primal_code, in_parts(tangent_printer, tangent, TANGENT, chunk_steps)[0]
 
 
 def indexed(array: str, exprs: tuple[sympy.Expr, ...]) -> list[tuple[str, sympy.Expr]]:
@@ -136,15 +310,23 @@ def outputs_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, p
     )
 
 
-def jacobian_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str) -> str:
+def jacobian_section(
+    eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str, chunk_steps: int
+) -> str:
     if eqs.jacobian is None:
         return ""
     programs = block.programs
+    primal, tangent = jacobian_programs(
+        printer, programs["dynamics"], programs["jacobian"], chunk_steps
+    )
+    inverse_mass = print_program(printer, programs["inverse_mass"], INVERSE_MASS, chunk_steps)
     return template("jacobian.c.tmpl").substitute(
         prefix=prefix,
-        primal=program_body(printer, programs["dynamics"], "qdd"),
-        tangent=program_body(printer, programs["jacobian"], "dqdd", indent=" " * 8),
-        inverse_mass=program_body(printer, programs["inverse_mass"], "qdd"),
+        jacobian_parts=primal.functions + tangent.functions,
+        primal=primal.body,
+        tangent=tangent.body,
+        inverse_mass_parts=inverse_mass.functions,
+        inverse_mass=inverse_mass.body,
     )
 
 
@@ -155,8 +337,9 @@ def _all_symbols(block: Block, expr: sympy.Expr) -> set[sympy.Symbol]:
     return found
 
 
-def c_source(eqs: Equations, block: Block, prefix: str) -> str:
+def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int) -> str:
     mech, printer = eqs.mechanism, SymbolTablePrinter(symbol_table(eqs, block))
+    dynamics = print_program(printer, block.programs["dynamics"], DYNAMICS, chunk_steps)
     return template("model.c.tmpl").substitute(
         name=mech.name,
         version=__version__,
@@ -168,12 +351,13 @@ def c_source(eqs: Equations, block: Block, prefix: str) -> str:
         n_coord=eqs.n,
         n_state=2 * eqs.n,
         prefix=prefix,
-        dynamics=program_body(printer, block.programs["dynamics"], "qdd"),
+        dynamics_parts=dynamics.functions,
+        dynamics=dynamics.body,
         check_names=comment_text(", ".join(key for key, _ in eqs.checks)),
         checks=body(printer, block, indexed("out", block.groups["checks"])),
         initial=body(printer, block, indexed("y0", block.groups["initial"])),
         outputs_section=outputs_section(eqs, block, printer, prefix),
-        jacobian_section=jacobian_section(eqs, block, printer, prefix),
+        jacobian_section=jacobian_section(eqs, block, printer, prefix, chunk_steps),
     )
 
 
@@ -296,7 +480,8 @@ def native_cdef(prefix: str) -> str:
 # ---- end of the native integrators' hook ---------------------------------------------------
 
 
-def emit(eqs: Equations, block: Block) -> Emitted:
+def emit(eqs: Equations, block: Block, chunk_steps: int | None = None) -> Emitted:
+    """chunk_steps: the most steps of a program printed as one function (CHUNK_STEPS)."""
     prefix = f"{eqs.mechanism.name}_"
     taylor, taylor_unavailable = taylor_section(eqs, SymbolTablePrinter(symbol_table(eqs, block)))
     info = metadata(eqs, prefix)
@@ -306,7 +491,8 @@ def emit(eqs: Equations, block: Block) -> Emitted:
         info["taylor_unavailable"] = taylor_unavailable
     return Emitted(
         name=eqs.mechanism.name,
-        c_source=c_source(eqs, block, prefix) + native_section(eqs, prefix, taylor),
+        c_source=c_source(eqs, block, prefix, chunk_steps or CHUNK_STEPS)
+        + native_section(eqs, prefix, taylor),
         cdef=cdef(prefix, generated_functions(eqs)) + native_cdef(prefix),
         package_init=template("package_init.py.tmpl").substitute(
             name=eqs.mechanism.name, version=__version__

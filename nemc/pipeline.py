@@ -52,37 +52,45 @@ def read_source(path: str | Path) -> Source:
 
 def compile_mechanism(
     path: str | Path, jacobian: bool | None = None, *, energy: bool = False,
-    taylor: bool | None = None,
+    taylor: bool | None = None, chunk_steps: int | None = None,
 ) -> Compiled:
     """Build the mechanism in PATH (or load its cached build) and load it.
 
     jacobian: True generates the analytic Jacobian; None (default) generates it only when the
     scene's method is implicit, and later on the model's first need of it.
     taylor: the same for nemc.Taylor's coefficient code (scene method nemc.Taylor).
-    energy: True adds the energy outputs when the YAML does not request them (`nemc stress`)."""
-    return compile_source(read_source(path), jacobian, energy=energy, taylor=taylor)
+    energy: True adds the energy outputs when the YAML does not request them (`nemc stress`).
+    chunk_steps: the most steps of a program emitted as one C function (None: nemc.emit's
+    CHUNK_STEPS); part of the build key."""
+    return compile_source(read_source(path), jacobian, energy=energy, taylor=taylor,
+                          chunk_steps=chunk_steps)
 
 
-def compile_source(source: Source, jacobian: bool | None, *, energy: bool = False,
-                   taylor: bool | None = None) -> Compiled:
+def compile_source(
+    source: Source, jacobian: bool | None, *, energy: bool = False,
+    taylor: bool | None = None, chunk_steps: int | None = None,
+) -> Compiled:
     timings: dict[str, float] = {}
     options: dict = {"jacobian": "auto" if jacobian is None else bool(jacobian)}
     if energy:
         options["energy"] = True
     if taylor is not None:
         options["taylor"] = bool(taylor)
+    if chunk_steps is not None:
+        options["chunk_steps"] = chunk_steps
     key = build_key(source, options)
     with timed(timings, "lookup"):
         package = cached_package(key)
     cached = package is not None
     if package is None:
-        package = generate_and_build(source, key, jacobian, timings, energy, taylor)
+        package = generate_and_build(source, key, jacobian, timings, energy, taylor, chunk_steps)
     with timed(timings, "load"):
         model = load_package(package)
 
     def variant(*, jacobian: bool, taylor: bool) -> Model:
         """This mechanism's build with these parts (the model's first need of one)."""
-        return compile_source(source, jacobian, energy=energy, taylor=taylor).model
+        return compile_source(source, jacobian, energy=energy, taylor=taylor,
+                              chunk_steps=chunk_steps).model
 
     model.variant_provider = variant
     return Compiled(model, package, cached, timings)
@@ -90,7 +98,7 @@ def compile_source(source: Source, jacobian: bool | None, *, energy: bool = Fals
 
 def generate_and_build(
     source: Source, key: str, jacobian: bool | None, timings: dict[str, float],
-    energy: bool = False, taylor: bool | None = None,
+    energy: bool = False, taylor: bool | None = None, chunk_steps: int | None = None,
 ) -> Path:
     from .build import build
     from .derive import derive, with_diagnostics
@@ -113,7 +121,7 @@ def generate_and_build(
     with timed(timings, "optimize"):
         block = optimize_equations(equations)
     with timed(timings, "emit"):
-        code = emit(equations, block)
+        code = emit(equations, block, chunk_steps)
     with timed(timings, "build"):
         return build(code, key)
 
