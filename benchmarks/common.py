@@ -392,3 +392,8 @@ def mode_parser(description: str, quick_help: str, smoke_help: str) -> argparse.
                         help="chain sizes, comma-separated (default: the mode's)")
     parser.add_argument("--out", type=Path, help="results folder (benchmarks/results)")
     return parser
+
+
+def mode_of(args: argparse.Namespace) -> str:
+    """The mode mode_parser's options chose: smoke, quick or full."""
+    return "smoke" if args.smoke else "quick" if args.quick else "full"

@@ -571,7 +571,7 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(sys.argv[1:] if argv is None else argv)
-    mode = "smoke" if args.smoke else "quick" if args.quick else "full"
+    mode = common.mode_of(args)
     config = MODES[mode] if args.sizes is None else replace(MODES[mode], chain_ns=args.sizes)
     print(f"nemc benchmarks, {mode} mode", flush=True)
     result = run(config)
