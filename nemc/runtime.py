@@ -12,7 +12,7 @@ import json
 import math
 import os
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -59,13 +59,40 @@ def failure_cause(y: np.ndarray, status: int, state_names: Sequence[str]) -> str
             "(e.g. a division by zero in a load expression)")
 
 
+class LazyOutputs(Mapping[str, np.ndarray]):
+    """The scene's outputs along a result, computed from its t and y on first access: a caller
+    that never reads them (a sweep, a benchmark) does not pay for them."""
+
+    def __init__(self, compute: Callable[[], dict[str, np.ndarray]]):
+        self._compute: Callable[[], dict[str, np.ndarray]] | None = compute
+        self._values: dict[str, np.ndarray] = {}
+
+    def _get(self) -> dict[str, np.ndarray]:
+        if self._compute is not None:
+            self._values, self._compute = self._compute(), None
+        return self._values
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self._get()[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._get())
+
+    def __len__(self) -> int:
+        return len(self._get())
+
+    def __repr__(self) -> str:
+        return repr(self._get())
+
+
 @dataclass
 class SimulationResult:
-    """As scipy's OdeResult, plus the scene's outputs at every returned time."""
+    """As scipy's OdeResult, plus the scene's outputs at every returned time (computed when
+    first read)."""
 
     t: np.ndarray
     y: np.ndarray
-    outputs: dict[str, np.ndarray]
+    outputs: Mapping[str, np.ndarray]
     nfev: int
     njev: int
     nlu: int
@@ -402,10 +429,10 @@ class Model:
             )
         except IntegrationFailure as failure:
             return self._failed(failure, method, rtol, atol, params)
-        outputs = self.outputs(sol.t, sol.y, params) if sol.t.size else {}
         return SimulationResult(
-            t=sol.t, y=sol.y, outputs=outputs, nfev=int(sol.nfev), njev=int(sol.njev),
-            nlu=int(sol.nlu), status=int(sol.status), message=self._message(sol, rhs.last),
+            t=sol.t, y=sol.y, outputs=self._lazy_outputs(sol.t, sol.y, p),
+            nfev=int(sol.nfev), njev=int(sol.njev), nlu=int(sol.nlu), status=int(sol.status),
+            message=self._message(sol, rhs.last),
             success=bool(sol.success), method=method, rtol=rtol, atol=atol,
             params=dict(zip(self.parameter_names, p.tolist())),
         )
@@ -502,13 +529,19 @@ class Model:
         if status not in NATIVE_MESSAGES:
             raise RuntimeError(f"{method}: the native integrator failed (status {status})")
         return SimulationResult(
-            t=t, y=y, outputs=self.outputs(t, y, dict(zip(self.parameter_names, p)))
-            if t.size else {}, nfev=int(run.nfev), njev=int(run.njev), nlu=int(run.nlu),
-            status=status, success=status == 0, method=method,
+            t=t, y=y, outputs=self._lazy_outputs(t, y, p), nfev=int(run.nfev),
+            njev=int(run.njev), nlu=int(run.nlu), status=status, success=status == 0, method=method,
             message=NATIVE_MESSAGES[status] if status == 0
             else self._gave_up(NATIVE_MESSAGES[status], run.t_fail, y_fail),
             rtol=run.rtol, atol=run.atol, params=self.parameters_at(p),
         )
+
+    def _lazy_outputs(self, t: np.ndarray, y: np.ndarray, p: np.ndarray) -> LazyOutputs:
+        """The outputs along (t, y) at parameter vector p, computed when first read."""
+        if not t.size or not self.output_names:
+            return LazyOutputs(dict)
+        params = self.parameters_at(p)
+        return LazyOutputs(lambda: self.outputs(t, y, params))
 
     def parameters_at(self, p: np.ndarray) -> dict[str, float]:
         return dict(zip(self.parameter_names, p.tolist()))
@@ -647,11 +680,16 @@ def checked_times(times: np.ndarray, span: tuple[float, ...]) -> np.ndarray:
     t0, tf = span
     if times.ndim != 1:
         raise ModelError("`t_eval` must be 1-dimensional.")
-    if np.any(times < min(t0, tf)) or np.any(times > max(t0, tf)):
+    if not times.size:
+        return times
+    if times.min() < min(t0, tf) or times.max() > max(t0, tf):  # NaN fails neither: below
         raise ModelError("Values in `t_eval` are not within `t_span`.")
-    d = np.diff(times)
-    if (tf > t0 and np.any(d <= 0)) or (tf < t0 and np.any(d >= 0)):
-        raise ModelError("Values in `t_eval` are not properly sorted.")
+    if not np.isfinite(times).all():
+        raise ModelError("Values in `t_eval` are not within `t_span`.")
+    if times.size > 1:
+        d = np.diff(times)
+        if (tf > t0 and not d.min() > 0) or (tf < t0 and not d.max() < 0):
+            raise ModelError("Values in `t_eval` are not properly sorted.")
     return times
 
 

@@ -225,6 +225,10 @@ def test_t_eval_is_checked(pendulum) -> None:
         pendulum.simulate((0, 1), method="nemc.DOP853", t_eval=[0.5, 0.2])
     with pytest.raises(ModelError, match="not within"):
         pendulum.simulate((0, 1), method="nemc.DOP853", t_eval=[2.0])
+    with pytest.raises(ModelError, match="not within"):
+        pendulum.simulate((0, 1), method="nemc.DOP853", t_eval=[0.5, float("nan")])
+    backwards = pendulum.simulate((1, 0), method="nemc.DOP853", t_eval=[0.75, 0.25])
+    assert backwards.success and list(backwards.t) == [0.75, 0.25]
 
 
 def test_default_method_is_native_when_the_scene_names_none(tmp_path: Path) -> None:
