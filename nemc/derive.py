@@ -23,9 +23,11 @@ import sympy
 from . import model as m
 from .articulated import dynamics_program, inverse_mass_program
 from .kinematics import Kinematics, applied_loads
+from .mass_form import MAX_COORDINATES, mass_form_program
 from .outputs import derive_outputs
 from .program import Program
 from .tangent import tangent_program
+from .taylor import series_cost
 from .values import resolve_values
 
 
@@ -46,7 +48,7 @@ class Equations:
     initial_state: tuple[sympy.Expr, ...]
     jacobian: Program | None = None  # d qdd / d y along seed[]: see tangent.py
     inverse_mass: Program | None = None  # M^-1 Q at rest, with the jacobian
-    taylor: bool = False  # emit nemc.Taylor's coefficients of dynamics (nemc/taylor.py)
+    taylor: Program | None = None  # the program nemc.Taylor's coefficients come from, if built
 
     @property
     def n(self) -> int:
@@ -140,6 +142,18 @@ def with_diagnostics(eqs: Equations) -> Equations:
         jacobian=tangent_program(eqs.dynamics, state),
         inverse_mass=inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism)),
     )
+
+
+def with_taylor(eqs: Equations) -> Equations:
+    """Ask for nemc.Taylor's code, from the program with the fewer Cauchy sums per order: the
+    articulated-body program, or on small mechanisms the mass-matrix form (nemc/mass_form.py)."""
+    state = [s for pair in zip(eqs.coordinates, eqs.speeds) for s in pair]
+    program = eqs.dynamics
+    if eqs.n <= MAX_COORDINATES:
+        candidate = mass_form_program(*eqs.mass_forcing)
+        if series_cost(candidate, state, m.TIME) < series_cost(program, state, m.TIME):
+            program = candidate
+    return dataclasses.replace(eqs, taylor=program)
 
 
 def initial_state(mech: m.Mechanism, runtime) -> tuple[sympy.Expr, ...]:

@@ -74,8 +74,9 @@ def symbol_table(eqs: Equations, block: Block) -> dict[sympy.Symbol, str]:
     names.update({s: f"Q[{k}]" for k, s in enumerate(generalized_force_symbols(eqs.n))})
     names.update({s: f"seed[{k}]" for k, s in enumerate(seed_symbols(2 * eqs.n))})
     names.update({s: s.name for s, _ in block.temporaries})
-    for program in block.programs.values():
-        names.update({s: s.name for s, _ in program.assignments()})
+    for program in (*block.programs.values(), eqs.taylor):
+        if program is not None:
+            names.update({s: s.name for s, _ in program.assignments()})
     return names
 
 
@@ -446,12 +447,12 @@ def native_section(eqs: Equations, prefix: str, taylor: str) -> str:
 
 def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, str | None]:
     """nemc.Taylor's C when the build asks for it: (source, None), or ("", why it cannot be)."""
-    if not eqs.taylor:
+    if eqs.taylor is None:
         return "", None
     state = [s for pair in zip(eqs.coordinates, eqs.speeds) for s in pair]
     rows = [f"x{i}" for i in range(len(state))]
     try:
-        code = series_code(eqs.dynamics, state, rows, m.TIME, printer.doprint)
+        code = series_code(eqs.taylor, state, rows, m.TIME, printer.doprint)
     except TaylorUnsupported as why:
         return "", str(why)
     declarations = [f"double *{row} = x + {i} * TAYLOR_STRIDE;" for i, row in enumerate(rows)]
@@ -487,6 +488,8 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None) -> Emitte
     info = metadata(eqs, prefix)
     if taylor:
         info["generated"].append("taylor")
+        info["taylor_program"] = ("articulated body" if eqs.taylor is eqs.dynamics
+                                  else "mass matrix")
     if taylor_unavailable:
         info["taylor_unavailable"] = taylor_unavailable
     return Emitted(

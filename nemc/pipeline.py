@@ -101,7 +101,7 @@ def generate_and_build(
     energy: bool = False, taylor: bool | None = None, chunk_steps: int | None = None,
 ) -> Path:
     from .build import build
-    from .derive import derive, with_diagnostics
+    from .derive import derive, with_diagnostics, with_taylor
     from .emit import emit
     from .optimize import optimize_equations
     from .runtime import IMPLICIT_METHODS
@@ -117,7 +117,7 @@ def generate_and_build(
         if jacobian or (jacobian is None and method in IMPLICIT_METHODS):
             equations = with_diagnostics(equations)
         if taylor or (taylor is None and method == "nemc.Taylor"):
-            equations = dataclasses.replace(equations, taylor=True)
+            equations = with_taylor(equations)
     with timed(timings, "optimize"):
         block = optimize_equations(equations)
     with timed(timings, "emit"):

@@ -206,8 +206,8 @@ class SeriesWriter:
         first, second = (kind(argument) for kind in kinds)
         if expr not in self.series:
             row = self.row_of(argument)
-            a, b = self.temporary(), self.temporary()
-            self.loop.append(f"{helper}({row}, {a}, {b}, k);")
+            derivative, a, b = self.temporary(), self.temporary(), self.temporary()
+            self.loop.append(f"{helper}({row}, {derivative}, {a}, {b}, k);")
             self.series[first], self.series[second] = a, b
         return self.series[expr]
 
@@ -220,10 +220,15 @@ class SeriesWriter:
     def unary(self, helper: str, expr: sympy.Expr) -> str:
         if expr not in self.series:
             row = self.row_of(expr.args[0])
+            derivative = [self.temporary()] if helper in DERIVATIVE_ROW else []
             name = self.temporary()
-            self.loop.append(f"{name}[k] = {helper}({row}, {name}, k);")
+            self.loop.append(f"{name}[k] = {helper}({', '.join([row, *derivative, name])}, k);")
             self.series[expr] = name
         return self.series[expr]
+
+
+# recurrences whose C function keeps the row j a[j] of its argument (templates/taylor.c.tmpl)
+DERIVATIVE_ROW = {"series_exp"}
 
 
 def is_reciprocal(expr: sympy.Expr) -> bool:
@@ -255,8 +260,8 @@ def series_code(program: Program, state: Sequence[sympy.Symbol], state_rows: Seq
         q_row, dq_row = state_rows[2 * i], state_rows[2 * i + 1]
         value = (f"(k == 0 ? {writer.scalar_value(result)} : 0.0)" if writer.is_constant(result)
                  else writer.coefficient(result))
-        writer.loop.append(f"{q_row}[k + 1] = {dq_row}[k] / (k + 1);")
-        writer.loop.append(f"{dq_row}[k + 1] = {value} / (k + 1);")
+        writer.loop.append(f"{q_row}[k + 1] = {dq_row}[k] * (1.0 / (k + 1));")
+        writer.loop.append(f"{dq_row}[k + 1] = {value} * (1.0 / (k + 1));")
     start = ("tt[0] = t;", "for (int j = 1; j <= order; ++j)", "    tt[j] = j == 1 ? 1.0 : 0.0;")
     # lines are relative to the block they sit in: "    " marks one more level
     if writer.uses_time:
@@ -264,6 +269,23 @@ def series_code(program: Program, state: Sequence[sympy.Symbol], state_rows: Seq
         writer._rows += 1
     return SeriesCode(writer._rows, tuple(writer.declarations), tuple(writer.constants),
                       start if writer.uses_time else (), tuple(writer.loop))
+
+
+# Cauchy sums per order of each recurrence: what a program costs nemc.Taylor (sums and constant
+# factors cost next to nothing)
+SERIES_WEIGHTS = {"series_product": 1, "series_quotient": 1, "series_reciprocal": 1,
+                  "series_sincos": 2, "series_sinhcosh": 2, "series_exp": 1, "series_log": 1,
+                  "series_power": 1}
+
+
+def series_cost(program: Program, state: Sequence[sympy.Symbol], time: sympy.Symbol) -> float:
+    """The Cauchy sums per order of the program's coefficients (inf: unsupported)."""
+    try:
+        code = series_code(program, state, [f"x{i}" for i in range(len(state))], time, str)
+    except TaylorUnsupported:
+        return float("inf")
+    return sum(weight * line.count(f"{name}(") for line in code.loop
+               for name, weight in SERIES_WEIGHTS.items())
 
 
 def guard(writer: SeriesWriter, step: Guard) -> None:

@@ -1,0 +1,115 @@
+"""The accelerations from the book's mass-matrix form, as a straight-line program.
+
+M(q) qdd = f(t, q, dq) (derive.newton_euler), with every entry linearized in its sines and
+cosines, the entries' common subexpressions named once, and M solved by LDL^T (Cholesky without
+square roots) written out as steps.
+
+The right-hand side comes from the articulated-body program (nemc/articulated.py), whose size is
+linear in the number of bodies. Taylor's method weighs programs differently: each product of two
+time-varying values costs a Cauchy sum at every order, a sum or a constant factor almost nothing.
+On two or three bodies this form has several times fewer such products than the articulated-body
+program (the double pendulum: 15 series operations against 45), so nemc.Taylor's coefficients
+come from whichever program is cheaper (taylor.series_cost). Past MAX_COORDINATES the form is
+not derived: its symbolic cost and its size grow as n^3 and faster.
+"""
+
+from __future__ import annotations
+
+import math
+
+import sympy
+from sympy.simplify.fu import TR8
+
+from .program import Program, ProgramBuilder
+
+MAX_COORDINATES = 4  # chain of 4: 1.1 s to derive and linearize; chain of 6: 7 s
+MAX_TERMS = 400  # a polynomial with more terms multiplied out is left as it is
+GROWTH = 4  # linearized entries at most this many times larger than M's and f's (count_ops)
+
+
+def linearized(expr: sympy.Expr) -> sympy.Expr:
+    """expr with products of sines and cosines rewritten as sums (sympy's TR8), like terms
+    collected: sin(a)**2 + cos(a)**2 becomes 1, cos(a)*cos(b) + sin(a)*sin(b) cos(a - b).
+
+    Only the polynomial in sines and cosines is multiplied out: any other function, root or
+    quotient (a spring's length, a load's division) stands for itself meanwhile, with its own
+    arguments linearized, so expanding cannot blow up inside it. A result larger than
+    GROWTH times the input is not used."""
+    stand_ins: dict[sympy.Expr, sympy.Symbol] = {}
+    polynomial = _stand_in(expr, stand_ins)
+    if expanded_terms(polynomial) > MAX_TERMS:
+        return expr
+    polynomial = sympy.expand(TR8(sympy.expand(polynomial)))
+    result = polynomial.xreplace({symbol: value for value, symbol in stand_ins.items()})
+    return result if sympy.count_ops(result) <= GROWTH * sympy.count_ops(expr) + 8 else expr
+
+
+def expanded_terms(expr: sympy.Expr) -> int:
+    """An upper bound of the number of terms of expr multiplied out (before TR8)."""
+    if expr.is_Add:
+        return sum(expanded_terms(arg) for arg in expr.args)
+    if expr.is_Mul:
+        return math.prod(expanded_terms(arg) for arg in expr.args)
+    if expr.is_Pow and expr.exp.is_Integer and expr.exp > 0:
+        return expanded_terms(expr.base) ** int(expr.exp)
+    return 1
+
+
+def _stand_in(expr: sympy.Expr, stand_ins: dict[sympy.Expr, sympy.Symbol]) -> sympy.Expr:
+    """expr as a polynomial in atoms, sines and cosines, and stand-in symbols for the rest."""
+    if expr.is_Atom or isinstance(expr, (sympy.sin, sympy.cos)):
+        return expr
+    if expr.is_Add or expr.is_Mul:
+        return expr.func(*(_stand_in(arg, stand_ins) for arg in expr.args))
+    if expr.is_Pow and expr.exp.is_Integer and expr.exp > 0:
+        return _stand_in(expr.base, stand_ins) ** expr.exp
+    inner = expr.func(*(linearized(arg) for arg in expr.args))
+    if inner not in stand_ins:
+        stand_ins[inner] = sympy.Dummy(f"u{len(stand_ins)}")
+    return stand_ins[inner]
+
+
+def mass_form_program(mass: sympy.Matrix, forcing: sympy.Matrix) -> Program:
+    """The accelerations qdd = M^-1 f as a program. Guard j + 1: pivot j of M's LDL^T is not
+    positive (the leading (j + 1) x (j + 1) block of the mass matrix is singular there)."""
+    n = mass.shape[0]
+    builder = ProgramBuilder("m")
+    lower = [(i, j) for i in range(n) for j in range(i + 1)]
+    exprs = [linearized(mass[i, j]) for i, j in lower] + [linearized(f) for f in forcing]
+    temporaries, reduced = sympy.cse(
+        exprs, symbols=sympy.numbered_symbols("e", cls=sympy.Dummy, real=True), order="none")
+    named: dict[sympy.Symbol, sympy.Expr] = {}
+    for symbol, expr in temporaries:
+        named[symbol] = builder.let(expr.xreplace(named))
+    values = [builder.let(expr.xreplace(named)) for expr in reduced]
+    entries = dict(zip(lower, values))
+    return builder.finish(ldl_solve(builder, entries, values[len(lower):]))
+
+
+def ldl_solve(builder: ProgramBuilder, mass: dict[tuple[int, int], sympy.Expr],
+              forcing: list[sympy.Expr]) -> list[sympy.Expr]:
+    """x with M x = f, M symmetric positive definite given by its lower triangle, as steps.
+
+    E[i, j] = M[i, j] - sum_{k<j} E[i, k] L[j, k] (so L[i, j] = E[i, j] / d[j], d[j] = E[j, j]):
+    one product per term, one quotient per entry of L."""
+    n = len(forcing)
+    scaled: dict[tuple[int, int], sympy.Expr] = {}  # E
+    unit: dict[tuple[int, int], sympy.Expr] = {}  # L
+    pivots: list[sympy.Expr] = []
+    for j in range(n):
+        for i in range(j, n):
+            scaled[i, j] = builder.let(
+                mass[i, j] - sum((scaled[i, k] * unit[j, k] for k in range(j)), sympy.S.Zero))
+        pivots.append(scaled[j, j])
+        builder.require_positive(pivots[j], j + 1)
+        for i in range(j + 1, n):
+            unit[i, j] = builder.let(scaled[i, j] / pivots[j])
+    z: list[sympy.Expr] = []
+    for i in range(n):  # L z = f
+        z.append(builder.let(forcing[i] - sum((unit[i, k] * z[k] for k in range(i)),
+                                              sympy.S.Zero)))
+    x: list[sympy.Expr] = [sympy.S.Zero] * n
+    for i in reversed(range(n)):  # D L^T x = z
+        x[i] = builder.let(z[i] / pivots[i] - sum((unit[k, i] * x[k] for k in range(i + 1, n)),
+                                                  sympy.S.Zero))
+    return x

@@ -1,0 +1,105 @@
+"""The mass-matrix form as a program (nemc/mass_form.py), nemc.Taylor's program on small
+mechanisms: its accelerations against the articulated-body program's (two derivations: Newton-Euler
+projected onto the joints and solved by LDL^T, against Featherstone's recursion), the choice of
+the cheaper program, and Taylor's method on it against Vern9."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy
+from reference import random_mechanism_yaml
+
+import nemc
+from nemc import model as m
+from nemc.derive import derive, with_taylor
+from nemc.mass_form import MAX_COORDINATES, linearized, mass_form_program
+from nemc.program import Guard, Program
+from nemc.taylor import series_cost
+from nemc.validate import validate_text
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+BOOK = ["compound_pendulum", "double_pendulum", "robot_arm", "two_link_robot_arm"]
+
+
+def run(program: Program, values: dict[sympy.Symbol, float]) -> np.ndarray:
+    """The program's results at these values of its free symbols (guards must hold)."""
+    env: dict[sympy.Symbol, sympy.Expr] = {k: sympy.Float(v, 30) for k, v in values.items()}
+    for step in program.steps:
+        if isinstance(step, Guard):
+            assert float(step.value.xreplace(env)) > 0
+            continue
+        name, expr = step
+        env[name] = sympy.N(expr.xreplace(env), 30)
+    return np.array([float(sympy.N(r.xreplace(env), 30)) for r in program.results])
+
+
+def equations_of(text: str, name: str):
+    return derive(validate_text(text.encode(), f"{name}.yaml"))
+
+
+def random_values(eqs, rng: np.random.Generator) -> dict[sympy.Symbol, float]:
+    values = dict(zip(eqs.parameters, eqs.parameter_defaults))
+    for q, u in zip(eqs.coordinates, eqs.speeds):
+        values[q], values[u] = rng.uniform(-1.5, 1.5), rng.uniform(-2, 2)
+    values[m.TIME] = rng.uniform(0, 3)
+    return values
+
+
+def assert_same_accelerations(eqs, rng: np.random.Generator, trials: int = 3) -> None:
+    mass_form = mass_form_program(*eqs.mass_forcing)
+    for _ in range(trials):
+        values = random_values(eqs, rng)
+        expected = run(eqs.dynamics, values)
+        np.testing.assert_allclose(run(mass_form, values), expected, rtol=1e-11,
+                                   atol=1e-11 * max(1.0, np.abs(expected).max()))
+
+
+@pytest.mark.parametrize("name", BOOK)
+def test_book_systems_agree_with_the_articulated_body_program(name: str) -> None:
+    path = EXAMPLES / f"{name}.yaml"
+    assert_same_accelerations(equations_of(path.read_text(), name), np.random.default_rng(3))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_random_mechanisms_agree_with_the_articulated_body_program(seed: int) -> None:
+    """Prismatic, weld and free joints, springs, loads in t and dot(q)."""
+    rng = np.random.default_rng(100 + seed)
+    text = random_mechanism_yaml(rng, 2 + seed % 2, tree=seed >= 2, name=f"small{seed}")
+    assert_same_accelerations(equations_of(text, f"small{seed}"), rng)
+
+
+def test_linearized_collects_sines_and_cosines() -> None:
+    a, b = sympy.symbols("a b", real=True)
+    assert linearized(sympy.sin(a) ** 2 + sympy.cos(a) ** 2) == 1
+    assert linearized(sympy.cos(a) * sympy.cos(b) + sympy.sin(a) * sympy.sin(b)) == sympy.cos(a - b)
+
+
+def test_taylor_uses_the_cheaper_program() -> None:
+    """The double pendulum: the mass-matrix form has under half the Cauchy sums; a chain past
+    MAX_COORDINATES keeps the articulated-body program (the form is not derived)."""
+    eqs = with_taylor(equations_of((EXAMPLES / "double_pendulum.yaml").read_text(), "dp"))
+    state = [s for pair in zip(eqs.coordinates, eqs.speeds) for s in pair]
+    assert eqs.taylor is not eqs.dynamics
+    assert series_cost(eqs.taylor, state, m.TIME) < series_cost(eqs.dynamics, state, m.TIME) / 2
+    chain = equations_of(random_mechanism_yaml(np.random.default_rng(5), 7, tree=False), "long")
+    assert chain.n > MAX_COORDINATES
+    assert with_taylor(chain).taylor is chain.dynamics
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_taylor_on_the_mass_form_against_vern9(tmp_path: Path, seed: int) -> None:
+    rng = np.random.default_rng(200 + seed)
+    path = tmp_path / f"small{seed}.yaml"
+    path.write_text(random_mechanism_yaml(rng, 2, tree=False, name=f"small{seed}"))
+    model = nemc.compile(path, taylor=True)
+    assert model.metadata["taylor_program"] == "mass matrix"
+    y0, t_eval = model.initial_state(), np.linspace(0.0, 2.0, 9)
+    result = model.simulate((0.0, 2.0), y0, method="nemc.Taylor", rtol=1e-11, atol=1e-13,
+                            t_eval=t_eval)
+    assert result.success, result.message
+    reference = model.simulate((0.0, 2.0), y0, method="nemc.Vern9", rtol=1e-13, atol=1e-15,
+                               t_eval=t_eval).y
+    assert np.abs(result.y - reference).max() < 1e-8 * max(1.0, np.abs(reference).max())
