@@ -162,7 +162,10 @@ class SeriesWriter:
                 continue
             other = self.row_of(factors[count - 1])
             name = self.temporary()
-            self.loop.append(f"{name}[k] = series_product({row}, {other}, k);")
+            if other == row:
+                self.loop.append(f"{name}[k] = series_square({row}, k);")
+            else:
+                self.loop.append(f"{name}[k] = series_product({row}, {other}, k);")
             self.series[partial] = row = name
         return row
 
@@ -273,9 +276,9 @@ def series_code(program: Program, state: Sequence[sympy.Symbol], state_rows: Seq
 
 # Cauchy sums per order of each recurrence: what a program costs nemc.Taylor (sums and constant
 # factors cost next to nothing)
-SERIES_WEIGHTS = {"series_product": 1, "series_quotient": 1, "series_reciprocal": 1,
-                  "series_sincos": 2, "series_sinhcosh": 2, "series_exp": 1, "series_log": 1,
-                  "series_power": 1}
+SERIES_WEIGHTS = {"series_product": 1, "series_square": 0.5, "series_quotient": 1,
+                  "series_reciprocal": 1, "series_sincos": 2, "series_sinhcosh": 2,
+                  "series_exp": 1, "series_log": 1, "series_power": 1}
 
 
 def series_cost(program: Program, state: Sequence[sympy.Symbol], time: sympy.Symbol) -> float:
