@@ -8,9 +8,11 @@ The right-hand side comes from the articulated-body program (nemc/articulated.py
 linear in the number of bodies. Taylor's method weighs programs differently: each product of two
 time-varying values costs a Cauchy sum at every order, a sum or a constant factor almost nothing.
 On two or three bodies this form has several times fewer such products than the articulated-body
-program (the double pendulum: 15 series operations against 45), so nemc.Taylor's coefficients
-come from whichever program is cheaper (taylor.series_cost). Past MAX_COORDINATES the form is
-not derived: its symbolic cost and its size grow as n^3 and faster.
+program (the double pendulum: 13 Cauchy sums per order against 40.5), so nemc.Taylor's
+coefficients come from whichever program is cheaper (taylor.series_cost). Past MAX_COORDINATES
+the form is not derived: its symbolic cost and its size grow as n^3 and faster. Entries whose
+multiplied-out polynomial would exceed MAX_TERMS terms (springs' lengths inside products) are
+left as they are.
 """
 
 from __future__ import annotations
