@@ -21,6 +21,7 @@ import importlib.util
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -408,16 +409,22 @@ def run_worker(spec: dict[str, Any], timeout: float) -> dict[str, Any]:
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(
             p for p in (str(common.ROOT), os.environ.get("PYTHONPATH", "")) if p))
         start = time.perf_counter()
+        # A session of its own: on timeout the whole group goes, the peer's compiler too (a
+        # JiTCODE gcc left running took a core and 7 GB through the next benchmark).
+        worker = subprocess.Popen([sys.executable, str(Path(__file__).resolve()), str(spec_file),
+                                   str(out_file)], stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True, env=env,
+                                  start_new_session=True)
         try:
-            done = subprocess.run([sys.executable, str(Path(__file__).resolve()), str(spec_file),
-                                   str(out_file)], capture_output=True, text=True,
-                                  timeout=timeout, env=env)
+            _, stderr = worker.communicate(timeout=timeout)
         except subprocess.TimeoutExpired:
+            os.killpg(worker.pid, signal.SIGKILL)
+            worker.communicate()
             return {"peer": spec["peer"], "failure": f"did not finish in {timeout:.0f} s "
                     "(time budget)", "wall_seconds": timeout}
         result = json.loads(out_file.read_text()) if out_file.is_file() else {
-            "peer": spec["peer"], "failure": f"worker exit {done.returncode}: "
-            f"{(done.stderr.strip().splitlines() or ['?'])[-1]}"}
+            "peer": spec["peer"], "failure": f"worker exit {worker.returncode}: "
+            f"{(stderr.strip().splitlines() or ['?'])[-1]}"}
         result["wall_seconds"] = time.perf_counter() - start
         return result
 
