@@ -54,6 +54,11 @@ class Equations:
     def n(self) -> int:
         return len(self.coordinates)
 
+    @property
+    def state(self) -> tuple[sympy.Symbol, ...]:
+        """The state in y's order: each coordinate followed by its rate."""
+        return tuple(s for pair in zip(self.coordinates, self.speeds) for s in pair)
+
     @cached_property
     def mass_forcing(self) -> tuple[sympy.Matrix, sympy.Matrix]:
         """M and f of the book's form M(q) qdd = f(t, q, dq), in runtime symbols."""
@@ -136,10 +141,9 @@ def derive(mech: m.Mechanism) -> Equations:
 
 def with_diagnostics(eqs: Equations) -> Equations:
     """Add the Jacobian (forward-mode derivative of the program) and M^-1 for diagnostics."""
-    state = [s for pair in zip(eqs.coordinates, eqs.speeds) for s in pair]
     return dataclasses.replace(
         eqs,
-        jacobian=tangent_program(eqs.dynamics, state),
+        jacobian=tangent_program(eqs.dynamics, eqs.state),
         inverse_mass=inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism)),
     )
 
@@ -147,11 +151,10 @@ def with_diagnostics(eqs: Equations) -> Equations:
 def with_taylor(eqs: Equations) -> Equations:
     """Ask for nemc.Taylor's code, from the program with the fewer Cauchy sums per order: the
     articulated-body program, or on small mechanisms the mass-matrix form (nemc/mass_form.py)."""
-    state = [s for pair in zip(eqs.coordinates, eqs.speeds) for s in pair]
     program = eqs.dynamics
     if eqs.n <= MAX_COORDINATES:
         candidate = mass_form_program(*eqs.mass_forcing)
-        if series_cost(candidate, state, m.TIME) < series_cost(program, state, m.TIME):
+        if series_cost(candidate, eqs.state, m.TIME) < series_cost(program, eqs.state, m.TIME):
             program = candidate
     return dataclasses.replace(eqs, taylor=program)
 

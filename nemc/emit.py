@@ -455,10 +455,9 @@ def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, st
     """nemc.Taylor's C when the build asks for it: (source, None), or ("", why it cannot be)."""
     if eqs.taylor is None:
         return "", None
-    state = [s for pair in zip(eqs.coordinates, eqs.speeds) for s in pair]
-    rows = [f"x{i}" for i in range(len(state))]
+    rows = [f"x{i}" for i in range(len(eqs.state))]
     try:
-        code = series_code(eqs.taylor, state, rows, m.TIME, printer.doprint)
+        code = series_code(eqs.taylor, eqs.state, rows, m.TIME, printer.doprint)
     except TaylorUnsupported as why:
         return "", str(why)
     declarations = [f"double *{row} = x + {i} * TAYLOR_STRIDE;" for i, row in enumerate(rows)]
