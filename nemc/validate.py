@@ -21,6 +21,7 @@ import sympy
 
 from nemc.errors import InputError, Problem
 from nemc.expr import RESERVED, Budget, ExprError, Scope, parse_expression, suggest
+from nemc.methods import METHODS  # the scene accepts exactly what simulate accepts
 from nemc.model import (
     GROUND,
     Body,
@@ -40,7 +41,6 @@ from nemc.model import (
     symbol,
 )
 from nemc.parse import Node, parse_text
-from nemc.runtime import METHODS  # the scene accepts exactly what simulate accepts
 
 JOINT_TYPES = ("revolute", "prismatic", "free", "weld")
 LOAD_KINDS = ("torque", "force", "spring", "joint_spring")
