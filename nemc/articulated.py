@@ -25,7 +25,6 @@ only unit generalized forces applied, which gives the columns of M^-1 for diagno
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -416,13 +415,12 @@ def dynamics_program(mech: m.Mechanism, value: Callable) -> Program:
     return ArticulatedBody(mech, value).run()
 
 
-@functools.cache
 def generalized_force_symbols(n: int) -> tuple[sympy.Symbol, ...]:
-    """Q_k as symbols no name from the file can equal (the emitter prints them as Q[k])."""
+    """Q_k as new symbols no name from the file can equal (the emitter prints them as Q[k])."""
     return tuple(sympy.Dummy(f"generalized_force_{k}", real=True) for k in range(n))
 
 
-def inverse_mass_program(mech: m.Mechanism, value: Callable) -> Program:
-    """M^-1 Q at rest with only the generalized forces Q (generalized_force_symbols) applied."""
-    forces = generalized_force_symbols(len(mech.coordinates))
+def inverse_mass_program(mech: m.Mechanism, value: Callable,
+                         forces: Sequence[sympy.Symbol]) -> Program:
+    """M^-1 Q at rest with only the generalized forces Q (symbols, one per coordinate)."""
     return ArticulatedBody(mech, value, at_rest=True).run(forces)
