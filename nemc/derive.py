@@ -27,7 +27,7 @@ from .mass_form import MAX_COORDINATES, mass_form_program
 from .outputs import derive_outputs
 from .program import Program
 from .tangent import seed_symbols, tangent_program
-from .taylor import series_cost
+from .taylor import series_cost, unsupported_operation
 from .values import resolve_values
 
 
@@ -52,6 +52,7 @@ class Equations:
     inverse_mass: Program | None = None  # M^-1 Q at rest, with the jacobian
     generalized_forces: tuple[sympy.Symbol, ...] = ()  # Q, the inverse_mass program's input
     taylor: Program | None = None  # the program nemc.Taylor's coefficients come from, if built
+    taylor_unavailable: str | None = None  # why nemc.Taylor cannot be built: FILE:LINE: ...
 
     @property
     def n(self) -> int:
@@ -157,7 +158,12 @@ def with_diagnostics(eqs: Equations) -> Equations:
 
 def with_taylor(eqs: Equations) -> Equations:
     """Ask for nemc.Taylor's code, from the program with the fewer Cauchy sums per order: the
-    articulated-body program, or on small mechanisms the mass-matrix form (nemc/mass_form.py)."""
+    articulated-body program, or on small mechanisms the mass-matrix form (nemc/mass_form.py).
+    A load whose expressions have no Taylor recurrence makes it unavailable, said with the
+    load's FILE:LINE."""
+    refusal = taylor_refusal(eqs)
+    if refusal is not None:
+        return dataclasses.replace(eqs, taylor_unavailable=refusal)
     program = eqs.dynamics
     if eqs.n <= MAX_COORDINATES:
         candidate = mass_form_program(*eqs.mass_forcing)
@@ -165,6 +171,20 @@ def with_taylor(eqs: Equations) -> Equations:
                 < series_cost(program, eqs.coordinates, eqs.speeds, m.TIME)):
             program = candidate
     return dataclasses.replace(eqs, taylor=program)
+
+
+def taylor_refusal(eqs: Equations) -> str | None:
+    """Where the equations use an operation with no Taylor recurrence here, with its place in
+    the file, or None."""
+    runtime, varying = runtime_values(eqs.mechanism), {*eqs.state, m.TIME}
+    for load in eqs.mechanism.loads:
+        for key, expr in load.expressions():
+            why = unsupported_operation(runtime(expr), varying)
+            if why is not None:
+                where = load.location
+                return (f"{where.file}:{where.line}: {where.key}.{key}: {why} has no Taylor "
+                        "recurrence here")
+    return None
 
 
 def initial_state(mech: m.Mechanism, runtime) -> tuple[sympy.Expr, ...]:

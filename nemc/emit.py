@@ -398,8 +398,7 @@ def generated_functions(eqs: Equations) -> list[str]:
 
 def coordinate_kinds(mech: m.Mechanism) -> list[str]:
     """"angle" or "length" for each coordinate (plots show angles in degrees)."""
-    kinds = {"revolute": ["angle"], "prismatic": ["length"], "free": ["length", "length", "angle"]}
-    return [kind for joint in mech.joints for kind in kinds.get(joint.type, [])]
+    return [kind for joint in mech.joints for kind in joint.coordinate_kinds]
 
 
 def metadata(eqs: Equations, prefix: str) -> dict:
@@ -469,6 +468,8 @@ def taylor_declarations(eqs: Equations) -> list[str]:
 
 def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, str | None]:
     """nemc.Taylor's C when the build asks for it: (source, None), or ("", why it cannot be)."""
+    if eqs.taylor_unavailable is not None:
+        return "", eqs.taylor_unavailable
     if eqs.taylor is None:
         return "", None
     try:

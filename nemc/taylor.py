@@ -246,6 +246,24 @@ class SeriesWriter:
 DERIVATIVE_ROW = {"series_exp"}
 
 
+SMOOTH_FUNCTIONS = (sympy.sin, sympy.cos, sympy.sinh, sympy.cosh, sympy.exp, sympy.log)
+
+
+def unsupported_operation(expr: sympy.Expr, varying: set[sympy.Symbol]) -> str | None:
+    """What in expr has no Taylor recurrence here when `varying` change with time (None: every
+    operation has one): the operations SeriesWriter.coefficient takes, checked up front."""
+    for node in sympy.preorder_traversal(expr):
+        if not node.free_symbols & varying or node.is_Symbol or node.is_Add or node.is_Mul:
+            continue
+        if node.is_Pow:
+            if node.exp.free_symbols & varying:
+                return "a power with a time-varying exponent"
+            continue
+        if not isinstance(node, SMOOTH_FUNCTIONS):
+            return f"{type(node).__name__.lower()} of a time-varying value"
+    return None
+
+
 def is_reciprocal(expr: sympy.Expr) -> bool:
     return bool(expr.is_Pow and expr.args[1].is_Integer and expr.args[1] < 0)
 

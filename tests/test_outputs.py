@@ -28,14 +28,11 @@ import yaml
 from reference import ReferenceModel, body_frames, random_mechanism_yaml, resolve_parameters
 
 import nemc
+from nemc.loads import Force, JointSpring, Spring, Torque
 from nemc.model import (
     GROUND,
     TIME,
-    Force,
-    JointSpring,
     Mechanism,
-    Spring,
-    Torque,
     rate_symbol,
     symbol,
 )
