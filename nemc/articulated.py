@@ -189,7 +189,7 @@ class ArticulatedBody:
     def _motion(self, node: Node) -> None:
         joint, parent_v = node.joint, self.velocity(node.parent)
         speeds = [self.speed(c) for c in joint.coordinates]
-        node.axes, node.rates = joint.motion(self.frame(joint.parent),
+        node.axes, node.rates = joint.motion_subspace(self.frame(joint.parent),
                                              self.geo.origin[joint.child], parent_v, speeds)
         if len(node.axes) > 1 and not joint.floating:
             raise NotImplementedError(f"{joint.type} joint {joint.name}: the articulated-body "

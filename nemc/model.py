@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 import sympy
 
 if TYPE_CHECKING:  # the kinds build on this module's values
+    from .constraints import Constraint
     from .joints import Joint
     from .loads import Load
 
@@ -88,17 +89,17 @@ class PointRef:
 
 @dataclass(frozen=True)
 class Outputs:
-    reactions: tuple[str, ...] = ()  # joint names
+    reactions: tuple[str, ...] = ()  # joint and constraint names
     energy: bool = False
     points: tuple[PointRef, ...] = ()
     accelerations: bool = False
     expressions: tuple[tuple[str, Expr], ...] = ()
+    drives: tuple[str, ...] = ()  # driven joints' names
 
     @property
     def empty(self) -> bool:
-        return not (
-            self.reactions or self.energy or self.points or self.accelerations or self.expressions
-        )
+        return not (self.reactions or self.energy or self.points or self.accelerations
+                    or self.expressions or self.drives)
 
 
 @dataclass(frozen=True)
@@ -110,6 +111,7 @@ class Simulation:
     method: str | None = None
     rtol: float | None = None
     atol: float | None = None
+    guess: Mapping[str, Expr] = field(default_factory=dict)  # closed loops: assembly start
 
 
 @dataclass(frozen=True)
@@ -127,10 +129,16 @@ class Mechanism:
     loads: tuple[Load, ...]
     outputs: Outputs
     simulation: Simulation
+    constraints: tuple[Constraint, ...] = ()  # loop-closing joints (nemc/constraints/)
 
     @property
     def coordinates(self) -> tuple[str, ...]:
-        return tuple(q for joint in self.joints for q in joint.coordinates)
+        """The coordinates in the state: every joint's, but a driven joint's (prescribed)."""
+        return tuple(q for joint in self.joints if not joint.driven for q in joint.coordinates)
+
+    @property
+    def driven(self) -> tuple[Joint, ...]:
+        return tuple(joint for joint in self.joints if joint.driven)
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -141,3 +149,6 @@ class Mechanism:
 
     def joint(self, name: str) -> Joint:
         return next(j for j in self.joints if j.name == name)
+
+    def constraint(self, name: str) -> Constraint:
+        return next(c for c in self.constraints if c.name == name)

@@ -20,6 +20,7 @@ from typing import Any
 
 import sympy
 
+from nemc.constraints import CONSTRAINT_KINDS, Constraint
 from nemc.errors import InputError, Problem
 from nemc.expr import RESERVED, Budget, ExprError, Scope, parse_expression, suggest
 from nemc.joints import JOINT_KINDS, Joint
@@ -40,11 +41,13 @@ from nemc.model import (
 from nemc.parse import Node, parse_text
 
 JOINT_TYPES = tuple(JOINT_KINDS)
-JOINT_KEYS = {name: ("type", "parent", "child", *kind.keys) for name, kind in JOINT_KINDS.items()}
+JOINT_KEYS = {name: ("type", "parent", "child", *kind.keys, *(("motion",) if kind.drivable else ()))
+              for name, kind in JOINT_KINDS.items()}
+CONSTRAINT_KEYS = {name: ("type", "a", "b", *kind.keys) for name, kind in CONSTRAINT_KINDS.items()}
 LOAD_KEYS = {name: kind.keys for name, kind in LOAD_KINDS.items()}
 IMPLICIT_POINTS = ("origin", "com")
 TOP_KEYS = ("name", "description", "parameters", "constants", "gravity", "bodies", "joints",
-            "loads", "outputs", "simulation")
+            "constraints", "loads", "outputs", "simulation")
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 ZERO2: Vec2 = (sympy.S.Zero, sympy.S.Zero)
 # An exported package is imported by its name: it must not hide a module it or its runtime
@@ -52,6 +55,7 @@ ZERO2: Vec2 = (sympy.S.Zero, sympy.S.Zero)
 SHADOWED_MODULES = frozenset({*sys.stdlib_module_names, "numpy", "scipy", "cffi",
                               "_cffi_backend", "nemc"})
 FIXED_WHERE = "in body, joint, gravity and initial-condition fields (parameters and constants only)"
+MOTION_WHERE = "in a joint's motion (parameters, constants and t only)"
 
 
 def load_mechanism(path: str | os.PathLike[str]) -> Mechanism:
@@ -94,6 +98,7 @@ class _Ctx:
     body_names: list[str] = field(default_factory=list)  # valid names, in file order
     body_keys: list[str] = field(default_factory=list)  # every key under bodies
     joint_keys: list[str] = field(default_factory=list)  # every key under joints
+    constraint_keys: list[str] = field(default_factory=list)  # every key under constraints
     joints: dict[str, Joint] = field(default_factory=dict)
     joint_coordinates: dict[str, tuple[str, ...]] = field(default_factory=dict)
     budget: Budget = field(default_factory=Budget)  # tokens left for the file's expressions
@@ -105,13 +110,15 @@ class _Ctx:
         return Loc(self.file, node.line, node.column, key)
 
     def scope(self, kind: str) -> Scope:
-        """``constants``, ``parameters``, ``fixed`` (body, joint, ...) or ``load`` fields."""
+        """``constants``, ``parameters``, ``fixed`` (body, joint, ...), ``motion`` (a driven
+        joint's: fixed and t) or ``load`` fields."""
         allowed = list(self.constants)
         if kind != "constants":
             allowed += self.parameters
         where = {"constants": "in constants (other constants only)",
                  "parameters": "in parameters (parameters and constants only)",
                  "fixed": FIXED_WHERE,
+                 "motion": MOTION_WHERE,
                  "load": "in loads and outputs"}[kind]
         if kind == "load":
             allowed += self.coordinates
@@ -119,7 +126,7 @@ class _Ctx:
         refused = {name: f"{name!r} is {_article(kind_)} {kind_}, not allowed {where}"
                    for name, (kind_, _) in self.names.items() if name not in names}
         rates = frozenset(self.coordinates) if kind == "load" else frozenset()
-        return Scope(names, rates, kind == "load", refused, where, self.budget)
+        return Scope(names, rates, kind in ("load", "motion"), refused, where, self.budget)
 
 
 def _article(word: str) -> str:
@@ -328,11 +335,13 @@ def _collect_names(ctx: _Ctx, root: Mapping[str, Node]) -> None:
     for section, kind, target in (("parameters", "parameter", ctx.parameters),
                                   ("constants", "constant", ctx.constants),
                                   ("bodies", "body", ctx.body_names),
-                                  ("joints", "joint", None)):
+                                  ("joints", "joint", None),
+                                  ("constraints", "constraint", None)):
         node = root.get(section)
         for name in _entries(node) if node is not None else {}:
-            if section in ("bodies", "joints"):
-                (ctx.body_keys if section == "bodies" else ctx.joint_keys).append(name)
+            if section in ("bodies", "joints", "constraints"):
+                {"bodies": ctx.body_keys, "joints": ctx.joint_keys,
+                 "constraints": ctx.constraint_keys}[section].append(name)
             path = _join(section, name)
             if _register(ctx, name, node.key_lines[name], path, kind) and target is not None:
                 target.append(name)
@@ -388,6 +397,7 @@ def _build(ctx: _Ctx, tree: Node, source_hash: str) -> Mechanism | None:
     gravity = _vec2(ctx, root["gravity"], "gravity") if "gravity" in root else ZERO2
     bodies = _bodies(ctx, root.get("bodies"))
     joints = _joints(ctx, root.get("joints"))
+    constraints = _constraints(ctx, root["constraints"]) if "constraints" in root else ()
     loads = _loads(ctx, root["loads"]) if "loads" in root else ()
     outputs = _outputs(ctx, root["outputs"]) if "outputs" in root else Outputs()
     simulation = _simulation(ctx, root["simulation"]) if "simulation" in root else Simulation()
@@ -396,7 +406,7 @@ def _build(ctx: _Ctx, tree: Node, source_hash: str) -> Mechanism | None:
     return Mechanism(name=name, description=description, source=ctx.file,
                      source_hash=source_hash, parameters=parameters, constants=constants,
                      gravity=gravity, bodies=bodies, joints=joints, loads=loads,
-                     outputs=outputs, simulation=simulation)
+                     outputs=outputs, simulation=simulation, constraints=constraints)
 
 
 def _module_name(ctx: _Ctx, node: Node | None) -> str | None:
@@ -640,10 +650,17 @@ def _joint(ctx: _Ctx, name: str, node: Node, path: str, edge: _Edge | None) -> J
     if edge is not None and (why := kind.parent_problem(edge.parent)) is not None:
         ctx.problem(edge.parent_line, _join(path, "parent"), why)
     fields = kind.read(Reader(ctx, node, path, parent=edge.parent if edge else None))
+    motion = None
+    if "motion" in entries and kind.drivable:
+        motion = _expr(ctx, entries["motion"], _join(path, "motion"), ctx.scope("motion"))
     if len(ctx.problems) > count or edge is None or fields is None or coordinates is None:
         return None
-    return kind(name=name, parent=edge.parent, child=edge.child, coordinates=coordinates,
-                loc=ctx.loc(node, path), **fields)
+    joint = kind(name=name, parent=edge.parent, child=edge.child, coordinates=coordinates,
+                 loc=ctx.loc(node, path), motion=motion, **fields)
+    if joint.driven and (why := joint.drive_problem()) is not None:
+        ctx.problem(entries["motion"].line, _join(path, "motion"), why)
+        return None
+    return joint
 
 
 def _joint_coordinates(ctx: _Ctx, kind: type[Joint], name: str, entries: Mapping[str, Node],
@@ -749,6 +766,58 @@ def _check_cycles_in_tree(ctx: _Ctx, parent_of: Mapping[str, _Edge]) -> None:
         ctx.problem(edge.parent_line, _join(_join("joints", edge.joint), "parent"),
                     f"joints {joints} form a cycle (child -> parent: {bodies}) that never "
                     "reaches ground; the joints must form a tree rooted at ground")
+
+
+# ----------------------------------------------------------------------------- constraints
+
+
+def _constraints(ctx: _Ctx, node: Node) -> tuple[Constraint, ...]:
+    """The loop-closing constraints; with them, no more equations than free coordinates."""
+    if not _nonempty_mapping(ctx, node, "constraints", "constraint"):
+        return ()
+    found = []
+    for name, item in _entries(node).items():
+        path = _join("constraints", name)
+        if ctx.names.get(name) != ("constraint", path):
+            continue  # a bad or colliding name, already reported
+        constraint = _constraint(ctx, name, item, path)
+        if constraint is not None:
+            found.append(constraint)
+    equations = sum(c.equations_count for c in found)
+    free = len([q for joint in ctx.joints.values() if not joint.driven
+                for q in joint.coordinates])
+    if found and equations > free:
+        ctx.problem(node.line, "constraints", f"the constraints add {equations} equations but "
+                    f"the joints leave only {free} free coordinates: the mechanism is "
+                    "over-constrained (remove a constraint, or free a joint)")
+    return tuple(found)
+
+
+def _constraint(ctx: _Ctx, name: str, node: Node, path: str) -> Constraint | None:
+    if not node.is_map:
+        ctx.problem(node.line, path, f"expected a constraint mapping {{type, a, b, ...}}, "
+                                     f"{_got(node)}")
+        return None
+    entries = _entries(node)
+    type_node = entries.get("type")
+    type_name = None if type_node is None else _choice(
+        ctx, type_node, _join(path, "type"), tuple(CONSTRAINT_KINDS), "constraint type")
+    kind = CONSTRAINT_KINDS.get(type_name) if type_name is not None else None
+    every_key = sorted({key for keys in CONSTRAINT_KEYS.values() for key in keys})
+    allowed = CONSTRAINT_KEYS[kind.type] if kind is not None else every_key
+    owner = (f"a {kind.type} constraint" if kind is not None else "", every_key)
+    count = len(ctx.problems)
+    _keys(ctx, node, path, allowed, ("type", "a", "b"), owner=owner)
+    reader = Reader(ctx, node, path)
+    ends = {key: reader.point_ref(key) for key in ("a", "b")}
+    fields = kind.read(reader) if kind is not None else None
+    a, b = ends["a"], ends["b"]
+    if a is not None and b is not None and a.body == b.body:
+        ctx.problem(entries["b"].line, _join(path, "b"), f"a constraint joins two bodies, but "
+                    f"a and b are both on {a.body!r}")
+    if kind is None or fields is None or a is None or b is None or len(ctx.problems) > count:
+        return None
+    return kind(name=name, a=a, b=b, loc=ctx.loc(node, path), **fields)
 
 
 # ----------------------------------------------------------------------------- loads
@@ -920,17 +989,24 @@ class Reader:
 
 
 def _outputs(ctx: _Ctx, node: Node) -> Outputs:
-    keys = ("reactions", "energy", "points", "accelerations", "expressions")
+    keys = ("reactions", "energy", "points", "accelerations", "expressions", "drives")
     if not _keys(ctx, node, "outputs", keys):
         return Outputs()
     entries = _entries(node)
     reactions: list[str] = []
     for i, item in enumerate(_list(ctx, entries.get("reactions"), "outputs.reactions")):
-        name = _joint_name(ctx, item, f"outputs.reactions[{i}]")
+        name = _reaction_name(ctx, item, f"outputs.reactions[{i}]")
         if name in reactions:
-            ctx.problem(item.line, f"outputs.reactions[{i}]", f"joint {name!r} is listed twice")
+            ctx.problem(item.line, f"outputs.reactions[{i}]", f"{name!r} is listed twice")
         elif name is not None:
             reactions.append(name)
+    drives: list[str] = []
+    for i, item in enumerate(_list(ctx, entries.get("drives"), "outputs.drives")):
+        name = _driven_joint(ctx, item, f"outputs.drives[{i}]")
+        if name in drives:
+            ctx.problem(item.line, f"outputs.drives[{i}]", f"{name!r} is listed twice")
+        elif name is not None:
+            drives.append(name)
     points: list[PointRef] = []
     for i, item in enumerate(_list(ctx, entries.get("points"), "outputs.points")):
         point = _point_ref(ctx, item, f"outputs.points[{i}]", ground=False)
@@ -942,7 +1018,32 @@ def _outputs(ctx: _Ctx, node: Node) -> Outputs:
              for key in ("energy", "accelerations")}
     expressions = _output_expressions(ctx, entries.get("expressions"))
     return Outputs(tuple(reactions), flags["energy"], tuple(points), flags["accelerations"],
-                   expressions)
+                   expressions, tuple(drives))
+
+
+def _reaction_name(ctx: _Ctx, node: Node, path: str) -> str | None:
+    """A joint's or a constraint's name."""
+    name = _string(ctx, node, path, "a joint or constraint name")
+    if name is None:
+        return None
+    if name not in ctx.joint_keys and name not in ctx.constraint_keys:
+        known = [*ctx.joint_keys, *ctx.constraint_keys]
+        ctx.problem(node.line, path, f"unknown joint or constraint {name!r}"
+                                     f"{_suggest(name, known)}")
+        return None
+    return name
+
+
+def _driven_joint(ctx: _Ctx, node: Node, path: str) -> str | None:
+    """A driven joint's name (one with `motion:`)."""
+    name = _joint_name(ctx, node, path)
+    joint = ctx.joints.get(name) if name is not None else None
+    if joint is not None and not joint.driven:
+        driven = [j.name for j in ctx.joints.values() if j.driven]
+        ctx.problem(node.line, path, f"joint {name!r} is not driven (it has no motion:); "
+                                     f"driven joints: {', '.join(driven) or 'none'}")
+        return None
+    return name
 
 
 def _list(ctx: _Ctx, node: Node | None, path: str) -> list[Node]:
@@ -975,7 +1076,7 @@ def _output_expressions(ctx: _Ctx, node: Node | None) -> tuple[tuple[str, sympy.
 
 
 def _simulation(ctx: _Ctx, node: Node) -> Simulation:
-    keys = ("t_span", "initial", "t_eval", "method", "rtol", "atol")
+    keys = ("t_span", "initial", "t_eval", "method", "rtol", "atol", "guess")
     if not _keys(ctx, node, "simulation", keys):
         return Simulation()
     entries = _entries(node)
@@ -989,8 +1090,11 @@ def _simulation(ctx: _Ctx, node: Node) -> Simulation:
         method = _choice(ctx, entries["method"], "simulation.method", METHODS, "method")
     tolerances = {key: _positive(ctx, entries[key], _join("simulation", key))
                   if key in entries else None for key in ("rtol", "atol")}
+    guess = {}
+    if "guess" in entries:
+        guess = _initial(ctx, entries["guess"], "simulation.guess", rates=False)
     return Simulation(t_span, initial, t_eval, step, method, tolerances["rtol"],
-                      tolerances["atol"])
+                      tolerances["atol"], guess)
 
 
 def _positive(ctx: _Ctx, node: Node, path: str) -> float | None:
@@ -1015,19 +1119,31 @@ def _t_span(ctx: _Ctx, node: Node) -> tuple[float, float] | None:
     return (t0, t1)
 
 
-def _initial(ctx: _Ctx, node: Node) -> dict[str, sympy.Expr]:
-    path = "simulation.initial"
+def _initial(ctx: _Ctx, node: Node, path: str = "simulation.initial",
+             rates: bool = True) -> dict[str, sympy.Expr]:
+    """Values of the state's coordinates (and, where `rates`, of their rates): `initial`, or
+    the assembly's `guess`."""
+    what = "q or dot(q)" if rates else "q"
     if not node.is_map:
-        ctx.problem(node.line, path, f"expected a mapping q or dot(q) -> value, {_got(node)}")
+        ctx.problem(node.line, path, f"expected a mapping {what} -> value, {_got(node)}")
         return {}
-    states = [name for q in ctx.coordinates for name in (q, f"dot({q})")]
+    driven = {q: joint.name for joint in ctx.joints.values() if joint.driven
+              for q in joint.coordinates}
+    free = [q for q in ctx.coordinates if q not in driven]
+    states = [name for q in free for name in ((q, f"dot({q})") if rates else (q,))]
     initial: dict[str, sympy.Expr] = {}
     for key, value in _entries(node).items():
         match = re.fullmatch(r"dot\(\s*(\w+)\s*\)", key)
         name = f"dot({match.group(1)})" if match else key
+        coordinate = match.group(1) if match else key
+        if coordinate in driven:
+            ctx.problem(node.key_lines[key], _join(path, key), f"{coordinate} is driven (joints."
+                        f"{driven[coordinate]}.motion): its value is prescribed, not given here")
+            continue
         if name not in states:
-            ctx.problem(node.key_lines[key], _join(path, key), f"unknown coordinate or rate "
-                        f"{key!r}{_suggest(key, states)}; expected a coordinate q or dot(q)")
+            ctx.problem(node.key_lines[key], _join(path, key), f"unknown coordinate"
+                        f"{' or rate' if rates else ''} {key!r}{_suggest(key, states)}; "
+                        f"expected a coordinate {what}")
             continue
         if name in initial:
             ctx.problem(node.key_lines[key], _join(path, key), f"{name} is given twice")

@@ -77,6 +77,7 @@ class Joint:
     floating: ClassVar[bool] = False  # its child is a root of the articulated-body algorithm
     reaction_couple: ClassVar[bool] = False  # its reaction has a couple (output NAME.M)
     relative: ClassVar[bool] = False  # it has a relative displacement (a joint_spring acts on)
+    drivable: ClassVar[bool] = False  # it may carry `motion:` (one coordinate, prescribed)
 
     name: str
     parent: str  # a body name or "ground"
@@ -84,6 +85,11 @@ class Joint:
     coordinates: tuple[str, ...]
     loc: Loc | None = None
     at: Vec2 = ZERO2  # where the joint attaches the child, in the parent's frame
+    motion: Expr | None = None  # a driven joint's prescribed coordinate, an expression of t
+
+    @property
+    def driven(self) -> bool:
+        return self.motion is not None
 
     @property
     def n_coordinates(self) -> int:
@@ -100,6 +106,10 @@ class Joint:
     def parent_problem(cls, parent: str) -> str | None:
         """Why this kind cannot have this parent, or None."""
         return None
+
+    def drive_problem(self) -> str | None:
+        """Why this joint cannot be driven as it is, or None."""
+        return None if self.drivable else f"a {self.type} joint cannot be driven"
 
     # -- expressions --------------------------------------------------------------------------
 
@@ -128,7 +138,7 @@ class Joint:
 
     # -- the articulated-body algorithm ------------------------------------------------------
 
-    def motion(self, parent: Frame, child_origin: V2, parent_velocity: V3,
+    def motion_subspace(self, parent: Frame, child_origin: V2, parent_velocity: V3,
                u: Sequence[Expr]) -> tuple[list[V3], list[Expr]]:
         """Its motion subspace S (axes, about O, ground axes) and the rates along them: the
         child's spatial velocity is the parent's plus sum(axis * rate)."""

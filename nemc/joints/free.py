@@ -40,7 +40,7 @@ class Free(Joint):
     def origin_velocity(self, parent: Frame, q: Sequence[Expr], u: Sequence[Expr]) -> V2:
         return u[0], u[1]
 
-    def motion(self, parent: Frame, child_origin: V2, parent_velocity: V3,
+    def motion_subspace(self, parent: Frame, child_origin: V2, parent_velocity: V3,
                u: Sequence[Expr]) -> tuple[list[V3], list[Expr]]:
         x, y = child_origin
         one, zero = sympy.S.One, sympy.S.Zero

@@ -34,6 +34,7 @@ class Prismatic(Joint):
     coordinate_kinds: ClassVar[tuple[str, ...]] = ("length",)
     reaction_couple: ClassVar[bool] = True
     relative: ClassVar[bool] = True
+    drivable: ClassVar[bool] = True
 
     axis: tuple[Expr, Expr] = (sympy.S.One, sympy.S.Zero)
     offset: Expr = sympy.S.Zero
@@ -52,7 +53,7 @@ class Prismatic(Joint):
         slide_point = (self.at[0] + ux * q[0], self.at[1] + uy * q[0])
         return add(parent.velocity(slide_point), scale(parent.rotate((ux, uy)), u[0]))  # type: ignore
 
-    def motion(self, parent: Frame, child_origin: V2, parent_velocity: V3,
+    def motion_subspace(self, parent: Frame, child_origin: V2, parent_velocity: V3,
                u: Sequence[Expr]) -> tuple[list[V3], list[Expr]]:
         ax, ay = parent.names(parent.rotate(unit(self.axis)))
         return [(sympy.S.Zero, ax, ay)], [u[0]]

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import sympy
 
+from ..model import GROUND
 from ..spatial import V2, V3, couple
 from .base import Frame, Joint, LoadSink
 
@@ -33,6 +34,7 @@ class Revolute(Joint):
     coordinate_key: ClassVar[str | None] = "coordinate"
     coordinate_kinds: ClassVar[tuple[str, ...]] = ("angle",)
     relative: ClassVar[bool] = True
+    drivable: ClassVar[bool] = True
 
     angle: Literal["relative", "absolute"] = "relative"
     offset: Expr = sympy.S.Zero
@@ -47,6 +49,13 @@ class Revolute(Joint):
     def absolute(self) -> bool:
         return self.angle == "absolute"
 
+    def drive_problem(self) -> str | None:
+        if self.absolute and self.parent != GROUND:
+            return ("a driven revolute joint with angle: absolute needs the ground as its "
+                    "parent (its joint rate would follow the parent's motion); drive its "
+                    "relative angle (angle: relative) instead")
+        return None
+
     def place(self, parent: Frame, q: Sequence[Expr]) -> tuple[Expr, V2]:
         base = sympy.S.Zero if self.absolute else parent.angle
         return base + q[0] + self.offset, parent.point(self.at)
@@ -54,7 +63,7 @@ class Revolute(Joint):
     def origin_velocity(self, parent: Frame, q: Sequence[Expr], u: Sequence[Expr]) -> V2:
         return parent.velocity(self.at)
 
-    def motion(self, parent: Frame, child_origin: V2, parent_velocity: V3,
+    def motion_subspace(self, parent: Frame, child_origin: V2, parent_velocity: V3,
                u: Sequence[Expr]) -> tuple[list[V3], list[Expr]]:
         px, py = child_origin
         rate = parent.name(u[0] - parent_velocity[0]) if self.absolute else u[0]
