@@ -32,8 +32,9 @@ from dataclasses import dataclass, field
 import sympy
 
 from . import model as m
+from .constraints import Constraint
 from .joints import Joint
-from .kinematics import joints_parent_first
+from .kinematics import joints_parent_first, prescribed_motion
 from .program import Program, ProgramBuilder
 from .spatial import (
     M3,
@@ -56,8 +57,9 @@ class Geometry:
     """Angles, their cosines and sines, and origins of all bodies, as program names; each
     joint places its child (Joint.place, the placement every derivation uses)."""
 
-    def __init__(self, joints: Sequence[Joint], prog: ProgramBuilder, value: Callable):
-        self.prog, self.value = prog, value
+    def __init__(self, joints: Sequence[Joint], prog: ProgramBuilder, value: Callable,
+                 coordinate: Callable[[str], Expr]):
+        self.prog, self.value, self.coordinate = prog, value, coordinate
         zero, one = sympy.S.Zero, sympy.S.One
         self.angle = {m.GROUND: zero}
         self.trig = {m.GROUND: (one, zero)}
@@ -66,7 +68,7 @@ class Geometry:
             self._place(joint)
 
     def _place(self, joint: Joint) -> None:
-        coordinates = [m.symbol(c) for c in joint.coordinates]
+        coordinates = [self.coordinate(c) for c in joint.coordinates]
         angle, origin = joint.place(ProgramFrame(self, joint.parent), coordinates)
         self.origin[joint.child] = self.prog.lets(origin)  # type: ignore[assignment]
         angle = self.prog.let(angle)
@@ -123,6 +125,7 @@ class Node:
     parent: str  # the parent node's body, or ground
     members: list[str]
     status: int  # what the generated code returns when this node's inertia is singular
+    prescribed: Expr | None = None  # a driven joint's acceleration (its coordinate's qdd)
     axes: list[V3] = field(default_factory=list)  # the joint's motion subspace S
     rates: list[Expr] = field(default_factory=list)  # the joint's rates
     velocity: V3 = ZERO3
@@ -133,17 +136,25 @@ class Node:
     u_vector: V3 = ZERO3  # U = I^A S
     d_inverse: Expr = sympy.S.Zero  # 1 / (S^T I^A S)
     u_force: Expr = sympy.S.Zero  # u = -S^T p^A
+    acceleration: V3 = ZERO3  # its body's spatial acceleration (pass 3)
 
 
 class ArticulatedBody:
     """The three passes over the nodes of one mechanism, writing into one program. Its joints
-    and loads have their expressions in runtime symbols (value: constants folded)."""
+    and loads have their expressions in runtime symbols (value: constants folded).
+
+    A driven joint's coordinate, rate and acceleration are its motion's (Featherstone's hybrid
+    dynamics): its node does not articulate, it hands its whole inertia to its parent with the
+    bias of its prescribed acceleration, and its drive is S^T (I^A a + p^A). at_rest: velocities
+    and prescribed accelerations zero (the passes of M^-1 times generalized forces)."""
 
     def __init__(self, mech: m.Mechanism, value: Callable, *, at_rest: bool = False):
         self.mech, self.value, self.at_rest = mech, value, at_rest
         self.joints = {joint.name: joint.map_expressions(value) for joint in mech.joints}
+        self.motions = {joint.coordinates[0]: prescribed_motion(joint)
+                        for joint in self.joints.values() if joint.driven}
         self.prog = ProgramBuilder()
-        self.geo = Geometry(list(self.joints.values()), self.prog, value)
+        self.geo = Geometry(list(self.joints.values()), self.prog, value, self.coordinate)
         self.node_of: dict[str, str] = {m.GROUND: m.GROUND}
         self.nodes: dict[str, Node] = {}
         status = {name: k for k, name in enumerate(self.joints, start=1)}  # file order
@@ -159,7 +170,10 @@ class ArticulatedBody:
             return
         parent = m.GROUND if joint.floating else self.node_of[joint.parent]
         self.node_of[joint.child] = joint.child
-        self.nodes[joint.child] = Node(joint, parent, [joint.child], status)
+        prescribed = None
+        if joint.driven:
+            prescribed = sympy.S.Zero if self.at_rest else self.motions[joint.coordinates[0]][2]
+        self.nodes[joint.child] = Node(joint, parent, [joint.child], status, prescribed)
 
     # -- what joints and loads acting here use (loads.base.ArticulatedLoads) --------------
 
@@ -169,8 +183,16 @@ class ArticulatedBody:
     def joint(self, name: str) -> Joint:
         return self.joints[name]
 
+    def coordinate(self, name: str) -> Expr:
+        """A coordinate's value: its symbol, or a driven coordinate's motion."""
+        return self.motions[name][0] if name in self.motions else m.symbol(name)
+
     def speed(self, coordinate: str) -> Expr:
-        return sympy.S.Zero if self.at_rest else m.rate_symbol(coordinate)
+        if self.at_rest:
+            return sympy.S.Zero
+        if coordinate in self.motions:
+            return self.motions[coordinate][1]
+        return m.rate_symbol(coordinate)
 
     def velocity(self, body: str) -> V3:
         node = self.node_of[body]
@@ -240,10 +262,17 @@ class ArticulatedBody:
         return tuple(tuple(upper[min(i, j), max(i, j)] for j in range(3)) for i in range(3))  # type: ignore
 
     def _articulate(self, node: Node) -> None:
-        """Project the node's articulated inertia through its joint (1 degree of freedom)."""
-        axis = node.axes[0]
+        """Project the node's articulated inertia through its joint (1 degree of freedom), or
+        for a driven joint hand it whole to the parent with its prescribed motion's bias."""
         node.inertia = self._symmetric(node.inertia)  # type: ignore[arg-type]
         node.bias_force = self.prog.lets(node.bias_force)  # type: ignore[assignment]
+        if node.prescribed is not None:
+            if node.parent != m.GROUND:
+                moving = add(node.bias_acceleration, scale(node.axes[0], node.prescribed))
+                self._pass_to_parent(node, node.inertia,
+                                     add(node.bias_force, mat_vec(node.inertia, moving)))
+            return
+        axis = node.axes[0]
         node.u_vector = self.prog.lets(mat_vec(node.inertia, axis))  # type: ignore[assignment]
         d = self.prog.let(dot(axis, node.u_vector))
         self.prog.require_positive(d, node.status)
@@ -259,19 +288,26 @@ class ArticulatedBody:
         passed = self._symmetric(passed)  # type: ignore[arg-type]
         force = add(node.bias_force, mat_vec(passed, node.bias_acceleration))  # type: ignore
         force = add(force, scale(u_vec, node.u_force * d_inv))
+        self._pass_to_parent(node, passed, force)
+
+    def _pass_to_parent(self, node: Node, inertia: M3, force: Sequence[Expr]) -> None:
         parent = self.nodes[node.parent]
-        parent.inertia = tuple(add(a, b) for a, b in zip(parent.inertia, passed))  # type: ignore
+        parent.inertia = tuple(add(a, b) for a, b in zip(parent.inertia, inertia))  # type: ignore
         parent.bias_force = add(parent.bias_force, force)  # type: ignore[assignment]
 
     # -- pass 3: accelerations ------------------------------------------------------------
 
     def _accelerate(self, node: Node, accel: dict[str, V3]) -> list[Expr]:
-        """The node's spatial acceleration (into accel) and its coordinates' accelerations."""
+        """The node's spatial acceleration (into accel) and its coordinates' accelerations (a
+        driven joint's: none, they are prescribed)."""
         if node.joint.floating:
             return self._root_accelerations(node, accel)
         parent_a = ZERO3 if node.parent == m.GROUND else accel[node.parent]
         base = add(parent_a, node.bias_acceleration)
         axis = node.axes[0]
+        if node.prescribed is not None:
+            accel[node.joint.child] = self.prog.lets(add(base, scale(axis, node.prescribed)))  # type: ignore
+            return []
         joint_acc = self.prog.let((node.u_force - dot(node.u_vector, base)) * node.d_inverse)
         accel[node.joint.child] = self.prog.lets(add(base, scale(axis, joint_acc)))  # type: ignore
         return node.joint.coordinate_accelerations([joint_acc], accel[node.joint.child])
@@ -284,9 +320,67 @@ class ArticulatedBody:
         return node.joint.root_accelerations(a, node.bias_acceleration,
                                              self.geo.origin[node.joint.child], self.prog.let)
 
+    def _drive(self, node: Node, acceleration: V3, bias: V3) -> Expr:
+        """The drive of a driven joint: S^T (I^A a + p^A), what its joint transmits along S."""
+        return self.prog.let(dot(node.axes[0], add(mat_vec(node.inertia, acceleration), bias)))  # type: ignore
+
+    # -- M^-1 times generalized forces, with this configuration's articulated inertias ------
+
+    def unit_pass(self, constraint: Constraint, equation: int) -> tuple[list[Expr], list[Expr]]:
+        """The undriven coordinates' accelerations and the drives under the reaction of a unit
+        multiplier of the constraint's equation alone, at rest: M^-1 Phi_q^T e_k for the tree
+        with its driven joints held (and what their drives must add). Reuses the articulated
+        inertias of the main passes (run first)."""
+        sink = PassLoads(self.node_of)
+        unit = [sympy.S.One if j == equation else sympy.S.Zero
+                for j in range(constraint.equations_count)]
+        constraint.map_expressions(self.value).act(
+            sink, self.frame(constraint.a.body), self.frame(constraint.b.body), unit)
+        order = list(self.nodes.values())
+        bias = {node.joint.child: scale(sink.total(node.joint.child), -1) for node in order}
+        u_force: dict[str, Expr] = {}
+        for node in reversed(order):
+            child = node.joint.child
+            bias[child] = self.prog.lets(bias[child])
+            if node.joint.floating or node.parent == m.GROUND and node.prescribed is not None:
+                continue
+            passed = bias[child]
+            if node.prescribed is None:
+                u_force[child] = self.prog.let(-dot(node.axes[0], bias[child]))
+                if node.parent == m.GROUND:
+                    continue
+                passed = add(passed, scale(node.u_vector, u_force[child] * node.d_inverse))
+            bias[node.parent] = add(bias[node.parent], passed)
+        qdd: dict[str, Expr] = {}
+        drives: dict[str, Expr] = {}
+        accel: dict[str, V3] = {}
+        for node in order:
+            child = node.joint.child
+            base = ZERO3 if node.parent == m.GROUND else accel[node.parent]
+            if node.joint.floating:
+                a = solve_symmetric(self.prog, node.inertia, scale(bias[child], -1), node.status)  # type: ignore
+                accel[child] = a
+                qdd.update(zip(node.joint.coordinates, node.joint.root_accelerations(
+                    a, ZERO3, self.geo.origin[child], self.prog.let)))
+            elif node.prescribed is not None:
+                accel[child] = base
+                drives[node.joint.name] = self._drive(node, base, bias[child])
+            else:
+                joint_acc = self.prog.let((u_force[child] - dot(node.u_vector, base))
+                                          * node.d_inverse)
+                accel[child] = self.prog.lets(add(base, scale(node.axes[0], joint_acc)))  # type: ignore
+                qdd.update(zip(node.joint.coordinates,
+                               node.joint.coordinate_accelerations([joint_acc], accel[child])))
+        return ([qdd[c] for c in self.mech.coordinates],
+                [drives[joint.name] for joint in self.mech.driven])
+
     # -- the whole algorithm --------------------------------------------------------------
 
     def run(self, extra_forces: Sequence[Expr] = ()) -> Program:
+        """The program of the accelerations of the undriven coordinates (file order), then the
+        drives of the driven joints, then for each loop constraint equation its unit pass:
+        accelerations and drives. extra_forces: generalized forces applied instead of the loads
+        (M^-1 Q, with at_rest)."""
         order = list(self.nodes.values())
         for node in order:
             self._motion(node)
@@ -301,15 +395,48 @@ class ArticulatedBody:
                 self._articulate(node)
         accel: dict[str, V3] = {}
         qdd: dict[str, Expr] = {}
+        drives: dict[str, Expr] = {}
         for node in order:
             values = self._accelerate(node, accel)
             qdd.update(zip(node.joint.coordinates, values))
-        return self.prog.finish(qdd[c] for c in self.mech.coordinates)
+            if node.prescribed is not None:
+                drives[node.joint.name] = self._drive(node, accel[node.joint.child],
+                                                      node.bias_force)
+        results = [qdd[c] for c in self.mech.coordinates]
+        if not extra_forces:
+            results += [drives[joint.name] for joint in self.mech.driven]
+        for constraint in () if extra_forces else self.mech.constraints:
+            for equation in range(constraint.equations_count):
+                unit_qdd, unit_drives = self.unit_pass(constraint, equation)
+                results += unit_qdd + unit_drives
+        return self.prog.finish(results)
+
+
+class PassLoads:
+    """The loads of one unit pass, by node (a LoadSink for Joint.generalized_load)."""
+
+    def __init__(self, node_of: dict[str, str]):
+        self.node_of = node_of
+        self.loads: dict[str, list[V3]] = {}
+
+    def apply(self, body: str, force: V3) -> None:
+        node = self.node_of[body]
+        if node != m.GROUND:
+            self.loads.setdefault(node, []).append(force)
+
+    def apply_at(self, body: str, at: Sequence[Expr], force: Sequence[Expr]) -> None:
+        self.apply(body, point_force(at, force))
+
+    def total(self, node: str) -> V3:
+        total = ZERO3
+        for force in self.loads.get(node, []):
+            total = add(total, force)  # type: ignore[assignment]
+        return total
 
 
 def solve_symmetric(prog: ProgramBuilder, a: M3, b: V3, status: int) -> V3:
     """x with a x = b for a symmetric positive definite 3 x 3 a, by LDL^T with guarded pivots."""
-    n = 3
+    n = len(b)
     low = [[sympy.S.Zero] * n for _ in range(n)]
     diag = [sympy.S.Zero] * n
     for j in range(n):
@@ -329,7 +456,9 @@ def solve_symmetric(prog: ProgramBuilder, a: M3, b: V3, status: int) -> V3:
 
 
 def dynamics_program(mech: m.Mechanism, value: Callable) -> Program:
-    """qdd(t, q, dq) for the mechanism's loads: the right-hand side's accelerations."""
+    """qdd(t, q, dq) for the mechanism's loads (the right-hand side's accelerations), then the
+    drives of its driven joints, then the unit passes of its loop constraints
+    (ArticulatedBody.run)."""
     return ArticulatedBody(mech, value).run()
 
 

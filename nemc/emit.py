@@ -12,8 +12,9 @@ comments, sanitized.
 
 from __future__ import annotations
 
+import dataclasses
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from string import Template
 
@@ -22,7 +23,7 @@ from sympy.printing.c import C99CodePrinter
 
 from . import __version__
 from . import model as m
-from .derive import Equations
+from .derive import DynamicsLayout, Equations
 from .optimize import Block
 from .program import Guard, Program
 from .resources import read_template
@@ -76,6 +77,9 @@ def symbol_table(eqs: Equations, block: Block) -> dict[sympy.Symbol, str]:
     names.update({a: f"QDD({i})" for i, a in enumerate(eqs.accelerations)})
     names.update({s: f"P({k})" for k, s in enumerate(eqs.parameters)})
     names.update({s: f"FORCE({k})" for k, s in enumerate(eqs.generalized_forces)})
+    names.update({s: f"DRIVE({j})" for j, s in enumerate(eqs.drives)})
+    names.update({s: f"LAMBDA({k})" for k, s in enumerate(eqs.multipliers)})
+
     if eqs.seeds:
         for i, (q, u) in enumerate(zip(eqs.coordinates, eqs.speeds)):
             names[eqs.seeds[q]], names[eqs.seeds[u]] = f"SEED_Q({i})", f"SEED_DQ({i})"
@@ -111,12 +115,14 @@ def body(
 
 
 def program_body(
-    printer: SymbolTablePrinter, program: Program, results: str, indent: str = "    ",
-    passed: dict[sympy.Symbol, str] | None = None,
+    printer: SymbolTablePrinter, program: Program, results: str | Sequence[str],
+    indent: str = "    ", passed: dict[sympy.Symbol, str] | None = None,
 ) -> str:
     """Straight-line C of a program: its named steps, its guards, then `results(i) = ...;`
-    (results: a layout macro). passed: the names to hand on to other functions, each copied
-    there right after its step."""
+    (results: a layout macro), or `results[i] = ...;` (results: a target per result).
+    passed: the names to hand on to other functions, each copied there right after its step."""
+    targets = ([f"{results}({i})" for i in range(len(program.results))]
+               if isinstance(results, str) else list(results))
     passed = passed or {}
     lines = []
     for step in program.steps:
@@ -127,10 +133,8 @@ def program_body(
             lines.append(f"{indent}const double {step[0].name} = {printer.doprint(step[1])};")
             if step[0] in passed:
                 lines.append(f"{indent}{passed[step[0]]} = {step[0].name};")
-    lines += [
-        f"{indent}{results}({i}) = {printer.doprint(expr)};"
-        for i, expr in enumerate(program.results)
-    ]
+    lines += [f"{indent}{target} = {printer.doprint(expr)};"
+              for target, expr in zip(targets, program.results)]
     return "\n".join(lines)
 
 
@@ -170,6 +174,11 @@ class Caller:
     results: tuple[str, str]  # (layout macro the results are written through, its array)
     array: str  # the array passing values from part to part
     indent: str = "    "
+    targets: tuple[str, ...] = ()  # where each result goes, when not results[0](i)
+
+    @property
+    def writes(self) -> str | tuple[str, ...]:
+        return self.targets or self.results[0]
 
 
 def split_steps(program: Program, chunk_steps: int) -> list[Program]:
@@ -215,7 +224,8 @@ def part_function(
     elsewhere = {name: c for name, c in passed.items() if name not in defined_here}
     part_printer = SymbolTablePrinter({**printer.names, **elsewhere})
     mine = {name: passed[name] for name in names if name in passed}
-    text = program_body(part_printer, part, caller.results[0], passed=mine)
+    text = program_body(part_printer, part, caller.writes if part.results else caller.results[0],
+                        passed=mine)
     parameters = [*caller.inputs, ("double *", caller.array)]
     if part.results:
         parameters.append(("double *", caller.results[1]))
@@ -271,13 +281,15 @@ def print_program(
 ) -> Printed:
     """One body when the program is short, parts when it is long."""
     if program.size <= chunk_steps:
-        return Printed("", program_body(printer, program, caller.results[0], caller.indent))
+        return Printed("", program_body(printer, program, caller.writes, caller.indent))
     return in_parts(printer, program, caller, chunk_steps)[0]
 
 
 STATE_INPUTS: tuple[Parameter, ...] = (("double", "t"), ("const double *", "y"),
                                        ("const double *", "p"))
 DYNAMICS = Caller("accelerations", "The accelerations", STATE_INPUTS, ("QDD", "qdd"), "v")
+AUGMENTED = Caller("accelerations", "The accelerations, drives and unit passes",
+                   STATE_INPUTS, ("ACC", "acc"), "v")
 INVERSE_MASS = Caller("inverse_mass_times", "M^-1 force",
                       (("const double *", "y"), ("const double *", "p"),
                        ("const double *", "force")), ("QDD", "qdd"), "v")
@@ -305,38 +317,86 @@ def jacobian_programs(
 
 
 def outputs_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str) -> str:
-    """The scene's outputs, or the function saying the scene asks for none."""
+    """The scene's outputs, or the function saying the scene asks for none. A model with drives
+    or loops computes them at its state brought onto the constraints, with its accelerations,
+    multipliers and drives."""
     if not eqs.outputs:
         return template("outputs_absent.c.tmpl").substitute(prefix=prefix)
     exprs = block.groups["outputs"]
-    uses_qdd = any(s in eqs.accelerations for e in exprs for s in _all_symbols(block, e))
+    if eqs.layout is not None and eqs.layout.augmented:
+        state, before = "given", read_template("consistent_dynamics.c.tmpl")
+    else:
+        uses_qdd = any(s in eqs.accelerations for e in exprs for s in _all_symbols(block, e))
+        state, before = "y", read_template("accelerations.c.tmpl") if uses_qdd else ""
     return template("outputs.c.tmpl").substitute(
-        prefix=prefix,
+        prefix=prefix, state=state,
         output_names=comment_text(", ".join(name for name, _ in eqs.outputs)),
-        accelerations=template("accelerations.c.tmpl").template if uses_qdd else "",
+        accelerations=before,
         outputs=body(printer, block, indexed("out", exprs)),
     )
+
+
+def dynamics_targets(layout: DynamicsLayout) -> tuple[str, ...]:
+    """Where each result of an augmented dynamics program goes (DynamicsLayout's order)."""
+    n, d = layout.coordinates, layout.drives
+    targets = [f"ACC_QDD({i})" for i in range(n)] + [f"ACC_DRIVE({j})" for j in range(d)]
+    for k in range(layout.equations):
+        targets += [f"ACC_UNIT_QDD({k}, {i})" for i in range(n)]
+        targets += [f"ACC_UNIT_DRIVE({k}, {j})" for j in range(d)]
+    return tuple(targets + [f"ACC_BIAS({k})" for k in range(layout.equations)])
+
+
+def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str,
+                     chunk_steps: int) -> str:
+    """The right-hand side: a tree's (templates/tree.c.tmpl), or with drives or loops the
+    articulated-body program with its unit passes, the multipliers and the projection onto
+    the constraints (templates/loops.c.tmpl)."""
+    program = block.programs["dynamics"]
+    if eqs.layout is None or not eqs.layout.augmented:
+        dynamics = print_program(printer, program, DYNAMICS, chunk_steps)
+        return template("tree.c.tmpl").substitute(
+            prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body)
+    caller = dataclasses.replace(AUGMENTED, targets=dynamics_targets(eqs.layout))
+    dynamics = print_program(printer, program, caller, chunk_steps)
+    return template("loops.c.tmpl").substitute(
+        prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body,
+        constraint_values=constraint_values(eqs, block, printer))
+
+
+def constraint_values(eqs: Equations, block: Block, printer: SymbolTablePrinter) -> str:
+    """PHI, PHI_Q and PHI_T of the loop constraints (empty without loops)."""
+    if eqs.loops is None:
+        return ""
+    count, n = eqs.loops.count, eqs.n
+    exprs = block.groups["constraints"]
+    targets = ([f"PHI({k})" for k in range(count)]
+               + [f"PHI_Q({k}, {i})" for k in range(count) for i in range(n)]
+               + [f"PHI_T({k})" for k in range(count)])
+    return body(printer, block, list(zip(targets, exprs)))
 
 
 def jacobian_section(
     eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str, chunk_steps: int
 ) -> str:
-    """The exact Jacobian and M^-1, or the functions saying this build has none."""
-    if eqs.jacobian is None:
-        return template("jacobian_absent.c.tmpl").substitute(prefix=prefix)
+    """The Jacobian (exact; by differences for a closed loop's projected right-hand side) and
+    M^-1, or the functions saying this build has none."""
     programs = block.programs
-    primal, tangent = jacobian_programs(
-        printer, programs["dynamics"], programs["jacobian"], chunk_steps
-    )
+    if "inverse_mass" not in programs:
+        return template("jacobian_absent.c.tmpl").substitute(prefix=prefix)
     inverse_mass = print_program(printer, programs["inverse_mass"], INVERSE_MASS, chunk_steps)
+    inverse_mass_text = template("inverse_mass.c.tmpl").substitute(
+        prefix=prefix, inverse_mass_parts=inverse_mass.functions, inverse_mass=inverse_mass.body)
+    if eqs.jacobian is None:
+        return template("jacobian_differences.c.tmpl").substitute(prefix=prefix) + inverse_mass_text
+    primal, tangent = jacobian_programs(
+        printer, programs.get("primal", programs["dynamics"]), programs["jacobian"], chunk_steps
+    )
     return template("jacobian.c.tmpl").substitute(
         prefix=prefix,
         jacobian_parts=primal.functions + tangent.functions,
         primal=primal.body,
         tangent=tangent.body,
-        inverse_mass_parts=inverse_mass.functions,
-        inverse_mass=inverse_mass.body,
-    )
+    ) + inverse_mass_text
 
 
 def _all_symbols(block: Block, expr: sympy.Expr) -> set[sympy.Symbol]:
@@ -352,10 +412,18 @@ def header(eqs: Equations, prefix: str) -> str:
     return template("model.h.tmpl").substitute(
         name=mech.name, version=__version__, source=comment_text(mech.source),
         source_hash=mech.source_hash, prefix=prefix, n_coord=eqs.n, n_state=2 * eqs.n,
-        n_param=len(eqs.parameters), n_output=len(eqs.outputs),
+        n_param=len(eqs.parameters), n_output=len(eqs.outputs), n_drive=len(eqs.drives),
+        n_lambda=len(eqs.multipliers),
         parameter_names=comment_text(", ".join(s.name for s in eqs.parameters)),
         state_names=comment_text(", ".join(mech.state_names)),
+        equation_names=comment_text(", ".join(equation_labels(eqs))),
     )
+
+
+def equation_labels(eqs: Equations) -> list[str]:
+    """Each constraint equation as `constraint[k]`, for comments and messages."""
+    owners = eqs.loops.owners if eqs.loops is not None else ()
+    return [f"{name}[{owners[:i].count(name)}]" for i, name in enumerate(owners)]
 
 
 CDEF = re.compile(r"/\* NEMC_CDEF_BEGIN \*/\n(.*)/\* NEMC_CDEF_END \*/", re.DOTALL)
@@ -368,7 +436,6 @@ def cdef(header_text: str) -> str:
 
 def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int) -> str:
     mech, printer = eqs.mechanism, SymbolTablePrinter(symbol_table(eqs, block))
-    dynamics = print_program(printer, block.programs["dynamics"], DYNAMICS, chunk_steps)
     return template("model.c.tmpl").substitute(
         name=mech.name,
         version=__version__,
@@ -378,20 +445,21 @@ def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int) -> str
         state_names=comment_text(", ".join(mech.state_names)),
         parameter_names=comment_text(", ".join(s.name for s in eqs.parameters)),
         prefix=prefix,
-        dynamics_parts=dynamics.functions,
-        dynamics=dynamics.body,
+        dynamics_section=dynamics_section(eqs, block, printer, prefix, chunk_steps),
         check_names=comment_text(", ".join(key for key, _ in eqs.checks)),
         checks=body(printer, block, indexed("out", block.groups["checks"])),
         initial=body(printer, block, indexed("y0", block.groups["initial"])),
         outputs_section=outputs_section(eqs, block, printer, prefix),
         jacobian_section=jacobian_section(eqs, block, printer, prefix, chunk_steps),
+        loops_absent="" if eqs.loops is not None else
+        template("loops_absent.c.tmpl").substitute(prefix=prefix),
     )
 
 
 def generated_functions(eqs: Equations) -> list[str]:
     """The parts a model's build has: outputs and jacobian only when needed (the header
     declares every function; those of a part not built return NEMC_NOT_BUILT)."""
-    diagnostics = ["jacobian", "inverse_mass_matrix"] if eqs.jacobian is not None else []
+    diagnostics = (["jacobian", "inverse_mass_matrix"] if eqs.inverse_mass is not None else [])
     outputs = ["outputs"] if eqs.outputs else []
     return ["rhs", "rhs_many", "checks", "initial_state"] + outputs + diagnostics
 
@@ -419,6 +487,9 @@ def metadata(eqs: Equations, prefix: str) -> dict:
         "check_names": [key for key, _ in eqs.checks],
         "output_names": [name for name, _ in eqs.outputs],
         "generated": generated_functions(eqs),
+        "drive_names": [joint.name for joint in mech.driven],
+        "constraint_equations": list(eqs.loops.owners) if eqs.loops is not None else [],
+        "initial_given": [name for name in mech.state_names if name in sim.initial],
         "scene": {
             "t_span": list(sim.t_span) if sim.t_span else None,
             "t_eval": list(sim.t_eval) if sim.t_eval is not None else None,
@@ -437,12 +508,13 @@ def native_section(eqs: Equations, prefix: str, taylor: str) -> str:
     """The model-independent integrators and the model's thin entry points to them. Radau only
     in builds with the Jacobian: it halves the compile time the integrators add elsewhere;
     Taylor (the model's own coefficients) only in builds that ask for it."""
-    jacobian = f"{prefix}jacobian" if eqs.jacobian is not None else "NULL"
+    has_jacobian = eqs.inverse_mass is not None  # built with the diagnostics (exact or not)
+    jacobian = f"{prefix}jacobian" if has_jacobian else "NULL"
     entry = template("integrators_entry.c.tmpl").substitute(
         name=eqs.mechanism.name, prefix=prefix, jacobian=jacobian
     )
     sections = ["integrators.c.tmpl"]
-    if eqs.jacobian is not None:  # Radau needs the Jacobian: built with it, on first need
+    if has_jacobian:  # Radau needs the Jacobian: built with it, on first need
         sections.append("radau.c.tmpl")
     return "\n" + "".join(read_template(name) for name in sections) + taylor + entry
 

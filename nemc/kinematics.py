@@ -58,9 +58,18 @@ class Kinematics:
             m.GROUND: BodyKinematics(sympy.S.Zero, vec([0, 0]))
         }
         self._joint_of = {joint.child: joint for joint in mech.joints}
+        self.motions = {joint.coordinates[0]: prescribed_motion(joint) for joint in mech.driven}
         for joint in joints_parent_first(mech.joints):
-            angle, origin = joint.place(self.frame(joint.parent), coordinates_of(joint))
+            angle, origin = joint.place(self.frame(joint.parent),
+                                        [self.coordinate(c) for c in joint.coordinates])
             self.bodies[joint.child] = BodyKinematics(angle, vec(origin))
+
+    def coordinate(self, name: str) -> sympy.Expr:
+        """A coordinate's value: its symbol, or a driven coordinate's motion (of t)."""
+        return self.motions[name][0] if name in self.motions else m.symbol(name)
+
+    def speed(self, name: str) -> sympy.Expr:
+        return self.motions[name][1] if name in self.motions else m.rate_symbol(name)
 
     def frame(self, body: str) -> SymbolicFrame:
         return SymbolicFrame(self, body)
@@ -83,8 +92,9 @@ class Kinematics:
 
     def origin_velocity(self, body: str) -> Vec:
         joint = self._joint_of[body]
-        rates = [m.rate_symbol(c) for c in joint.coordinates]
-        return vec(joint.origin_velocity(self.frame(joint.parent), coordinates_of(joint), rates))
+        return vec(joint.origin_velocity(self.frame(joint.parent),
+                                         [self.coordinate(c) for c in joint.coordinates],
+                                         [self.speed(c) for c in joint.coordinates]))
 
     def rate(self, expr: sympy.Matrix | sympy.Expr) -> sympy.Matrix | sympy.Expr:
         """d/dt of an expression of q, dq and t, with qdd as the symbols of the accelerations."""
@@ -132,8 +142,24 @@ class SymbolicFrame:
         return tuple(exprs)
 
 
-def coordinates_of(joint: Joint) -> list[sympy.Symbol]:
-    return [m.symbol(c) for c in joint.coordinates]
+def prescribed_motion(joint: Joint) -> tuple[sympy.Expr, sympy.Expr, sympy.Expr]:
+    """A driven joint's coordinate, rate and acceleration: its motion and their derivatives."""
+    motion = sympy.sympify(joint.motion)
+    rate = sympy.diff(motion, m.TIME)
+    return motion, rate, sympy.diff(rate, m.TIME)
+
+
+def motion_substitutions(mech: m.Mechanism) -> dict[sympy.Symbol, sympy.Expr]:
+    """Each driven coordinate's symbol, rate and acceleration -> its prescribed value (where
+    loads and outputs name them)."""
+    found: dict[sympy.Symbol, sympy.Expr] = {}
+    for joint in mech.driven:
+        name = joint.coordinates[0]
+        values = prescribed_motion(joint)
+        for symbol, value in zip((m.symbol(name), m.rate_symbol(name), m.accel_symbol(name)),
+                                 values):
+            found[symbol] = value
+    return found
 
 
 def joints_parent_first(joints: Iterable[Joint]) -> list[Joint]:

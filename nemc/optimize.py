@@ -55,13 +55,18 @@ def rewrite_program(program: Program) -> Program:
 
 
 def optimize_equations(eqs: Equations) -> Block:
+    loops = eqs.loops
     groups = {
         "outputs": tuple(expr for _, expr in eqs.outputs),
         "checks": tuple(expr for _, expr in eqs.checks),
         "initial": eqs.initial_state,
+        "constraints": () if loops is None else
+        (*loops.values, *(v for row in loops.jacobian for v in row), *loops.rate),
     }
+    primal = eqs.accelerations_program if eqs.jacobian is not None else None
     programs = {"dynamics": eqs.dynamics, "jacobian": eqs.jacobian,
-                "inverse_mass": eqs.inverse_mass}
+                "inverse_mass": eqs.inverse_mass,
+                "primal": primal if primal is not eqs.dynamics else None}
     temporaries, reduced = shared_cse(groups)
     rewritten = {name: rewrite_program(prog) for name, prog in programs.items()
                  if prog is not None}

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from .loops_runtime import LoopsMixin
 from .methods import (  # noqa: F401 (re-exported: the runtime's public names)
     DEFAULT_METHOD,
     IMPLICIT_METHODS,
@@ -31,6 +32,7 @@ from .methods import (  # noqa: F401 (re-exported: the runtime's public names)
 
 DEFAULT_T_SPAN = (0.0, 10.0)
 OPTIONAL_PARTS = frozenset({"jacobian", "taylor"})  # C a build has only when asked for
+KINEMATIC_POINTS = 201  # the default times of a kinematic analysis over t_span
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-9
 
@@ -42,11 +44,12 @@ class ModelError(ValueError):
 class IntegrationFailure(ArithmeticError):
     """The equations cannot be evaluated at a state (singular mass matrix, non-finite values)."""
 
-    def __init__(self, t: float, y: np.ndarray, status: int, state_names: Sequence[str]):
+    def __init__(self, t: float, y: np.ndarray, status: int, state_names: Sequence[str],
+                 cause: str | None = None):
         self.t, self.y, self.status = t, np.array(y), status
         state = ", ".join(f"{n}={v:.6g}" for n, v in zip(state_names, self.y))
-        super().__init__(f"at t={t:.9g}: {failure_cause(self.y, status, state_names)}; "
-                         f"state: {state}")
+        cause = cause or failure_cause(self.y, status, state_names)
+        super().__init__(f"at t={t:.9g}: {cause}; state: {state}")
 
 
 def failure_cause(y: np.ndarray, status: int, state_names: Sequence[str]) -> str:
@@ -124,8 +127,10 @@ def read_metadata(path: Path) -> dict:
     return json.loads(Path(path).read_text())
 
 
-class Model:
+class Model(LoopsMixin):
     """A compiled mechanism: names, defaults, rhs, jacobian, outputs and simulate."""
+
+    _model_error = ModelError  # what LoopsMixin raises
 
     def __init__(self, metadata: dict, ffi: Any, lib: Any):
         self.metadata = metadata
@@ -257,8 +262,8 @@ class Model:
         """A state from an array, or from a dict of coordinate / dot(q) values (others 0)."""
         if y0 is None:
             return self.initial_state(params)
-        if isinstance(y0, Mapping):
-            state = np.zeros(self.n_state)
+        if isinstance(y0, Mapping):  # closed loops: the others start from the scene's guess
+            state = self.initial_state(params) if self.has_loops else np.zeros(self.n_state)
             for name, value in y0.items():
                 if name not in self.state_names:
                     close = difflib.get_close_matches(str(name), self.state_names, n=1)
@@ -286,7 +291,7 @@ class Model:
             dy = np.empty(n)
             status = c_rhs(t, buffer(y), p_buffer, buffer(dy))
             if status:
-                raise IntegrationFailure(t, y, status, names)
+                raise IntegrationFailure(t, y, status, names, self.loop_failure(status))
             return dy
 
         rhs.last = last  # type: ignore[attr-defined]
@@ -428,6 +433,19 @@ class Model:
         atol = float(atol if atol is not None else self.scene["atol"] or DEFAULT_ATOL)
         times = self._times(span, t_eval)
         state0 = self.state_vector(y0, params)
+        if self.has_loops:
+            state0, freedom = self.assembled(span[0], state0, self.given_mask(y0), p)
+            if freedom == 0:
+                return self._kinematic_run(span, state0, times, rtol, atol, p)
+            result = self._integrate(method, span, state0, times, rtol, atol, p, params)
+            result.y = self.projected(result.t, result.y, p)
+            return result
+        return self._integrate(method, span, state0, times, rtol, atol, p, params)
+
+    def _integrate(self, method: str, span: tuple[float, ...], state0: np.ndarray, times: Any,
+                   rtol: float, atol: float, p: np.ndarray,
+                   params: Mapping[str, float] | None) -> SimulationResult:
+        """One run from state0 with the method: nemc's own, or scipy's solve_ivp."""
         if method in NATIVE_METHODS:
             model = self._native_model(method)
             return model._simulate_native(method, span, state0, times, rtol, atol, p)
@@ -450,6 +468,20 @@ class Model:
             success=bool(sol.success), method=method, rtol=rtol, atol=atol,
             params=dict(zip(self.parameter_names, p.tolist())),
         )
+
+    def _kinematic_run(self, span: tuple[float, ...], state0: np.ndarray, times: Any,
+                       rtol: float, atol: float, p: np.ndarray) -> SimulationResult:
+        """A mechanism its drives leave without a degree of freedom: no integration, its
+        states computed from the constraints at each time of t_eval (default: 201 over
+        t_span), the outputs (drives, reactions) there."""
+        times = np.linspace(*span, KINEMATIC_POINTS) if times is None else np.asarray(times)
+        t, y, failure = self.kinematic_states(times.astype(float), state0, p)
+        return SimulationResult(
+            t=t, y=y, outputs=self._lazy_outputs(t, y, p), nfev=0, njev=0, nlu=0,
+            status=0 if failure is None else -1, success=failure is None,
+            message=failure or "Kinematic analysis: no degree of freedom left by the drives; "
+            "the states come from the constraints at each time.",
+            method="kinematic", rtol=rtol, atol=atol, params=self.parameters_at(p))
 
     def _times(self, span: tuple[float, ...], t_eval: Sequence[float] | None) -> Any:
         if t_eval is not None:
@@ -555,7 +587,8 @@ class Model:
             t, y = keep[0][: run.n_out], y_eval[: run.n_out].T
         lib = self._lib
         if status == lib.NEMC_RHS_FAILED:
-            failure = IntegrationFailure(run.t_fail, y_fail, run.rhs_status, self.state_names)
+            failure = IntegrationFailure(run.t_fail, y_fail, run.rhs_status, self.state_names,
+                                         self.loop_failure(run.rhs_status))
             return self._failed(failure, method, run.rtol, run.atol, self.parameters_at(p))
         messages = {  # scipy's messages for the same outcomes
             lib.NEMC_REACHED_END: SUCCESS_MESSAGE,

@@ -18,10 +18,10 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import sympy
 
 from ..model import Loc, PointRef
-from ..spatial import V2
+from ..spatial import V2, couple
 
 if TYPE_CHECKING:
-    from ..joints import Frame
+    from ..joints import Frame, LoadSink
     from ..validate import Reader
 
 Expr = sympy.Expr
@@ -67,6 +67,17 @@ class Constraint:
         """The force (ground axes) of body(b) on body(a) at point a and the couple on body(a),
         from its multipliers."""
         raise NotImplementedError
+
+    def act(self, sink: LoadSink, a: Frame, b: Frame, multipliers: list[Expr]) -> None:
+        """The reaction of these multipliers as loads: on body(a) at point a, its opposite on
+        body(b) at the same place (generalized force Phi_q^T lambda, driven coordinates'
+        included)."""
+        force, torque = self.reaction(a, b, multipliers)
+        at = a.point(self.a.xy)
+        sink.apply_at(self.a.body, at, force)
+        sink.apply(self.a.body, couple(torque))
+        sink.apply_at(self.b.body, at, (-force[0], -force[1]))
+        sink.apply(self.b.body, couple(-torque))
 
     def contact_on_b(self, a: Frame, b: Frame) -> tuple[Expr, Expr]:
         """Where the reaction's opposite acts on body(b), in b's frame: the point of b at a."""

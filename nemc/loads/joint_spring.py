@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import sympy
 
 from ..joints import JOINT_KINDS
-from ..model import Loc, symbol
+from ..model import Loc
 from ..spatial import V2
 from .base import Applied, ArticulatedLoads, Load
 
@@ -57,7 +57,7 @@ class JointSpring(Load):
     def act(self, aba: ArticulatedLoads) -> None:
         joint = aba.joint(self.joint)
         parent, child = aba.frame(joint.parent), aba.frame(joint.child)
-        q = [symbol(c) for c in joint.coordinates]
+        q = [aba.coordinate(c) for c in joint.coordinates]
         u = [aba.speed(c) for c in joint.coordinates]
         displacement = joint.displacement(child.angle, parent.angle, q)
         rate = joint.displacement_rate(aba.velocity(joint.child)[0],
@@ -68,7 +68,7 @@ class JointSpring(Load):
 
     def displacement(self, kin: Kinematics, joint: Joint) -> sympy.Expr:
         return joint.displacement(kin.angle(joint.child), kin.angle(joint.parent),
-                                  [symbol(c) for c in joint.coordinates])
+                                  [kin.coordinate(c) for c in joint.coordinates])
 
     def applied(self, kin: Kinematics) -> Applied:
         rel = self.displacement(kin, kin.mech.joint(self.joint))
