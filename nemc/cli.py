@@ -183,10 +183,22 @@ def cmd_show(args: argparse.Namespace) -> int:
 def cmd_check(args: argparse.Namespace) -> int:
     from .validate import load_mechanism
 
+    from .assembly import check_assembly
+
     mech = load_mechanism(args.mechanism)
-    print(f"{args.mechanism}: OK: {mech.name}, {len(mech.bodies)} bodies, "
-          f"{len(mech.coordinates)} coordinates, state {list(mech.state_names)}")
+    assembly = check_assembly(mech)
+    loops = (f", {counted(len(mech.constraints), 'loop constraint')} "
+             f"({counted(assembly.equations, 'equation')})" if mech.constraints else "")
+    driven = f", {counted(len(mech.driven), 'driven joint')}" if mech.driven else ""
+    print(f"{args.mechanism}: OK: {mech.name}, {counted(len(mech.bodies), 'body', 'bodies')}, "
+          f"{counted(len(mech.coordinates), 'coordinate')}{driven}{loops}, "
+          f"{counted(assembly.freedom, 'degree', 'degrees')} of freedom, "
+          f"state {list(mech.state_names)}")
     return 0
+
+
+def counted(count: int, one: str, many: str | None = None) -> str:
+    return f"{count} {one if count == 1 else many or one + 's'}"
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
