@@ -181,9 +181,8 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from .validate import load_mechanism
-
     from .assembly import check_assembly
+    from .validate import load_mechanism
 
     mech = load_mechanism(args.mechanism)
     assembly = check_assembly(mech)
