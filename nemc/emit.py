@@ -24,6 +24,7 @@ from .optimize import Block
 from .program import Guard, Program
 from .tangent import seed_symbols
 from .taylor import TAYLOR_MAX_ORDER, TaylorUnsupported, series_code
+from .units import unit_metadata
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 
@@ -490,11 +491,43 @@ def native_cdef(prefix: str) -> str:
 # ---- end of the native integrators' hook ---------------------------------------------------
 
 
+# ---- the drawing's point positions (issue 20): appended to every model's C and cdef ---------
+
+
+def positions_part(eqs: Equations, block: Block, prefix: str) -> tuple[str, str, dict]:
+    """The C of `<name>_positions` (the ground positions of the points nemc.geometry's drawing
+    needs), its cffi declaration, and the drawing's structure for model.json."""
+    from .derive import runtime_values
+    from .geometry import drawing
+    from .optimize import rewrite
+
+    picture, runtime = drawing(eqs.mechanism), runtime_values(eqs.mechanism)
+    exprs = [runtime(v) for _, x, y in picture.points for v in (x, y)]
+    symbols = sympy.numbered_symbols("g", cls=sympy.Dummy, real=True)
+    temporaries, reduced = sympy.cse(exprs, symbols=symbols, order="none")
+    names = {**symbol_table(eqs, block), **{s: s.name for s, _ in temporaries}}
+    printer = SymbolTablePrinter(names)
+    indent = " " * 8
+    lines = [f"{indent}const double {s.name} = {printer.doprint(rewrite(e))};"
+             for s, e in temporaries]
+    lines += [f"{indent}xy[{k}] = {printer.doprint(rewrite(e))};" for k, e in enumerate(reduced)]
+    source = template("positions.c.tmpl").substitute(
+        prefix=prefix, n_points=len(picture.points), n_values=2 * len(picture.points),
+        point_names=comment_text(", ".join(name for name, _, _ in picture.points)),
+        positions="\n".join(lines),
+    )
+    declaration = (f"int {prefix}positions(int n_t, const double *ts, const double *ys,"
+                   " const double *p, double *out);\n")
+    return source, declaration, picture.metadata()
+
+
 def emit(eqs: Equations, block: Block, chunk_steps: int | None = None) -> Emitted:
     """chunk_steps: the most steps of a program printed as one function (CHUNK_STEPS)."""
     prefix = f"{eqs.mechanism.name}_"
     taylor, taylor_unavailable = taylor_section(eqs, SymbolTablePrinter(symbol_table(eqs, block)))
     info = metadata(eqs, prefix)
+    info.update(unit_metadata(eqs.mechanism, info["output_names"]))
+    positions_c, positions_cdef, info["drawing"] = positions_part(eqs, block, prefix)
     if taylor:
         info["generated"].append("taylor")
         info["taylor_program"] = ("articulated body" if eqs.taylor is eqs.dynamics
@@ -504,8 +537,8 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None) -> Emitte
     return Emitted(
         name=eqs.mechanism.name,
         c_source=c_source(eqs, block, prefix, chunk_steps or CHUNK_STEPS)
-        + native_section(eqs, prefix, taylor),
-        cdef=cdef(prefix, generated_functions(eqs)) + native_cdef(prefix),
+        + native_section(eqs, prefix, taylor) + positions_c,
+        cdef=cdef(prefix, generated_functions(eqs)) + native_cdef(prefix) + positions_cdef,
         package_init=template("package_init.py.tmpl").substitute(
             name=eqs.mechanism.name, version=__version__
         ),

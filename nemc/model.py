@@ -162,6 +162,20 @@ class Simulation:
     atol: float | None = None
 
 
+AngleDisplay = Literal["rad", "deg"]
+
+
+@dataclass(frozen=True)
+class Units:
+    """The optional `units:` mapping: labels only (nemc never converts). `angle` says how
+    figures and animations show angles; the equations and tables always use radians."""
+
+    length: str | None = None
+    mass: str | None = None
+    time: str | None = None
+    angle: AngleDisplay = "rad"
+
+
 @dataclass(frozen=True)
 class Mechanism:
     name: str
@@ -176,6 +190,7 @@ class Mechanism:
     loads: tuple[Load, ...]
     outputs: Outputs
     simulation: Simulation
+    units: Units = field(default_factory=Units)
 
     @property
     def coordinates(self) -> tuple[str, ...]:

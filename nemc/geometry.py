@@ -1,0 +1,73 @@
+"""The mechanism's drawing: which points a picture of it needs, and their ground positions.
+
+A drawing shows each body as the outline through its points (origin, com, named points), each
+joint where it connects, each spring between its ends and the path of the points the scene
+asks for. Their ground-frame positions are expressions of the coordinates and parameters; the
+build compiles them into the model's C (`<name>_positions`, templates/positions.c.tmpl), so a
+picture shows exactly what the compiled model computes. The drawing's structure (which point
+belongs to which body, joint or spring) goes to the build's metadata (`drawing`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy
+
+from . import model as m
+from .kinematics import Kinematics
+
+
+@dataclass(frozen=True)
+class Drawing:
+    """Points (name, ground-frame x and y expressions) and what connects them, by index."""
+
+    points: list[tuple[str, sympy.Expr, sympy.Expr]] = field(default_factory=list)
+    bodies: dict[str, list[int]] = field(default_factory=dict)
+    joints: list[dict] = field(default_factory=list)
+    springs: list[dict] = field(default_factory=list)
+    traces: list[int] = field(default_factory=list)
+
+    def metadata(self) -> dict:
+        return {"points": [name for name, _, _ in self.points], "bodies": self.bodies,
+                "joints": self.joints, "springs": self.springs, "traces": self.traces}
+
+
+class _Builder:
+    def __init__(self, mech: m.Mechanism):
+        self.kin = Kinematics(mech)
+        self.drawing = Drawing()
+        self.index: dict[tuple[str, tuple], int] = {}
+
+    def point(self, name: str, body: str, xy: m.Vec2) -> int:
+        """The index of a point fixed in BODY at XY (body frame); the same point once."""
+        key = (body, tuple(sympy.sympify(v) for v in xy))
+        if key not in self.index:
+            position = self.kin.position(body, xy)
+            self.index[key] = len(self.drawing.points)
+            self.drawing.points.append((name, position[0], position[1]))
+        return self.index[key]
+
+
+def drawing(mech: m.Mechanism) -> Drawing:
+    """Every point a picture of MECH needs, in a fixed order: bodies, joints, springs."""
+    builder = _Builder(mech)
+    for body in mech.bodies:
+        named = [("origin", (0, 0)), ("com", body.com), *body.points.items()]
+        indices = [builder.point(f"{body.name}.{point}", body.name, xy) for point, xy in named]
+        builder.drawing.bodies[body.name] = list(dict.fromkeys(indices))
+    sprung = {load.joint for load in mech.loads if isinstance(load, m.JointSpring)}
+    for joint in mech.joints:
+        at = builder.point(f"{joint.parent}.{joint.name}", joint.parent, joint.at)
+        child = builder.point(f"{joint.child}.origin", joint.child, (0, 0))
+        builder.drawing.joints.append({"name": joint.name, "type": joint.type,
+                                       "parent": joint.parent, "child": joint.child,
+                                       "at": at, "origin": child, "spring": joint.name in sprung})
+    for k, load in enumerate(mech.loads):
+        if isinstance(load, m.Spring):
+            ends = [builder.point(f"loads[{k}].{end}" if ref.body == m.GROUND else ref.label,
+                                  ref.body, ref.xy) for end, ref in (("a", load.a), ("b", load.b))]
+            builder.drawing.springs.append({"a": ends[0], "b": ends[1], "load": k})
+    for ref in mech.outputs.points:
+        builder.drawing.traces.append(builder.point(ref.label, ref.body, ref.xy))
+    return builder.drawing
