@@ -24,13 +24,15 @@ class Drawing:
 
     points: list[tuple[str, sympy.Expr, sympy.Expr]] = field(default_factory=list)
     bodies: dict[str, list[int]] = field(default_factory=dict)
+    coms: dict[str, int] = field(default_factory=dict)
     joints: list[dict] = field(default_factory=list)
     springs: list[dict] = field(default_factory=list)
     traces: list[int] = field(default_factory=list)
 
     def metadata(self) -> dict:
         return {"points": [name for name, _, _ in self.points], "bodies": self.bodies,
-                "joints": self.joints, "springs": self.springs, "traces": self.traces}
+                "coms": self.coms, "joints": self.joints, "springs": self.springs,
+                "traces": self.traces}
 
 
 class _Builder:
@@ -56,13 +58,18 @@ def drawing(mech: m.Mechanism) -> Drawing:
         named = [("origin", (0, 0)), ("com", body.com), *body.points.items()]
         indices = [builder.point(f"{body.name}.{point}", body.name, xy) for point, xy in named]
         builder.drawing.bodies[body.name] = list(dict.fromkeys(indices))
+        builder.drawing.coms[body.name] = indices[1]
     sprung = {load.joint for load in mech.loads if isinstance(load, m.JointSpring)}
     for joint in mech.joints:
         at = builder.point(f"{joint.parent}.{joint.name}", joint.parent, joint.at)
         child = builder.point(f"{joint.child}.origin", joint.child, (0, 0))
-        builder.drawing.joints.append({"name": joint.name, "type": joint.type,
-                                       "parent": joint.parent, "child": joint.child,
-                                       "at": at, "origin": child, "spring": joint.name in sprung})
+        entry = {"name": joint.name, "type": joint.type, "parent": joint.parent,
+                 "child": joint.child, "at": at, "origin": child, "spring": joint.name in sprung}
+        if joint.type == "prismatic":  # a point one length unit along the rail from `at`
+            length = sympy.sqrt(joint.axis[0] ** 2 + joint.axis[1] ** 2)
+            ahead = (joint.at[0] + joint.axis[0] / length, joint.at[1] + joint.axis[1] / length)
+            entry["axis"] = builder.point(f"{joint.parent}.{joint.name}.axis", joint.parent, ahead)
+        builder.drawing.joints.append(entry)
     for k, load in enumerate(mech.loads):
         if isinstance(load, m.Spring):
             ends = [builder.point(f"loads[{k}].{end}" if ref.body == m.GROUND else ref.label,
