@@ -344,15 +344,22 @@ class Inline:
 def animation_of(scene: Scene, fps: float = FPS, title: str = "", size: float = 5.0) -> Any:
     from matplotlib.animation import FuncAnimation
 
+    fig, _, artist = laid_out(scene, title, size)
+    return FuncAnimation(fig, artist.update, frames=len(scene.t), interval=1000.0 / fps,
+                         blit=False)
+
+
+def laid_out(scene: Scene, title: str = "", size: float = 5.0) -> tuple[Figure, Any, Artist]:
+    """The figure, axes and artists of an animation, laid out once (the axes keep their place
+    in every frame)."""
     fig, ax = new_axes(scene, size)
     if title:
         ax.set_title(title, loc="left")
     artist = Artist(ax, scene)
     artist.update(0)
-    fig.draw_without_rendering()  # lay out once: the axes keep their place in every frame
+    fig.draw_without_rendering()
     fig.set_layout_engine("none")
-    return FuncAnimation(fig, artist.update, frames=len(scene.t), interval=1000.0 / fps,
-                         blit=False)
+    return fig, ax, artist
 
 
 def write_gif(scene: Scene, path: Path, fps: float, title: str = "", size: float = 5.0) -> None:
@@ -361,14 +368,8 @@ def write_gif(scene: Scene, path: Path, fps: float, title: str = "", size: float
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from PIL import Image
 
-    fig, ax = new_axes(scene, size)
-    if title:
-        ax.set_title(title, loc="left")
+    fig, ax, artist = laid_out(scene, title, size)
     canvas = FigureCanvasAgg(fig)
-    artist = Artist(ax, scene)
-    artist.update(0)
-    fig.draw_without_rendering()
-    fig.set_layout_engine("none")
     moving = artist.dynamic()
     for item in moving:
         item.set_animated(True)

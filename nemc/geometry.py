@@ -1,6 +1,7 @@
 """The mechanism's drawing: which points a picture of it needs, and their ground positions.
 
-A drawing shows each body as the outline through its points (origin, com, named points), each
+A drawing shows each body as the outline through its points (origin, com, named points; a body
+with no named points as a bar from its origin through its mass centre to twice as far), each
 joint where it connects, each spring between its ends and the path of the points the scene
 asks for. Their ground-frame positions are expressions of the coordinates and parameters; the
 build compiles them into the model's C (`<name>_positions`, templates/positions.c.tmpl), so a
@@ -56,6 +57,9 @@ def drawing(mech: m.Mechanism) -> Drawing:
     builder = _Builder(mech)
     for body in mech.bodies:
         named = [("origin", (0, 0)), ("com", body.com), *body.points.items()]
+        if not body.points and any(sympy.sympify(v) != 0 for v in body.com):
+            # no named points: drawn as a uniform bar, origin to twice its mass centre
+            named.append(("end", (2 * body.com[0], 2 * body.com[1])))
         indices = [builder.point(f"{body.name}.{point}", body.name, xy) for point, xy in named]
         builder.drawing.bodies[body.name] = list(dict.fromkeys(indices))
         builder.drawing.coms[body.name] = indices[1]
