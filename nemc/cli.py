@@ -258,8 +258,9 @@ def panel_list(text: str) -> list[str]:
     kinds = name_list(text)
     unknown = [kind for kind in kinds if kind not in PANEL_KINDS]
     if unknown or not kinds:
-        raise argparse.ArgumentTypeError(f"unknown panel kind(s) {', '.join(unknown) or text!r};"
-                                         f" choose from {', '.join(PANEL_KINDS)}")
+        named = ", ".join(unknown) if unknown else repr(text)
+        raise argparse.ArgumentTypeError(f"unknown panel kind(s) {named}; choose from "
+                                         f"{', '.join(PANEL_KINDS)}")
     return kinds
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import sympy
 
+from . import model as m
 from .derive import Equations, derive
 from .mass_form import linearized
 from .model import Mechanism
@@ -33,9 +34,10 @@ def explicit_accelerations(mass: sympy.Matrix, forcing: sympy.Matrix) -> sympy.M
     return numerator.applyfunc(lambda entry: entry / determinant)
 
 
-def state_symbol_names(eqs: Equations) -> dict[sympy.Symbol, str]:
-    """LaTeX of the coordinates, their rates and accelerations."""
-    symbols = (*eqs.coordinates, *eqs.speeds, *eqs.accelerations)
+def symbol_names(eqs: Equations) -> dict[sympy.Symbol, str]:
+    """LaTeX of the coordinates, their rates and accelerations, and the parameters (beta ->
+    \\beta, L1 -> L_{1}, thetaf -> \\mathrm{thetaf}, not a product of five letters)."""
+    symbols = (*eqs.coordinates, *eqs.speeds, *eqs.accelerations, *eqs.parameters, m.TIME)
     return {s: latex_name(s.name) for s in symbols}
 
 
@@ -56,15 +58,23 @@ TEXT_TITLE = {"M": "mass matrix M:", "f": "forcing f:",
               "qdd": "explicit accelerations qdd = M^-1 f:"}
 
 
+def latex_left(what: str) -> str:
+    """The left side of a printed LaTeX equation: M, f, \\ddot{q}, or an output's name."""
+    if what in LATEX_LEFT:
+        return LATEX_LEFT[what]
+    if what.startswith("ddot("):
+        return latex_name(what)
+    return f"\\mathtt{{{what}}}"
+
+
 def show(mech: Mechanism, latex: bool = False) -> str:
-    eqs_names = state_symbol_names(derive(mech)) if latex else {}
+    eqs_names = symbol_names(derive(mech)) if latex else {}
     header = [f"{mech.name}: M(q) qdd = f(t, q, dq)",
               f"coordinates: {', '.join(mech.coordinates)}"]
     lines = []
     for what, expr in sections(mech):
         if latex:
-            left = LATEX_LEFT.get(what, f"\\mathtt{{{what}}}")
-            lines.append(f"{left} = {sympy.latex(expr, symbol_names=eqs_names)}")
+            lines.append(f"{latex_left(what)} = {sympy.latex(expr, symbol_names=eqs_names)}")
         elif what in TEXT_TITLE:
             lines.append(f"{TEXT_TITLE[what]}\n\n{sympy.pretty(expr)}")
         else:
