@@ -1,6 +1,7 @@
 # nemc: `make run` compiles and simulates the book's double pendulum; `make test` runs the tests;
 # `make stress` regenerates the stress report of the book's four systems (docs/stress/);
-# `make docs` builds the documentation site from docs/ into site/ (no network needed).
+# `make docs` builds the documentation site from docs/ into site/ (no network needed);
+# `make figures` redraws its figures of the book's systems.
 # Each sets up everything on a fresh machine (a virtual environment in .venv).
 PYTHON ?= python3
 VENV := .venv
@@ -12,7 +13,7 @@ OTHER_VENV := .venv-abi3
 OTHER_STAMP := $(OTHER_VENV)/.installed
 export NEMC_CACHE ?= $(CURDIR)/.nemc-cache
 
-.PHONY: run test bench bench-quick stress lint docs other-python clean
+.PHONY: run figures test bench bench-quick stress lint docs other-python clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -20,10 +21,18 @@ $(STAMP): pyproject.toml
 	$(BIN)/pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
+# The README's figures (docs/figures/double_pendulum.{png,gif}) come from here.
 run: $(STAMP)
 	$(BIN)/nemc compile examples/double_pendulum.yaml
-	$(BIN)/nemc simulate examples/double_pendulum.yaml --plot generated/double_pendulum.png
-	$(BIN)/nemc animate examples/double_pendulum.yaml --out generated/double_pendulum.gif
+	$(BIN)/nemc simulate examples/double_pendulum.yaml --plot docs/figures/double_pendulum.png
+	$(BIN)/nemc animate examples/double_pendulum.yaml --out docs/figures/double_pendulum.gif
+
+# The figures of the docs' tutorials: the book's four systems (docs/figures/).
+BOOK := compound_pendulum double_pendulum robot_arm two_link_robot_arm
+figures: $(STAMP)
+	for name in $(BOOK); do \
+	  $(BIN)/nemc simulate examples/$$name.yaml --plot docs/figures/$$name.png > /dev/null && \
+	  $(BIN)/nemc animate examples/$$name.yaml --out docs/figures/$$name.gif || exit 1; done
 
 test: $(STAMP) other-python
 	$(BIN)/python -m pytest -q
@@ -59,7 +68,7 @@ $(DOCS_STAMP): $(STAMP)
 	touch $(DOCS_STAMP)
 
 docs: $(DOCS_STAMP)
-	$(BIN)/mkdocs build --strict
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
 
 lint: $(STAMP)
 	$(BIN)/ruff check nemc tests benchmarks

@@ -136,7 +136,7 @@ def cmd_animate(args: argparse.Namespace) -> int:
         out.parent.mkdir(parents=True, exist_ok=True)
         animate_result(result, out, fps=args.fps, speed=args.speed, traces=args.trace)
     except (ModelError, ValueError) as error:
-        print(f"{args.mechanism}: options: {error}", file=sys.stderr)
+        print(f"{args.mechanism}: --set/options: {error}", file=sys.stderr)
         return 2
     print(f"animation written to {out} ({result.method}, t = {result.t[0]:g} .. "
           f"{result.t[-1]:g})")
@@ -176,7 +176,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         result = model.simulate(run["t_span"], run["y0"], method=args.method, rtol=args.rtol,
                                 atol=args.atol, params=params, t_eval=run["t_eval"])
     except (ModelError, ValueError) as error:
-        print(f"{args.mechanism}: options: {error}", file=sys.stderr)
+        print(f"{args.mechanism}: --set/options: {error}", file=sys.stderr)
         return 2
     print(report.table(model, result, outputs))
     if args.error_estimate and result.success:

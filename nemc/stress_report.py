@@ -258,7 +258,7 @@ def figure(st: Study, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(2, 3, figsize=(11, 6.2))
+    fig, axes = plt.subplots(2, 3, figsize=(16, 8.4), layout="constrained")
     plot_accuracy(st, axes[0, 0])
     plot_drift(st, axes[0, 1])
     plot_divergence(st, axes[0, 2])
@@ -267,9 +267,12 @@ def figure(st: Study, path: Path) -> None:
     plot_conditioning(st, axes[1, 2])
     for ax in axes.flat:
         ax.grid(True, alpha=0.3)
+        if ax.get_legend() is not None:  # beside its axes: never on the data
+            handles, labels = ax.get_legend_handles_labels()
+            ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                      fontsize="small", frameon=False)
     fig.suptitle(f"nemc stress: {st.name}")
-    fig.tight_layout()
-    fig.savefig(path, dpi=62)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
