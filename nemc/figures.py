@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from .runtime import SimulationResult
+from .runtime import SOLVER_STEPS, SimulationResult
 from .typeset import math_label
 
 PANEL_KINDS = ("state", "reactions", "drives", "energy", "points", "accelerations",
@@ -73,7 +73,7 @@ def dense(result: SimulationResult) -> SimulationResult:
     can rerun; else the result itself."""
     if result.rerun is None or result.t.size < 2 or not result.success:
         return result
-    steps = result.rerun(None)
+    steps = result.rerun(SOLVER_STEPS)
     if not steps.success:
         return result
     return result.rerun(dense_times(steps.t))

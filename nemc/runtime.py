@@ -32,6 +32,7 @@ DEFAULT_T_SPAN = (0.0, 10.0)
 DEFAULT_METHOD = "nemc.DOP853"
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-9
+SOLVER_STEPS = "steps"  # simulate(t_eval="steps"): the solver's own steps, whatever the scene says
 
 
 class ModelError(ValueError):
@@ -531,6 +532,8 @@ class Model:
         )
 
     def _times(self, span: tuple[float, ...], t_eval: Sequence[float] | None) -> Any:
+        if isinstance(t_eval, str) and t_eval == SOLVER_STEPS:  # the solver's own steps
+            return None
         if t_eval is not None:
             return np.asarray(t_eval, dtype=float)
         if self.scene["t_eval_step"]:
