@@ -21,13 +21,13 @@ from functools import cached_property
 import sympy
 
 from . import model as m
-from .articulated import dynamics_program, inverse_mass_program
+from .articulated import dynamics_program, generalized_force_symbols, inverse_mass_program
 from .kinematics import Kinematics, applied_loads
 from .mass_form import MAX_COORDINATES, mass_form_program
 from .outputs import derive_outputs
 from .program import Program
-from .tangent import tangent_program
-from .taylor import series_cost
+from .tangent import seed_symbols, tangent_program
+from .taylor import series_cost, unsupported_operation
 from .values import resolve_values
 
 
@@ -46,9 +46,13 @@ class Equations:
     outputs: tuple[tuple[str, sympy.Expr], ...]  # may contain the acceleration symbols
     checks: tuple[tuple[str, sympy.Expr], ...]  # key path -> expression that must be > 0
     initial_state: tuple[sympy.Expr, ...]
-    jacobian: Program | None = None  # d qdd / d y along seed[]: see tangent.py
+    jacobian: Program | None = None  # d qdd / d y along the seeds: see tangent.py
+    seeds: Mapping[sympy.Symbol, sympy.Symbol] = dataclasses.field(default_factory=dict)
+    # ^ state symbol -> the symbol of its tangent (the Jacobian's column), with the jacobian
     inverse_mass: Program | None = None  # M^-1 Q at rest, with the jacobian
+    generalized_forces: tuple[sympy.Symbol, ...] = ()  # Q, the inverse_mass program's input
     taylor: Program | None = None  # the program nemc.Taylor's coefficients come from, if built
+    taylor_unavailable: str | None = None  # why nemc.Taylor cannot be built: FILE:LINE: ...
 
     @property
     def n(self) -> int:
@@ -141,22 +145,46 @@ def derive(mech: m.Mechanism) -> Equations:
 
 def with_diagnostics(eqs: Equations) -> Equations:
     """Add the Jacobian (forward-mode derivative of the program) and M^-1 for diagnostics."""
+    seeds = dict(zip(eqs.state, seed_symbols(len(eqs.state))))
+    forces = generalized_force_symbols(eqs.n)
     return dataclasses.replace(
         eqs,
-        jacobian=tangent_program(eqs.dynamics, eqs.state),
-        inverse_mass=inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism)),
+        jacobian=tangent_program(eqs.dynamics, seeds),
+        seeds=seeds,
+        inverse_mass=inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism), forces),
+        generalized_forces=forces,
     )
 
 
 def with_taylor(eqs: Equations) -> Equations:
     """Ask for nemc.Taylor's code, from the program with the fewer Cauchy sums per order: the
-    articulated-body program, or on small mechanisms the mass-matrix form (nemc/mass_form.py)."""
+    articulated-body program, or on small mechanisms the mass-matrix form (nemc/mass_form.py).
+    A load whose expressions have no Taylor recurrence makes it unavailable, said with the
+    load's FILE:LINE."""
+    refusal = taylor_refusal(eqs)
+    if refusal is not None:
+        return dataclasses.replace(eqs, taylor_unavailable=refusal)
     program = eqs.dynamics
     if eqs.n <= MAX_COORDINATES:
         candidate = mass_form_program(*eqs.mass_forcing)
-        if series_cost(candidate, eqs.state, m.TIME) < series_cost(program, eqs.state, m.TIME):
+        if (series_cost(candidate, eqs.coordinates, eqs.speeds, m.TIME)
+                < series_cost(program, eqs.coordinates, eqs.speeds, m.TIME)):
             program = candidate
     return dataclasses.replace(eqs, taylor=program)
+
+
+def taylor_refusal(eqs: Equations) -> str | None:
+    """Where the equations use an operation with no Taylor recurrence here, with its place in
+    the file, or None."""
+    runtime, varying = runtime_values(eqs.mechanism), {*eqs.state, m.TIME}
+    for load in eqs.mechanism.loads:
+        for key, expr in load.expressions():
+            why = unsupported_operation(runtime(expr), varying)
+            if why is not None:
+                where = load.location
+                return (f"{where.file}:{where.line}: {where.key}.{key}: {why} has no Taylor "
+                        "recurrence here")
+    return None
 
 
 def initial_state(mech: m.Mechanism, runtime) -> tuple[sympy.Expr, ...]:

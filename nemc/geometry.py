@@ -63,21 +63,23 @@ def drawing(mech: m.Mechanism) -> Drawing:
         indices = [builder.point(f"{body.name}.{point}", body.name, xy) for point, xy in named]
         builder.drawing.bodies[body.name] = list(dict.fromkeys(indices))
         builder.drawing.coms[body.name] = indices[1]
-    sprung = {load.joint for load in mech.loads if isinstance(load, m.JointSpring)}
+    sprung = {load.joint for load in mech.loads if load.kind == "joint_spring"}
     for joint in mech.joints:
         at = builder.point(f"{joint.parent}.{joint.name}", joint.parent, joint.at)
         child = builder.point(f"{joint.child}.origin", joint.child, (0, 0))
         entry = {"name": joint.name, "type": joint.type, "parent": joint.parent,
                  "child": joint.child, "at": at, "origin": child, "spring": joint.name in sprung}
         if joint.type == "prismatic":  # a point one length unit along the rail from `at`
-            length = sympy.sqrt(joint.axis[0] ** 2 + joint.axis[1] ** 2)
-            ahead = (joint.at[0] + joint.axis[0] / length, joint.at[1] + joint.axis[1] / length)
+            axis = joint.axis  # type: ignore[attr-defined]
+            length = sympy.sqrt(axis[0] ** 2 + axis[1] ** 2)
+            ahead = (joint.at[0] + axis[0] / length, joint.at[1] + axis[1] / length)
             entry["axis"] = builder.point(f"{joint.parent}.{joint.name}.axis", joint.parent, ahead)
         builder.drawing.joints.append(entry)
     for k, load in enumerate(mech.loads):
-        if isinstance(load, m.Spring):
+        if load.kind == "spring":
             ends = [builder.point(f"loads[{k}].{end}" if ref.body == m.GROUND else ref.label,
-                                  ref.body, ref.xy) for end, ref in (("a", load.a), ("b", load.b))]
+                                  ref.body, ref.xy)
+                    for end, ref in (("a", load.a), ("b", load.b))]  # type: ignore[attr-defined]
             builder.drawing.springs.append({"a": ends[0], "b": ends[1], "load": k})
     for ref in mech.outputs.points:
         builder.drawing.traces.append(builder.point(ref.label, ref.body, ref.xy))

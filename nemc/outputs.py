@@ -9,10 +9,15 @@ names and order.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import sympy
 
 from . import model as m
-from .kinematics import Kinematics, applied_loads, cross_z, joint_relative, rotation, vec
+
+if TYPE_CHECKING:
+    from .joints import Joint
+from .kinematics import Kinematics, applied_loads, cross_z, rotation, vec
 
 Named = list[tuple[str, sympy.Expr]]
 
@@ -26,7 +31,7 @@ def subtree(mech: m.Mechanism, root: str) -> set[str]:
     return bodies
 
 
-def joint_reaction(mech: m.Mechanism, kin: Kinematics, joint: m.Joint) -> Named:
+def joint_reaction(mech: m.Mechanism, kin: Kinematics, joint: Joint) -> Named:
     inside = subtree(mech, joint.child)
     point = kin.position(joint.child, (0, 0))
     force, moment = sympy.zeros(2, 1), sympy.S.Zero
@@ -41,17 +46,14 @@ def joint_reaction(mech: m.Mechanism, kin: Kinematics, joint: m.Joint) -> Named:
         force -= load.force
         moment -= cross_z(kin.position(load.body, load.xy) - point, load.force)
     moment -= sum((tq for body, tq in couples if body in inside), sympy.S.Zero)
-    for spring in (s for s in mech.loads if isinstance(s, m.JointSpring)):
-        sprung = mech.joint(spring.joint)
-        if sprung is joint and joint.type == "prismatic":  # the spring's force is not a reaction
-            rel = joint_relative(kin, joint)
-            tension = -spring.k * (rel - spring.rest) - spring.damping * kin.rate(rel)
-            axis = rotation(kin.angle(joint.parent)) * vec(joint.axis)
-            force -= axis / sympy.sqrt(axis.dot(axis)) * tension
+    for load in mech.loads:
+        through = load.force_through_joint(kin, joint)  # the load's own, not a reaction
+        if through is not None:
+            force -= vec(through)
     body_frame = rotation(kin.angle(joint.child)).T * force
     named = [(f"{joint.name}.Fx", force[0]), (f"{joint.name}.Fy", force[1])]
     named += [(f"{joint.name}.Fn", body_frame[0]), (f"{joint.name}.Ft", body_frame[1])]
-    if joint.type in ("prismatic", "weld"):
+    if joint.reaction_couple:
         named.append((f"{joint.name}.M", moment))
     return named
 
@@ -65,12 +67,9 @@ def energy(mech: m.Mechanism, kin: Kinematics) -> Named:
         kinetic += body.mass * v_c.dot(v_c) / 2 + body.inertia * omega**2 / 2
         potential -= body.mass * g.dot(r_c)
     for load in mech.loads:
-        if isinstance(load, m.Spring):
-            d = kin.position(load.b.body, load.b.xy) - kin.position(load.a.body, load.a.xy)
-            potential += load.k * (sympy.sqrt(d.dot(d)) - load.length) ** 2 / 2
-        elif isinstance(load, m.JointSpring):
-            rel = joint_relative(kin, mech.joint(load.joint))
-            potential += load.k * (rel - load.rest) ** 2 / 2
+        stored = load.potential(kin)
+        if stored is not None:
+            potential += stored
     return [
         ("energy.kinetic", kinetic),
         ("energy.potential", potential),

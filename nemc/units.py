@@ -35,9 +35,8 @@ NAMED_SYSTEMS: dict[tuple[str, str, str], dict[str, str]] = {
 
 def coordinate_kinds(mech: m.Mechanism) -> dict[str, str]:
     """Each coordinate's kind: "angle" (revolute, a free joint's th) or "length"."""
-    kinds = {"revolute": ["angle"], "prismatic": ["length"], "free": ["length", "length", "angle"]}
     return {q: kind for joint in mech.joints
-            for q, kind in zip(joint.coordinates, kinds.get(joint.type, []))}
+            for q, kind in zip(joint.coordinates, joint.coordinate_kinds)}
 
 
 def quantities(mech: m.Mechanism, output_names: list[str]) -> dict[str, str]:

@@ -13,53 +13,39 @@ import math
 import os
 import re
 import sys
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import sympy
 
 from nemc.errors import InputError, Problem
 from nemc.expr import RESERVED, Budget, ExprError, Scope, parse_expression, suggest
+from nemc.joints import JOINT_KINDS, Joint
+from nemc.loads import LOAD_KINDS, Load
+from nemc.methods import METHODS  # the scene accepts exactly what simulate accepts
 from nemc.model import (
     GROUND,
     Body,
-    Force,
-    Joint,
-    JointSpring,
-    Load,
     Loc,
     Mechanism,
     Outputs,
     Param,
     PointRef,
     Simulation,
-    Spring,
-    Torque,
     Units,
     Vec2,
     symbol,
 )
 from nemc.parse import Node, parse_text
-from nemc.runtime import METHODS  # the scene accepts exactly what simulate accepts
 
-JOINT_TYPES = ("revolute", "prismatic", "free", "weld")
-LOAD_KINDS = ("torque", "force", "spring", "joint_spring")
+JOINT_TYPES = tuple(JOINT_KINDS)
+JOINT_KEYS = {name: ("type", "parent", "child", *kind.keys) for name, kind in JOINT_KINDS.items()}
+LOAD_KEYS = {name: kind.keys for name, kind in LOAD_KINDS.items()}
 IMPLICIT_POINTS = ("origin", "com")
 TOP_KEYS = ("name", "description", "parameters", "constants", "gravity", "bodies", "joints",
             "loads", "outputs", "simulation", "units")
-JOINT_KEYS = {
-    "revolute": ("type", "parent", "child", "at", "coordinate", "angle", "offset"),
-    "prismatic": ("type", "parent", "child", "at", "coordinate", "axis", "offset"),
-    "free": ("type", "parent", "child", "coordinates"),
-    "weld": ("type", "parent", "child", "at", "offset"),
-}
-LOAD_KEYS = {
-    "torque": ("torque", "body", "reaction"),
-    "force": ("force", "body", "at", "frame"),
-    "spring": ("spring",),
-    "joint_spring": ("joint_spring",),
-}
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 ZERO2: Vec2 = (sympy.S.Zero, sympy.S.Zero)
 # An exported package is imported by its name: it must not hide a module it or its runtime
@@ -364,14 +350,20 @@ def _collect_names(ctx: _Ctx, root: Mapping[str, Node]) -> None:
 def _collect_coordinates(ctx: _Ctx, joint: Node, path: str) -> tuple[str, ...]:
     """The valid coordinate names a joint declares (its shape is checked with the joint)."""
     entries = _entries(joint)
-    kind = entries["type"].value if "type" in entries else None
+    type_node = entries.get("type")
+    kind = JOINT_KINDS.get(type_node.value) if type_node is not None and isinstance(
+        type_node.value, str) else None
+    kinds = [kind] if kind is not None else list(JOINT_KINDS.values())  # unknown: any shape
+    shapes = {k.coordinate_key: len(k.coordinate_kinds) for k in kinds if k.coordinate_key}
     names: list[tuple[Node, str]] = []
-    unknown = kind not in JOINT_TYPES
-    if "coordinate" in entries and (kind in ("revolute", "prismatic") or unknown):
-        names.append((entries["coordinate"], _join(path, "coordinate")))
-    if "coordinates" in entries and (kind == "free" or unknown):
-        items = _items(entries["coordinates"])
-        names += [(item, _join(_join(path, "coordinates"), i)) for i, item in enumerate(items)]
+    for key, count in shapes.items():
+        if key not in entries:
+            continue
+        if count == 1:
+            names.append((entries[key], _join(path, key)))
+        else:
+            items = _items(entries[key])
+            names += [(item, _join(_join(path, key), i)) for i, item in enumerate(items)]
     found = []
     for node, item_path in names:
         if _register(ctx, node.value, node.line, item_path, "coordinate"):
@@ -636,67 +628,41 @@ def _joint(ctx: _Ctx, name: str, node: Node, path: str, edge: _Edge | None) -> J
     entries = _entries(node)
     kind = None
     if "type" in entries:
-        kind = _choice(ctx, entries["type"], _join(path, "type"), JOINT_TYPES, "joint type")
+        type_name = _choice(ctx, entries["type"], _join(path, "type"), JOINT_TYPES, "joint type")
+        kind = JOINT_KINDS.get(type_name) if type_name is not None else None
     every_key = sorted({key for keys in JOINT_KEYS.values() for key in keys})
-    required = ["type", "parent", "child"]
-    if kind in ("revolute", "prismatic"):
-        required.append("coordinate")
-    elif kind == "free":
-        required.append("coordinates")
-    allowed = JOINT_KEYS[kind] if kind is not None else every_key
-    _keys(ctx, node, path, allowed, required, owner=(f"a {kind} joint", every_key))
     if kind is None:
+        _keys(ctx, node, path, every_key, ("type", "parent", "child"))
         return None
-    return _joint_fields(ctx, Joint(name, kind, "", "", ZERO2, (), loc=ctx.loc(node, path)),
-                         entries, path, edge)
-
-
-def _joint_fields(ctx: _Ctx, joint: Joint, entries: Mapping[str, Node], path: str,
-                  edge: _Edge | None) -> Joint | None:
-    """Fill in a joint of known type from its entries; ``None`` if anything is wrong."""
+    required = ["type", "parent", "child", *([kind.coordinate_key] if kind.coordinate_key else [])]
+    _keys(ctx, node, path, JOINT_KEYS[kind.type], required,
+          owner=(f"a {kind.type} joint", every_key))
     count = len(ctx.problems)
-    coordinates = _joint_coordinates(ctx, joint, entries, path)
-    at = ZERO2
-    if "at" in entries and joint.type in JOINT_KEYS and "at" in JOINT_KEYS[joint.type]:
-        parent = edge.parent if edge is not None else None
-        at = _point_of(ctx, entries["at"], _join(path, "at"), parent)
-    if joint.type == "free" and edge is not None and edge.parent != GROUND:
-        ctx.problem(edge.parent_line, _join(path, "parent"), "a free joint's parent must be "
-                                                             f"ground, got {edge.parent!r}")
-    angle = "relative"
-    if "angle" in entries and joint.type == "revolute":
-        angle = _choice(ctx, entries["angle"], _join(path, "angle"), ("relative", "absolute"),
-                        "angle") or angle
-    offset = sympy.S.Zero
-    if "offset" in entries and joint.type != "free":
-        offset = _fixed(ctx, entries["offset"], _join(path, "offset"))
-    axis = (sympy.S.One, sympy.S.Zero)
-    if "axis" in entries and joint.type == "prismatic":
-        axis = _axis(ctx, entries["axis"], _join(path, "axis"))
-    if len(ctx.problems) > count or edge is None or None in (at, offset, axis, coordinates):
+    coordinates = _joint_coordinates(ctx, kind, name, entries, path)
+    if edge is not None and (why := kind.parent_problem(edge.parent)) is not None:
+        ctx.problem(edge.parent_line, _join(path, "parent"), why)
+    fields = kind.read(Reader(ctx, node, path, parent=edge.parent if edge else None))
+    if len(ctx.problems) > count or edge is None or fields is None or coordinates is None:
         return None
-    return Joint(joint.name, joint.type, edge.parent, edge.child, at, coordinates,
-                 angle, offset, axis, joint.loc)  # type: ignore[arg-type]
+    return kind(name=name, parent=edge.parent, child=edge.child, coordinates=coordinates,
+                loc=ctx.loc(node, path), **fields)
 
 
-def _joint_coordinates(ctx: _Ctx, joint: Joint, entries: Mapping[str, Node],
+def _joint_coordinates(ctx: _Ctx, kind: type[Joint], name: str, entries: Mapping[str, Node],
                        path: str) -> tuple[str, ...] | None:
     """The joint's coordinates; their names were checked when they were collected."""
-    found = ctx.joint_coordinates.get(joint.name, ())
-    if joint.type == "weld":
+    count = len(kind.coordinate_kinds)
+    if count == 0 or kind.coordinate_key is None:
         return ()
-    if joint.type == "free":
-        node = entries.get("coordinates")
-        if node is None:
-            return None
-        if not node.is_list or len(_items(node)) != 3:
-            ctx.problem(node.line, _join(path, "coordinates"), "expected a list of 3 coordinate "
-                                                               f"names [x, y, th], {_got(node)}")
-            return None
-        return found if len(found) == 3 else None
-    if "coordinate" not in entries:
+    node = entries.get(kind.coordinate_key)
+    if node is None:
         return None
-    return found if len(found) == 1 else None
+    if count > 1 and (not node.is_list or len(_items(node)) != count):
+        ctx.problem(node.line, _join(path, kind.coordinate_key),
+                    f"expected a list of {count} coordinate names, {_got(node)}")
+        return None
+    found = ctx.joint_coordinates.get(name, ())
+    return found if len(found) == count else None
 
 
 def _axis(ctx: _Ctx, node: Node, path: str) -> Vec2 | None:
@@ -804,105 +770,21 @@ def _load(ctx: _Ctx, node: Node, path: str) -> Load | None:
                                      f"{', '.join(LOAD_KINDS)}, {_got(node)}")
         return None
     entries = _entries(node)
-    kinds = [kind for kind in LOAD_KINDS if kind in entries]
+    kinds = [name for name in LOAD_KINDS if name in entries]
     if len(kinds) != 1:
         found = f"got {' and '.join(kinds)}" if kinds else f"got keys {', '.join(entries)}"
         hint = "" if kinds else "".join(_suggest(key, LOAD_KINDS) for key in entries)
         ctx.problem(node.line, path, f"a load has exactly one of {', '.join(LOAD_KINDS)}; "
                                      f"{found}{hint}")
         return None
-    kind = kinds[0]
-    required = ("body",) if kind in ("torque", "force") else ()
+    kind = LOAD_KINDS[kinds[0]]
     count = len(ctx.problems)
     every_key = {key for keys in LOAD_KEYS.values() for key in keys}
-    _keys(ctx, node, path, LOAD_KEYS[kind], required, owner=(f"a {kind} load", every_key))
-    maker = {"torque": _torque, "force": _force, "spring": _spring,
-             "joint_spring": _joint_spring}[kind]
-    load = maker(ctx, node, path)
-    return load if len(ctx.problems) == count else None
-
-
-def _torque(ctx: _Ctx, node: Node, path: str) -> Torque | None:
-    entries = _entries(node)
-    expr = _expr(ctx, entries["torque"], _join(path, "torque"), ctx.scope("load"))
-    body = _load_body(ctx, entries, path)
-    reaction: str | None = GROUND
-    if "reaction" in entries:
-        reaction_node = entries["reaction"]
-        reaction = _body_name(ctx, reaction_node, _join(path, "reaction"), ground=True)
-        if reaction is not None and reaction == body:
-            ctx.problem(reaction_node.line, _join(path, "reaction"),
-                        f"reaction must differ from body, got {body!r} for both")
-    if expr is None or body is None or reaction is None:
+    _keys(ctx, node, path, kind.keys, kind.required, owner=(f"a {kind.kind} load", every_key))
+    fields = kind.read(Reader(ctx, node, path))
+    if fields is None or len(ctx.problems) != count:
         return None
-    return Torque(expr, body, reaction, ctx.loc(node, path))
-
-
-def _load_body(ctx: _Ctx, entries: Mapping[str, Node], path: str) -> str | None:
-    if "body" not in entries:
-        return None
-    return _body_name(ctx, entries["body"], _join(path, "body"), ground=False)
-
-
-def _force(ctx: _Ctx, node: Node, path: str) -> Force | None:
-    entries = _entries(node)
-    components = _vec2(ctx, entries["force"], _join(path, "force"), ctx.scope("load"))
-    body = _load_body(ctx, entries, path)
-    at: Vec2 | None = None
-    if "at" in entries:
-        at = _point_of(ctx, entries["at"], _join(path, "at"), body)
-    elif body is not None and body in ctx.bodies:
-        at = ctx.bodies[body].com
-    frame = "ground"
-    if "frame" in entries:
-        frame = _choice(ctx, entries["frame"], _join(path, "frame"), ("ground", "body"),
-                        "frame") or frame
-    if components is None or body is None or at is None:
-        return None
-    return Force(components, body, at, frame, ctx.loc(node, path))  # type: ignore[arg-type]
-
-
-def _spring(ctx: _Ctx, node: Node, path: str) -> Spring | None:
-    spring = _entries(node)["spring"]
-    path = _join(path, "spring")
-    keys = ("a", "b", "k", "length", "damping")
-    if not _keys(ctx, spring, path, keys, keys[:4], what="a mapping {a, b, k, length, damping}"):
-        return None
-    entries = _entries(spring)
-    ends = [_point_ref(ctx, entries[key], _join(path, key), ground=True)
-            for key in ("a", "b") if key in entries]
-    scope = ctx.scope("load")
-    values = [_expr(ctx, entries[key], _join(path, key), scope) if key in entries else None
-              for key in ("k", "length")]
-    damping = sympy.S.Zero
-    if "damping" in entries:
-        damping = _expr(ctx, entries["damping"], _join(path, "damping"), scope)
-    if len(ends) != 2 or None in (*ends, *values, damping):
-        return None
-    return Spring(ends[0], ends[1], values[0], values[1], damping,  # type: ignore[arg-type]
-                  ctx.loc(spring, path))
-
-
-def _joint_spring(ctx: _Ctx, node: Node, path: str) -> JointSpring | None:
-    spring = _entries(node)["joint_spring"]
-    path = _join(path, "joint_spring")
-    keys = ("joint", "k", "rest", "damping")
-    if not _keys(ctx, spring, path, keys, keys[:2], what="a mapping {joint, k, rest, damping}"):
-        return None
-    entries = _entries(spring)
-    joint = _joint_name(ctx, entries["joint"], _join(path, "joint")) if "joint" in entries else None
-    if joint is not None and joint in ctx.joints:
-        kind = ctx.joints[joint].type
-        if kind not in ("revolute", "prismatic"):
-            ctx.problem(entries["joint"].line, _join(path, "joint"), "a joint_spring needs a "
-                        f"revolute or prismatic joint; {joint!r} is a {kind} joint")
-    scope = ctx.scope("load")
-    values = {key: _expr(ctx, entries[key], _join(path, key), scope) if key in entries
-              else sympy.S.Zero for key in ("k", "rest", "damping")}
-    if joint is None or None in values.values():
-        return None
-    return JointSpring(joint, values["k"], values["rest"], values["damping"],  # type: ignore
-                       ctx.loc(spring, path))
+    return kind(**{"loc": ctx.loc(node, path), **fields})
 
 
 def _joint_name(ctx: _Ctx, node: Node, path: str) -> str | None:
@@ -940,6 +822,100 @@ def _point_ref(ctx: _Ctx, node: Node, path: str, ground: bool) -> PointRef | Non
         return None
     xy = _named_point(ctx, body, parts[1], node.line, path)
     return PointRef(body, xy, f"{body}.{parts[1]}") if xy is not None else None
+
+
+# ----------------------------------------------------------------------------- kinds' keys
+
+
+class Reader:
+    """One YAML mapping of a joint or a load, as its kind reads it (nemc/joints/, nemc/loads/):
+    a typed value per key, checked with its location. A wrong value records a problem and
+    reads as None; a missing key reads as its default."""
+
+    def __init__(self, ctx: _Ctx, node: Node, path: str, parent: str | None = None):
+        self.ctx, self.node, self.path = ctx, node, path
+        self.parent = parent  # the joint's parent body, where its points are read
+        self.entries = _entries(node)
+        self._problems_before = len(ctx.problems)
+
+    @property
+    def location(self) -> Loc:
+        return self.ctx.loc(self.node, self.path)
+
+    def fields(self, **values: Any) -> dict[str, Any] | None:
+        """The values read, or None when one is None or a problem was recorded meanwhile."""
+        if len(self.ctx.problems) > self._problems_before or None in values.values():
+            return None
+        return values
+
+    def problem(self, key: str, message: str) -> None:
+        self.ctx.problem(self.entries.get(key, self.node).line, _join(self.path, key), message)
+
+    def _at(self, key: str) -> tuple[Node, str] | None:
+        return (self.entries[key], _join(self.path, key)) if key in self.entries else None
+
+    def expr(self, key: str, default: sympy.Expr | None = None) -> sympy.Expr | None:
+        """An expression of t, coordinates, rates, parameters and constants (as loads take)."""
+        found = self._at(key)
+        return default if found is None else _expr(self.ctx, *found, self.ctx.scope("load"))
+
+    def fixed(self, key: str, default: sympy.Expr) -> sympy.Expr | None:
+        """An expression of parameters and constants, finite at their defaults."""
+        found = self._at(key)
+        return default if found is None else _fixed(self.ctx, *found)
+
+    def vec2(self, key: str) -> Vec2 | None:
+        """[x, y], each as `expr` reads it."""
+        found = self._at(key)
+        return None if found is None else _vec2(self.ctx, *found, self.ctx.scope("load"))
+
+    def axis(self, key: str) -> Vec2 | None:
+        """A fixed direction [x, y], not zero; default [1, 0]."""
+        found = self._at(key)
+        return (sympy.S.One, sympy.S.Zero) if found is None else _axis(self.ctx, *found)
+
+    def choice(self, key: str, choices: tuple[str, ...], default: str) -> str | None:
+        found = self._at(key)
+        return default if found is None else _choice(self.ctx, *found, choices, key)
+
+    def parent_point(self, key: str) -> Vec2 | None:
+        """A point of the joint's parent: a point name or [x, y]; default its origin."""
+        found = self._at(key)
+        return ZERO2 if found is None else _point_of(self.ctx, *found, self.parent)
+
+    def body_point(self, key: str, body: str | None) -> Vec2 | None:
+        """A point of `body`: a point name or [x, y]; default its mass center."""
+        found = self._at(key)
+        if found is not None:
+            return _point_of(self.ctx, *found, body)
+        return self.ctx.bodies[body].com if body in self.ctx.bodies else None
+
+    def body(self, key: str, ground: bool, default: str | None = None) -> str | None:
+        found = self._at(key)
+        return default if found is None else _body_name(self.ctx, *found, ground=ground)
+
+    def point_ref(self, key: str) -> PointRef | None:
+        """BODY.POINT or {body: BODY, at: [x, y]} (ground allowed)."""
+        found = self._at(key)
+        return None if found is None else _point_ref(self.ctx, *found, ground=True)
+
+    def joint(self, key: str, accepts: Callable[[type[Joint]], bool], needs: str) -> str | None:
+        """A joint's name; `needs` says what a joint of a kind that `accepts` refuses lacks."""
+        found = self._at(key)
+        name = None if found is None else _joint_name(self.ctx, *found)
+        joint = self.ctx.joints.get(name) if name is not None else None
+        if joint is not None and not accepts(type(joint)):
+            self.problem(key, f"{needs}; {name!r} is a {joint.type} joint")
+        return name
+
+    def mapping(self, key: str, allowed: tuple[str, ...], required: tuple[str, ...]
+                ) -> Reader | None:
+        """The mapping under `key`, to read in turn (None: not a mapping of these keys)."""
+        found = self._at(key)
+        if found is None or not _keys(self.ctx, *found, allowed, required,
+                                      what=f"a mapping {{{', '.join(allowed)}}}"):
+            return None
+        return Reader(self.ctx, *found)
 
 
 # ----------------------------------------------------------------------------- outputs

@@ -38,8 +38,9 @@ def run_python(python: str | Path, folder: Path, code: str) -> dict:
 
 
 def test_the_whole_api_is_at_module_level(package: Path) -> None:
+    hooks = ("part_compiler",)  # set by nemc's pipeline, None in a package
     public = sorted(name for name in dir(nemc.compile(EXAMPLES / "double_pendulum.yaml"))
-                    if not name.startswith("_") and name != "variant_provider")
+                    if not name.startswith("_") and name not in hooks)
     code = ("import json, double_pendulum as m\n"
             f"print(json.dumps([n for n in {public!r} if not hasattr(m, n)]))")
     assert run_python(sys.executable, package.parent, code) == []
