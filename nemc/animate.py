@@ -188,13 +188,13 @@ class Artist:
         self.body_colour = {body: BODY_COLOURS[k % len(BODY_COLOURS)]
                             for k, body in enumerate(drawing["bodies"])}
         self.rails = [ax.plot([], [], "-", color="#999999", lw=3, solid_capstyle="round",
-                              zorder=1)[0] for j in drawing["joints"] if j["type"] == "prismatic"]
+                              zorder=1)[0] for j in drawing["joints"] if "axis" in j]
         self.traces = [ax.plot([], [], "-", lw=1.0, alpha=0.7, color=self.trace_colour(k),
                                zorder=2)[0] for k in scene.traces]
         self.springs = [ax.plot([], [], "-", color=INK, lw=1.1, zorder=3)[0]
                         for _ in drawing["springs"]]
         self.joint_springs = [ax.plot([], [], "-", color=INK, lw=1.0, zorder=3)[0]
-                              for j in drawing["joints"] if j["spring"]]
+                              for j in drawing["joints"] if j["sprung"]]
         self.bodies = {body: self.body_artist(body) for body in drawing["bodies"]}
         self.coms = ax.plot([], [], "o", ms=5, mfc="white", mec=INK, mew=1.0, zorder=6)[0]
         self.pins = ax.plot([], [], "o", ms=7, mfc="white", mec=INK, mew=1.4, zorder=7)[0]
@@ -267,24 +267,24 @@ class Artist:
 
     def update_joints(self, xy: np.ndarray) -> None:
         joints = self.scene.drawing["joints"]
-        kinds: dict[str, list[np.ndarray]] = {"revolute": [], "weld": [], "prismatic": []}
+        symbols: dict[str, list[np.ndarray]] = {"pin": [], "fixed": [], "slider": [],
+                                                "none": []}
         supports, rails, sprung = [], iter(self.rails), iter(self.joint_springs)
         for joint in joints:
             origin = xy[joint["origin"]]
-            if joint["type"] in kinds:
-                kinds[joint["type"]].append(origin)
-            if joint["parent"] == "ground" and joint["type"] == "revolute":
+            symbols[joint["symbol"]].append(origin)
+            if joint["parent"] == "ground" and joint["symbol"] == "pin":
                 supports.append(xy[joint["at"]] - [0, 0.035 * self.scene.scale])
-            if joint["type"] == "prismatic":
+            if "axis" in joint:
                 self.draw_rail(next(rails), joint, xy)
-            if joint["spring"]:
+            if joint["sprung"]:
                 size = self.scene.scale
                 line = (zigzag(xy[joint["at"]], origin, 0.02 * size)
-                        if joint["type"] == "prismatic" else spiral(origin, 0.05 * size))
+                        if "axis" in joint else spiral(origin, 0.05 * size))
                 next(sprung).set_data(line[:, 0], line[:, 1])
-        for artist, kind in ((self.pins, "revolute"), (self.welds, "weld"),
-                             (self.sliders, "prismatic")):
-            points = np.array(kinds[kind]).reshape(-1, 2)
+        for artist, symbol in ((self.pins, "pin"), (self.welds, "fixed"),
+                               (self.sliders, "slider")):
+            points = np.array(symbols[symbol]).reshape(-1, 2)
             artist.set_data(points[:, 0], points[:, 1])
         points = np.array(supports).reshape(-1, 2)
         self.supports.set_data(points[:, 0], points[:, 1])

@@ -130,7 +130,8 @@ def state_panels(model: Any, res: SimulationResult, labels: Labels) -> list[Pane
 def output_groups(model: Any, names: Sequence[str]) -> list[tuple[str, str, list[str]]]:
     """(kind, axis text, output names) for each output panel, in PANEL_KINDS order."""
     kinds = model.metadata.get("quantities", {})
-    joints = {name.rpartition(".")[0] for name in names if kinds.get(name) in ("force", "torque")}
+    joints = {name.rpartition(".")[0] for name in names
+              if kinds.get(name) in ("joint force", "couple")}
     groups: list[tuple[str, str, list[str]]] = []
 
     def add(kind: str, text: str, members: list[str]) -> None:

@@ -16,7 +16,9 @@ from dataclasses import dataclass, field
 import sympy
 
 from . import model as m
+from .joints import Joint
 from .kinematics import Kinematics
+from .loads import Load
 
 
 @dataclass(frozen=True)
@@ -63,24 +65,55 @@ def drawing(mech: m.Mechanism) -> Drawing:
         indices = [builder.point(f"{body.name}.{point}", body.name, xy) for point, xy in named]
         builder.drawing.bodies[body.name] = list(dict.fromkeys(indices))
         builder.drawing.coms[body.name] = indices[1]
-    sprung = {load.joint for load in mech.loads if load.kind == "joint_spring"}
+    sprung = {name for load in mech.loads if (name := sprung_joint(load)) is not None}
     for joint in mech.joints:
         at = builder.point(f"{joint.parent}.{joint.name}", joint.parent, joint.at)
         child = builder.point(f"{joint.child}.origin", joint.child, (0, 0))
-        entry = {"name": joint.name, "type": joint.type, "parent": joint.parent,
-                 "child": joint.child, "at": at, "origin": child, "spring": joint.name in sprung}
-        if joint.type == "prismatic":  # a point one length unit along the rail from `at`
-            axis = joint.axis  # type: ignore[attr-defined]
+        entry = {"name": joint.name, "symbol": joint_symbol(joint), "parent": joint.parent,
+                 "child": joint.child, "at": at, "origin": child, "sprung": joint.name in sprung}
+        axis = rail_axis(joint)
+        if axis is not None:  # a point one length unit along the rail from `at`
             length = sympy.sqrt(axis[0] ** 2 + axis[1] ** 2)
             ahead = (joint.at[0] + axis[0] / length, joint.at[1] + axis[1] / length)
             entry["axis"] = builder.point(f"{joint.parent}.{joint.name}.axis", joint.parent, ahead)
         builder.drawing.joints.append(entry)
     for k, load in enumerate(mech.loads):
-        if load.kind == "spring":
-            ends = [builder.point(f"loads[{k}].{end}" if ref.body == m.GROUND else ref.label,
-                                  ref.body, ref.xy)
-                    for end, ref in (("a", load.a), ("b", load.b))]  # type: ignore[attr-defined]
-            builder.drawing.springs.append({"a": ends[0], "b": ends[1], "load": k})
+        ends = spring_ends(load)
+        if ends is not None:
+            found = [builder.point(f"loads[{k}].{end}" if ref.body == m.GROUND else ref.label,
+                                   ref.body, ref.xy) for end, ref in zip("ab", ends)]
+            builder.drawing.springs.append({"a": found[0], "b": found[1], "load": k})
     for ref in mech.outputs.points:
         builder.drawing.traces.append(builder.point(ref.label, ref.body, ref.xy))
     return builder.drawing
+
+
+# What a drawing asks of the joint and load kinds, by what they have, never by their names
+# (the kinds live in nemc/joints/ and nemc/loads/).
+
+
+def joint_symbol(joint: Joint) -> str:
+    """How a joint is drawn: a slider on a rail, a fixed (welded) connection, nothing for a
+    free body, a pin otherwise."""
+    if rail_axis(joint) is not None:
+        return "slider"
+    if joint.merged:
+        return "fixed"
+    return "none" if joint.floating else "pin"
+
+
+def rail_axis(joint: Joint) -> m.Vec2 | None:
+    """The axis (parent frame) a joint slides along, if it slides."""
+    return getattr(joint, "axis", None)
+
+
+def spring_ends(load: Load) -> tuple[m.PointRef, m.PointRef] | None:
+    """The two points a load acts between, if it is one (a spring)."""
+    ends = (getattr(load, "a", None), getattr(load, "b", None))
+    return ends if all(isinstance(end, m.PointRef) for end in ends) else None  # type: ignore
+
+
+def sprung_joint(load: Load) -> str | None:
+    """The joint a load acts across, if it is one (a joint spring)."""
+    joint = getattr(load, "joint", None)
+    return joint if isinstance(joint, str) else None

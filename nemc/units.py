@@ -20,16 +20,16 @@ DIMENSIONS: dict[str, tuple[int, int, int]] = {
     "length": (1, 0, 0),
     "speed": (1, 0, -1),
     "acceleration": (1, 0, -2),
-    "force": (1, 1, -2),
-    "torque": (2, 1, -2),
+    "joint force": (1, 1, -2),
+    "couple": (2, 1, -2),
     "energy": (2, 1, -2),
 }
 ANGULAR = {"angle": "rad", "angular rate": "rad/{T}", "angular acceleration": "rad/{T}^2"}
-# (mass, length, time) -> names of force, torque and energy in that system
+# (mass, length, time) -> names of force, couple (torque) and energy in that system
 NAMED_SYSTEMS: dict[tuple[str, str, str], dict[str, str]] = {
-    ("kg", "m", "s"): {"force": "N", "torque": "N*m", "energy": "J"},
-    ("slug", "ft", "s"): {"force": "lb", "torque": "lb*ft", "energy": "ft*lb"},
-    ("g", "cm", "s"): {"force": "dyn", "torque": "dyn*cm", "energy": "erg"},
+    ("kg", "m", "s"): {"joint force": "N", "couple": "N*m", "energy": "J"},
+    ("slug", "ft", "s"): {"joint force": "lb", "couple": "lb*ft", "energy": "ft*lb"},
+    ("g", "cm", "s"): {"joint force": "dyn", "couple": "dyn*cm", "energy": "erg"},
 }
 
 
@@ -50,11 +50,12 @@ def quantities(mech: m.Mechanism, output_names: list[str]) -> dict[str, str]:
     for name in output_names:
         head, _, last = name.rpartition(".")
         if head in joints and last in ("Fx", "Fy", "Fn", "Ft"):
-            found[name] = "force"
+            found[name] = "joint force"
         elif head in joints and last == "M":
-            found[name] = "torque"
+            found[name] = "couple"
         elif head in joints and last == "drive":  # format version 2's driven joints
-            found[name] = "torque" if joints[head].type == "revolute" else "force"
+            turns = joints[head].coordinate_kinds == ("angle",)
+            found[name] = "couple" if turns else "joint force"
         elif head == "energy":
             found[name] = "energy"
         elif any(name.startswith(f"{p.label}.") for p in mech.outputs.points):

@@ -51,14 +51,14 @@ def test_units_are_optional_and_angle_defaults_to_radians() -> None:
 
 
 @pytest.mark.parametrize(("units", "kind", "expected"), [
-    (Units("m", "kg", "s"), "force", "N"),
+    (Units("m", "kg", "s"), "joint force", "N"),
     (Units("m", "kg", "s"), "energy", "J"),
-    (Units("m", "kg", "s"), "torque", "N*m"),
-    (Units("ft", "slug", "s"), "force", "lb"),
+    (Units("m", "kg", "s"), "couple", "N*m"),
+    (Units("ft", "slug", "s"), "joint force", "lb"),
     (Units("m", "kg", "s"), "acceleration", "m/s^2"),
-    (Units("mm", "g", "ms"), "force", "mm*g/ms^2"),
+    (Units("mm", "g", "ms"), "joint force", "mm*g/ms^2"),
     (Units("m", "kg", "s"), "angular rate", "rad/s"),
-    (Units("m", None, "s"), "force", ""),  # no mass unit: no force unit
+    (Units("m", None, "s"), "joint force", ""),  # no mass unit: no force unit
     (Units(None, None, None), "angle", "rad"),
     (Units("m", "kg", "s"), None, ""),  # an expression: no kind, no unit
 ])
