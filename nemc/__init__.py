@@ -20,16 +20,26 @@ if TYPE_CHECKING:
 
 
 def compile(  # noqa: A001
-    path: str | Path, *, jacobian: bool | None = None, taylor: bool | None = None
+    path: str | Path | None = None, *, text: str | None = None, name: str = "<text>",
+    jacobian: bool | None = None, taylor: bool | None = None,
 ) -> Model:
-    """Build the mechanism in PATH, or load its cached build, and return the Model.
+    """Build the mechanism in PATH, or given as YAML `text` (messages then name `name`), or
+    load its cached build, and return the Model.
 
     The analytic Jacobian is generated when `jacobian` is True, or (None) when the scene's
     method is implicit; otherwise it is built on the model's first call that needs it.
     nemc.Taylor's code likewise: `taylor` True, or the scene's method nemc.Taylor, or the first
     simulate(method="nemc.Taylor")."""
-    from .pipeline import compile_mechanism
+    from .build import Source
+    from .pipeline import compile_mechanism, compile_source
 
+    if (path is None) == (text is None):
+        raise TypeError("nemc.compile: give a file path or text=, not both")
+    if text is not None:
+        if not isinstance(text, str):
+            raise TypeError(f"nemc.compile: text= is the YAML as a str, got {type(text).__name__}")
+        source = Source(name, text.encode("utf-8", "surrogatepass"))
+        return compile_source(source, jacobian, taylor=taylor).model
     return compile_mechanism(path, jacobian, taylor=taylor).model
 
 

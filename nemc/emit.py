@@ -28,6 +28,7 @@ from .optimize import Block
 from .program import Guard, Program
 from .resources import read_template
 from .taylor import TAYLOR_MAX_ORDER, TaylorUnsupported, series_code
+from .units import unit_metadata
 
 
 @dataclass(frozen=True)
@@ -565,11 +566,42 @@ def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, st
     ), None
 
 
+# ---- the drawing's point positions (issue 20): appended to every model's C ------------------
+
+
+def positions_part(eqs: Equations, block: Block, prefix: str) -> tuple[str, dict]:
+    """The C of `<name>_positions` (declared in templates/model.h.tmpl: the ground positions of
+    the points nemc.geometry's drawing needs) and the drawing's structure for model.json."""
+    from .derive import runtime_values
+    from .geometry import drawing
+    from .optimize import rewrite
+
+    picture, runtime = drawing(eqs.mechanism), runtime_values(eqs.mechanism)
+    exprs = [runtime(v) for _, x, y in picture.points for v in (x, y)]
+    symbols = sympy.numbered_symbols("g", cls=sympy.Dummy, real=True)
+    temporaries, reduced = sympy.cse(exprs, symbols=symbols, order="none")
+    names = {**symbol_table(eqs, block), **{s: s.name for s, _ in temporaries}}
+    printer = SymbolTablePrinter(names)
+    indent = " " * 8
+    lines = [f"{indent}const double {s.name} = {printer.doprint(rewrite(e))};"
+             for s, e in temporaries]
+    lines += [f"{indent}{('POINT_X', 'POINT_Y')[k % 2]}({k // 2}) = {printer.doprint(rewrite(e))};"
+              for k, e in enumerate(reduced)]
+    source = template("positions.c.tmpl").substitute(
+        prefix=prefix, n_points=len(picture.points), n_values=2 * len(picture.points),
+        point_names=comment_text(", ".join(name for name, _, _ in picture.points)),
+        positions="\n".join(lines),
+    )
+    return source, picture.metadata()
+
+
 def emit(eqs: Equations, block: Block, chunk_steps: int | None = None) -> Emitted:
     """chunk_steps: the most steps of a program printed as one function (CHUNK_STEPS)."""
     prefix = f"{eqs.mechanism.name}_"
     taylor, taylor_unavailable = taylor_section(eqs, SymbolTablePrinter(symbol_table(eqs, block)))
     info = metadata(eqs, prefix)
+    info.update(unit_metadata(eqs.mechanism, info["output_names"]))
+    positions_c, info["drawing"] = positions_part(eqs, block, prefix)
     if taylor:
         info["generated"].append("taylor")
         info["taylor_program"] = ("articulated body" if eqs.taylor is eqs.dynamics
@@ -580,7 +612,7 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None) -> Emitte
     return Emitted(
         name=eqs.mechanism.name,
         c_source=c_source(eqs, block, prefix, chunk_steps or CHUNK_STEPS)
-        + native_section(eqs, prefix, taylor),
+        + native_section(eqs, prefix, taylor) + positions_c,
         header=interface,
         cdef=cdef(interface),
         package_init=template("package_init.py.tmpl").substitute(
