@@ -344,7 +344,61 @@ def dynamics_targets(layout: DynamicsLayout) -> tuple[str, ...]:
     for k in range(layout.equations):
         targets += [f"ACC_UNIT_QDD({k}, {i})" for i in range(n)]
         targets += [f"ACC_UNIT_DRIVE({k}, {j})" for j in range(d)]
-    return tuple(targets + [f"ACC_BIAS({k})" for k in range(layout.equations)])
+    m = layout.equations
+    targets += [f"ACC_BIAS({k})" for k in range(m)] + [f"ACC_PHI({k})" for k in range(m)]
+    targets += [f"ACC_PHI_Q({k}, {i})" for k in range(m) for i in range(n)]
+    return tuple(targets + [f"ACC_PHI_T({k})" for k in range(m)])
+
+
+@dataclass(frozen=True)
+class Phases:
+    """A loop's program in two phases: what depends on the positions only, then what the rates
+    add; the names of the first that the second reads are passed."""
+
+    positions: Program
+    position_targets: tuple[str, ...]
+    rates: Program
+    rate_targets: tuple[str, ...]
+    passed: tuple[sympy.Symbol, ...]
+
+
+def split_by_rates(program: Program, targets: Sequence[str], rates: set[sympy.Symbol]
+                   ) -> Phases:
+    """The program's steps and results by whether they depend on the rates (directly or
+    through earlier steps)."""
+    moving: set[sympy.Symbol] = set(rates)
+    first: list = []
+    second: list = []
+    for step in program.steps:
+        expr = step.value if isinstance(step, Guard) else step[1]
+        if expr.free_symbols & moving:
+            second.append(step)
+            if not isinstance(step, Guard):
+                moving.add(step[0])
+        else:
+            first.append(step)
+    late = [bool(sympy.sympify(r).free_symbols & moving) for r in program.results]
+    rate_results = tuple(r for r, is_late in zip(program.results, late) if is_late)
+    rates_program = Program(tuple(second), rate_results)
+    needed = symbols_used(rates_program)
+    position_results = tuple(r for r, is_late in zip(program.results, late) if not is_late)
+    keep = Program(tuple(first), (*position_results, *needed)).pruned()
+    positions = Program(keep.steps, position_results)
+    passed = tuple(name for name, _ in positions.assignments() if name in needed)
+    return Phases(positions, tuple(t for t, is_late in zip(targets, late) if not is_late),
+                  rates_program, tuple(t for t, is_late in zip(targets, late) if is_late),
+                  passed)
+
+
+def phased_functions(printer: SymbolTablePrinter, phases: Phases) -> str:
+    """The two phases as C (templates/loop_phases.c.tmpl)."""
+    slots = {name: f"passed[{k}]" for k, name in enumerate(phases.passed)}
+    positions = program_body(printer, phases.positions, phases.position_targets,
+                             passed=slots)
+    rates = program_body(SymbolTablePrinter({**printer.names, **slots}), phases.rates,
+                         phases.rate_targets)
+    return template("loop_phases.c.tmpl").substitute(
+        n_passed=max(len(phases.passed), 1), positions=positions, rates=rates)
 
 
 def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str,
@@ -357,10 +411,17 @@ def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
         dynamics = print_program(printer, program, DYNAMICS, chunk_steps)
         return template("tree.c.tmpl").substitute(
             prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body)
-    caller = dataclasses.replace(AUGMENTED, targets=dynamics_targets(eqs.layout))
-    dynamics = print_program(printer, program, caller, chunk_steps)
+    targets = dynamics_targets(eqs.layout)
+    if eqs.loops is not None:
+        functions = phased_functions(printer, split_by_rates(program, targets,
+                                                             set(eqs.speeds)))
+    else:
+        caller = dataclasses.replace(AUGMENTED, targets=targets)
+        dynamics = print_program(printer, program, caller, chunk_steps)
+        functions = template("accelerations_augmented.c.tmpl").substitute(
+            dynamics_parts=dynamics.functions, dynamics=dynamics.body)
     return template("loops.c.tmpl").substitute(
-        prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body,
+        prefix=prefix, dynamics_functions=functions,
         constraint_values=constraint_values(eqs, block, printer))
 
 

@@ -753,7 +753,10 @@ class Model(LoopsMixin):
         atol = float(atol if atol is not None else self.scene["atol"] or DEFAULT_ATOL)
         times = self._times(span, t_eval)
         times = np.array(span[:1] + span[1:] if times is None else times, dtype=float)
+        given = self.given_mask(y0s)
         ps, y0s = self._ensemble_inputs(y0s, params)
+        if self.has_loops:  # each run from its assembled state
+            y0s = self.assembled_runs(span[0], y0s, given, ps)
         integrate_many, method_id = self._native(method, "integrate_many"), self._method_id(method)
         run, keep = self._native_run(span, times, rtol, atol)
         k, n = len(y0s), self.n_state
@@ -774,6 +777,8 @@ class Model(LoopsMixin):
         bounds = np.linspace(0, k, workers + 1).astype(int)
         with ThreadPoolExecutor(workers) as pool:  # cffi releases the GIL during C calls
             list(pool.map(chunk, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]))
+        if self.has_loops:
+            y = self.projected_runs(keep[0], y, ps)
         return EnsembleResult(
             t=keep[0], y=y.transpose(0, 2, 1), status=statuses.astype(int),
             success=statuses == 0, nfev=counts[:, 0].copy(), njev=counts[:, 1].copy(),
