@@ -1,0 +1,566 @@
+"""An independent reference for closed loops and driven joints: Lagrange's equations with
+multipliers.
+
+Written from the format spec alone; it shares nothing with nemc's derivation but the validated
+model (``nemc.validate.load_mechanism``). The tree's M(q) and f(t, q, u) come from the Lagrangian
+derivation of tests/reference.py (``ReferenceModel``, over every tree coordinate: a driven one
+is an ordinary coordinate there). On top of it, written here:
+
+- the constraint equations Phi(q, t) = 0 from the positions the reference's own kinematics
+  (``reference.body_frames``) gives the constraint points:
+  revolute  p_a - p_b (ground axes, 2 equations);
+  slot      n . (p_a - p_b), n the slot's axis turned +90 degrees, in body(b)'s frame (1);
+  prismatic the slot's, and angle(a) - angle(b) - offset (2);
+  a driven coordinate q_d - motion(t) (1: rheonomic);
+- Phi_q and gamma = -d/dt(Phi_q u + Phi_t) + Phi_q qdd by sympy differentiation;
+- the index-1 equations, solved numerically at a state:
+
+      [[M, Phi_q^T], [Phi_q, 0]] [qdd; -lambda] = [f; gamma],  i.e.  M qdd = f + Phi_q^T lambda.
+
+  With Phi written as above, lambda is the reaction the spec names: for a constraint, the force
+  of body(b) on body(a) at point a (ground axes; a slot's lambda n; a prismatic's second
+  multiplier the couple on body(a)); for a driven coordinate, the generalized force of its
+  drive, i.e. the drive torque (revolute) or force along the axis (prismatic) on the child.
+
+The state of ``LoopReference`` is the mechanism's (``Mechanism.state_names``: undriven tree
+coordinates and their rates, the book's order); the driven ones are computed from their motion.
+Tree-joint reactions are the Newton-Euler balance of the child's subtree (sum of m a_C minus
+the loads on it and the constraint forces on it), as tests/test_outputs.py does for trees.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sp
+from reference import Frame, ReferenceModel, body_frames, resolve_parameters
+
+from nemc.constraints import Constraint
+from nemc.loads import Force, JointSpring, Spring, Torque
+from nemc.model import GROUND, TIME, Mechanism, PointRef, symbol
+
+Values = Mapping[str, object]  # name -> number, or an expression (text or sympy) of parameters
+
+ASSEMBLY_TOL = 1e-10  # the spec's: given values must satisfy the constraints to 1e-10
+
+
+class AssemblyError(ValueError):
+    """The constraints cannot hold at the given values; the message names the constraint."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Symbolic pieces
+
+
+def tree_of(mech: Mechanism) -> Mechanism:
+    """The mechanism's spanning tree: no constraints, every joint undriven (so every tree
+    coordinate is a coordinate of the Lagrangian)."""
+    joints = tuple(dataclasses.replace(j, motion=None) for j in mech.joints)
+    return dataclasses.replace(mech, joints=joints, constraints=())
+
+
+def _column(xy: Sequence[object]) -> sp.Matrix:
+    return sp.Matrix([sp.sympify(xy[0]), sp.sympify(xy[1])])
+
+
+def _rotation(angle: sp.Expr) -> sp.Matrix:
+    return sp.Matrix([[sp.cos(angle), -sp.sin(angle)], [sp.sin(angle), sp.cos(angle)]])
+
+
+def slot_normal(c: Constraint, frames: Mapping[str, Frame]) -> sp.Matrix:
+    """The slot's normal in ground axes: its axis (body(b)'s frame) turned +90 degrees."""
+    axis = _column(c.axis)
+    axis = axis / sp.sqrt(axis[0] ** 2 + axis[1] ** 2)
+    return _rotation(frames[c.b.body].angle) * sp.Matrix([-axis[1], axis[0]])
+
+
+def point_of(ref: PointRef, frames: Mapping[str, Frame]) -> sp.Matrix:
+    return frames[ref.body].point(ref.xy)
+
+
+def constraint_equations(c: Constraint, frames: Mapping[str, Frame]) -> list[sp.Expr]:
+    """Phi of one constraint, written from the spec's table."""
+    d = point_of(c.a, frames) - point_of(c.b, frames)
+    if c.type == "revolute":
+        return [d[0], d[1]]
+    if c.type not in ("slot", "prismatic"):
+        raise ValueError(f"unknown constraint type {c.type!r}")
+    n = slot_normal(c, frames)
+    equations = [n[0] * d[0] + n[1] * d[1]]
+    if c.type == "prismatic":
+        equations.append(frames[c.a.body].angle - frames[c.b.body].angle - c.offset)
+    return equations
+
+
+def _subtree(mech: Mechanism, root: str) -> set[str]:
+    inside = {root}
+    for _ in mech.joints:
+        inside |= {j.child for j in mech.joints if j.parent in inside}
+    return inside
+
+
+@dataclass(frozen=True)
+class Loads:
+    """Every load as point forces (body, point, force; ground frame) and couples (body, couple),
+    symbolic in t, q, u and the parameters (gravity included; joint springs on prismatic joints
+    as a force pair at the child's origin, as tests/test_outputs.py takes them)."""
+
+    forces: list[tuple[str, sp.Matrix, sp.Matrix]]
+    couples: list[tuple[str, sp.Expr]]
+
+
+def applied_loads(mech: Mechanism, frames: Mapping[str, Frame], rate: Callable) -> Loads:
+    gravity = _column(mech.gravity)
+    forces = [(b.name, frames[b.name].point(b.com), b.mass * gravity) for b in mech.bodies]
+    couples: list[tuple[str, sp.Expr]] = []
+    for load in mech.loads:
+        if isinstance(load, Torque):
+            couples += [(load.body, load.expr), (load.reaction, -load.expr)]
+        elif isinstance(load, Force):
+            comps = _column(load.components)
+            if load.frame == "body":
+                comps = _rotation(frames[load.body].angle) * comps
+            forces.append((load.body, frames[load.body].point(load.at), comps))
+        elif isinstance(load, Spring):
+            pa, pb = point_of(load.a, frames), point_of(load.b, frames)
+            d = pb - pa
+            length = sp.sqrt(d[0] ** 2 + d[1] ** 2)
+            pull = load.k * (length - load.length) + load.damping * rate(length)
+            forces += [(load.a.body, pa, pull * d / length), (load.b.body, pb, -pull * d / length)]
+        elif isinstance(load, JointSpring):
+            joint = mech.joint(load.joint)
+            if joint.type == "revolute":
+                rel = frames[joint.child].angle - frames[joint.parent].angle - joint.offset
+                tau = -load.k * (rel - load.rest) - load.damping * rate(rel)
+                couples += [(joint.child, tau), (joint.parent, -tau)]
+            else:
+                s = symbol(joint.coordinates[0])
+                axis = _column(joint.axis)
+                axis = _rotation(frames[joint.parent].angle) * axis / sp.sqrt(axis.dot(axis))
+                tension = -load.k * (s - load.rest) - load.damping * rate(s)
+                where = frames[joint.child].origin
+                forces += [(joint.child, where, tension * axis),
+                           (joint.parent, where, -tension * axis)]
+        else:
+            raise TypeError(f"unknown load {load!r}")
+    return Loads([f for f in forces if f[0] != GROUND], [c for c in couples if c[0] != GROUND])
+
+
+# ---------------------------------------------------------------------------------------------
+# The reference
+
+
+def _lambdify(args: Sequence[sp.Symbol], exprs: object) -> Callable:
+    return sp.lambdify(args, exprs, modules="numpy", cse=True, dummify=True)
+
+
+class LoopReference:
+    """Numeric index-1 equations of a mechanism with constraints and driven joints."""
+
+    def __init__(self, mech: Mechanism, params: Mapping[str, float] | None = None) -> None:
+        self.mech = mech
+        self.tree = tree_of(mech)
+        self.ref = ReferenceModel(self.tree)
+        self.params = dict(params or {})
+        self.values = resolve_parameters(mech, self.params)
+        self.p = self.ref.param_values(self.params)
+        lag = self.ref.lagrangian
+        self.q, self.u = lag.q, lag.u
+        self.coordinates = tuple(self.tree.coordinates)  # every tree coordinate
+        self.n = len(self.coordinates)
+        self.state_names = mech.state_names
+        self.free = np.array([self.coordinates.index(c) for c in mech.coordinates], dtype=int)
+        self.driven_joints = mech.driven
+        self.driven = np.array([self.coordinates.index(j.coordinates[0]) for j in mech.driven],
+                               dtype=int)
+        self.frames = body_frames(self.tree)
+        self._build_constraints()
+        self._build_functions()
+
+    # -- construction -----------------------------------------------------------------------
+
+    def _build_constraints(self) -> None:
+        self.rows: dict[str, slice] = {}  # constraint name -> its rows of Phi
+        closure: list[sp.Expr] = []
+        for c in self.mech.constraints:
+            equations = constraint_equations(c, self.frames)
+            self.rows[c.name] = slice(len(closure), len(closure) + len(equations))
+            closure += equations
+        self.closure = sp.Matrix(closure) if closure else sp.zeros(0, 1)
+        self.m_closure = len(closure)
+        motions = [j.motion for j in self.driven_joints]
+        drives = [symbol(j.coordinates[0]) - m for j, m in zip(self.driven_joints, motions)]
+        self.Phi = sp.Matrix([*closure, *drives]) if closure or drives else sp.zeros(0, 1)
+        args = (TIME, *self.p_symbols)
+        self._motion = _lambdify(args, [[m, sp.diff(m, TIME), sp.diff(m, TIME, 2)]
+                                        for m in motions])
+
+    @property
+    def p_symbols(self) -> tuple[sp.Symbol, ...]:
+        return self.ref.param_symbols
+
+    def _build_functions(self) -> None:
+        q, u = sp.Matrix(self.q), sp.Matrix(self.u)
+        args = (TIME, *self.q, *self.u, *self.p_symbols)
+        self.args = args
+        Phi_q = self.Phi.jacobian(q) if self.Phi.rows else sp.zeros(0, self.n)
+        velocity = Phi_q * u + sp.diff(self.Phi, TIME)
+        gamma = -(velocity.jacobian(q) * u + sp.diff(velocity, TIME)) if self.Phi.rows \
+            else sp.zeros(0, 1)
+        self.Phi_q, self.gamma = Phi_q, gamma
+        self._kkt = _lambdify(args, [self.ref.M, self.ref.f, Phi_q, gamma])
+        closure_q = self.closure.jacobian(q) if self.m_closure else sp.zeros(0, self.n)
+        self._closure = _lambdify(args, [self.closure, closure_q])
+        lag = self.ref.lagrangian
+        self._energy = _lambdify(args, [lag.T, lag.V, lag.Q])
+        self._kinematics = _lambdify(args, self._kinematic_exprs())
+        loads = applied_loads(self.tree, self.frames, lag.rate)
+        self._loads = _lambdify(args, [[f[1], f[2]] for f in loads.forces]
+                                + [[c[1]] for c in loads.couples])
+        self.load_bodies = [f[0] for f in loads.forces] + [c[0] for c in loads.couples]
+        self.n_forces = len(loads.forces)
+
+    def _kinematic_exprs(self) -> list:
+        """Per body: com position, its Jacobian and bias acceleration, angle, its Jacobian and
+        bias; per constraint: its normal and body(a)'s angle (for the reaction's axes)."""
+        q, u = sp.Matrix(self.q), sp.Matrix(self.u)
+        out: list = []
+        for body in self.mech.bodies:
+            frame = self.frames[body.name]
+            for value in (frame.point(body.com), sp.Matrix([frame.angle])):
+                jac = value.jacobian(q)
+                out += [value, jac, (jac * u).jacobian(q) * u]
+        for c in self.mech.constraints:
+            normal = slot_normal(c, self.frames) if c.type != "revolute" else sp.Matrix([1, 0])
+            out += [normal, self.frames[c.a.body].angle]
+        for joint in self.mech.joints:
+            out += [self.frames[joint.child].origin, self.frames[joint.child].angle,
+                    self._joint_axis(joint)]
+        return out
+
+    def _joint_axis(self, joint) -> sp.Matrix:
+        if joint.type != "prismatic":
+            return sp.Matrix([0, 0])
+        axis = _column(joint.axis)
+        return _rotation(self.frames[joint.parent].angle) * axis / sp.sqrt(axis.dot(axis))
+
+    # -- states -----------------------------------------------------------------------------
+
+    def motion(self, t: float) -> np.ndarray:
+        """(n_driven, 3): each driven coordinate's value, rate and acceleration at t."""
+        return np.array(self._motion(t, *self.p), dtype=float).reshape(len(self.driven), 3)
+
+    def full(self, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every tree coordinate and rate at (t, y): the state's, and the driven ones' motion."""
+        y = np.asarray(y, dtype=float)
+        q, u = np.zeros(self.n), np.zeros(self.n)
+        q[self.free], u[self.free] = y[0::2], y[1::2]
+        if len(self.driven):
+            m = self.motion(t)
+            q[self.driven], u[self.driven] = m[:, 0], m[:, 1]
+        return q, u
+
+    def _args(self, t: float, q: np.ndarray, u: np.ndarray) -> tuple:
+        return (t, *q, *u, *self.p)
+
+    # -- the index-1 equations ----------------------------------------------------------------
+
+    def solve(self, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(qdd of every tree coordinate, lambda of every row of Phi) at (t, y)."""
+        q, u = self.full(t, y)
+        M, f, Phi_q, gamma = self._kkt(*self._args(t, q, u))
+        M = np.asarray(M, dtype=float).reshape(self.n, self.n)
+        f = np.asarray(f, dtype=float).reshape(self.n)
+        m = self.Phi.rows
+        A = np.zeros((self.n + m, self.n + m))
+        A[:self.n, :self.n] = M
+        if m:
+            Phi_q = np.asarray(Phi_q, dtype=float).reshape(m, self.n)
+            A[:self.n, self.n:] = Phi_q.T
+            A[self.n:, :self.n] = Phi_q
+        rhs = np.concatenate([f, np.asarray(gamma, dtype=float).reshape(m)])
+        x = np.linalg.solve(A, rhs)
+        return x[:self.n], -x[self.n:]
+
+    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        qdd, _ = self.solve(t, y)
+        y = np.asarray(y, dtype=float)
+        dy = np.empty(len(y))
+        dy[0::2], dy[1::2] = y[1::2], qdd[self.free]
+        return dy
+
+    def multipliers(self, t: float, y: np.ndarray) -> dict[str, np.ndarray]:
+        """Constraint name -> its multipliers (revolute: Fx, Fy; slot: the normal force;
+        prismatic: the normal force and the couple on body(a))."""
+        _, lam = self.solve(t, y)
+        return {name: lam[rows] for name, rows in self.rows.items()}
+
+    def drives(self, t: float, y: np.ndarray) -> dict[str, float]:
+        """Driven joint name -> the torque or force of its drive on the child."""
+        _, lam = self.solve(t, y)
+        return {j.name: float(lam[self.m_closure + k]) for k, j in enumerate(self.driven_joints)}
+
+    # -- constraints at a state ---------------------------------------------------------------
+
+    def residual(self, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The loop constraints' position residual Phi and velocity residual Phi_q qdot."""
+        q, u = self.full(t, y)
+        Phi, Phi_q = self._closure(*self._args(t, q, u))
+        Phi = np.asarray(Phi, dtype=float).reshape(self.m_closure)
+        Phi_q = np.asarray(Phi_q, dtype=float).reshape(self.m_closure, self.n)
+        return Phi, Phi_q @ u
+
+    def _closure_at(self, t: float, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        Phi, Phi_q = self._closure(*self._args(t, q, np.zeros(self.n)))
+        return (np.asarray(Phi, dtype=float).reshape(self.m_closure),
+                np.asarray(Phi_q, dtype=float).reshape(self.m_closure, self.n))
+
+    def degrees_of_freedom(self, t: float, y: np.ndarray) -> int:
+        q, _ = self.full(t, y)
+        _, Phi_q = self._closure_at(t, q)
+        rank = np.linalg.matrix_rank(Phi_q[:, self.free]) if self.m_closure else 0
+        return len(self.free) - int(rank)
+
+    def _value(self, value: object) -> float:
+        expr = sp.sympify(value)
+        return float(expr.xreplace({symbol(k): sp.Float(v) for k, v in self.values.items()}))
+
+    def assemble(self, t: float, initial: Values, guess: Values | None = None) -> np.ndarray:
+        """The consistent state at t: given coordinates and rates kept, the others solved from
+        the constraints (positions by Gauss-Newton from `guess`, default 0; rates by least
+        squares). Raises AssemblyError naming the constraint that cannot hold."""
+        guess = dict(guess or {})
+        q, u = self.full(t, np.zeros(2 * len(self.free)))
+        given_q, given_u = set(), set()
+        for name, value in initial.items():
+            if name.startswith("dot("):
+                k = self.coordinates.index(name[4:-1])
+                u[k] = self._value(value)
+                given_u.add(k)
+            else:
+                k = self.coordinates.index(name)
+                q[k] = self._value(value)
+                given_q.add(k)
+        for name, value in guess.items():
+            k = self.coordinates.index(name)
+            if k not in given_q:
+                q[k] = self._value(value)
+        unknown = [k for k in self.free if k not in given_q]
+        q = self._solve_positions(t, q, unknown)
+        unknown_u = [k for k in self.free if k not in given_u]
+        u = self._solve_rates(t, q, u, unknown_u)
+        y = np.empty(2 * len(self.free))
+        y[0::2], y[1::2] = q[self.free], u[self.free]
+        return y
+
+    def _worst(self, Phi: np.ndarray) -> str:
+        k = int(np.argmax(np.abs(Phi)))
+        return next(name for name, rows in self.rows.items() if rows.start <= k < rows.stop)
+
+    def _solve_positions(self, t: float, q: np.ndarray, unknown: list[int]) -> np.ndarray:
+        if not self.m_closure:
+            return q
+        q = q.copy()
+        for _ in range(100):
+            Phi, Phi_q = self._closure_at(t, q)
+            if not unknown:
+                break
+            step = np.linalg.lstsq(Phi_q[:, unknown], -Phi, rcond=None)[0]
+            q[unknown] += step
+            if np.max(np.abs(step)) <= 1e-15 * (1 + np.max(np.abs(q))):
+                break
+        Phi, _ = self._closure_at(t, q)
+        if not np.all(np.isfinite(Phi)) or np.max(np.abs(Phi)) > ASSEMBLY_TOL:
+            raise AssemblyError(f"constraint {self._worst(Phi)!r} cannot hold: residual "
+                                f"{np.max(np.abs(Phi)):.3g}")
+        return q
+
+    def _solve_rates(self, t: float, q: np.ndarray, u: np.ndarray,
+                     unknown: list[int]) -> np.ndarray:
+        if not self.m_closure:
+            return u
+        u = u.copy()
+        _, Phi_q = self._closure_at(t, q)
+        if unknown:
+            u[unknown] = np.linalg.lstsq(Phi_q[:, unknown], -(Phi_q @ u - Phi_q[:, unknown]
+                                                               @ u[unknown]), rcond=None)[0]
+        velocity = Phi_q @ u
+        if np.max(np.abs(velocity)) > ASSEMBLY_TOL * (1 + np.max(np.abs(u))):
+            raise AssemblyError(f"constraint {self._worst(velocity)!r} cannot hold: velocity "
+                                f"residual {np.max(np.abs(velocity)):.3g}")
+        return u
+
+    def initial_state(self) -> np.ndarray:
+        """The scene's initial state: `initial` kept, the rest assembled from `guess`."""
+        scene = self.mech.simulation
+        t0 = float(scene.t_span[0]) if scene.t_span else 0.0
+        return self.assemble(t0, scene.initial, scene.guess)
+
+    def project(self, t: float, y: np.ndarray) -> np.ndarray:
+        """y moved onto the constraints: q by Gauss-Newton (minimum-norm steps), then qdot by
+        the orthogonal projection onto Phi_q qdot = 0 (driven coordinates held)."""
+        if not self.m_closure:
+            return np.asarray(y, dtype=float)
+        q, u = self.full(t, y)
+        free = self.free
+        for _ in range(6):
+            Phi, Phi_q = self._closure_at(t, q)
+            if np.max(np.abs(Phi)) <= 1e-15:
+                break
+            q[free] -= np.linalg.lstsq(Phi_q[:, free], Phi, rcond=None)[0]
+        _, Phi_q = self._closure_at(t, q)
+        u[free] -= np.linalg.lstsq(Phi_q[:, free], Phi_q @ u, rcond=None)[0]
+        out = np.empty(len(y))
+        out[0::2], out[1::2] = q[free], u[free]
+        return out
+
+    # -- energy and power ---------------------------------------------------------------------
+
+    def energies(self, t: float, y: np.ndarray) -> tuple[float, float]:
+        """(kinetic, potential: gravity and springs) of the whole tree, driven bodies included."""
+        q, u = self.full(t, y)
+        T, V, _ = self._energy(*self._args(t, q, u))
+        return float(T), float(V)
+
+    def energy(self, t: float, y: np.ndarray) -> float:
+        return sum(self.energies(t, y))
+
+    def power_in(self, t: float, y: np.ndarray) -> tuple[float, float]:
+        """(power of the drives sum lambda_d qdot_d, power of the loads Q . qdot): along a
+        motion, d(kinetic + potential)/dt is their sum (the loop constraints do no work)."""
+        q, u = self.full(t, y)
+        _, _, Q = self._energy(*self._args(t, q, u))
+        Q = np.asarray(Q, dtype=float).reshape(self.n)
+        drives = self.drives(t, y)
+        drive = sum(drives[j.name] * u[k] for j, k in zip(self.driven_joints, self.driven))
+        return float(drive), float(Q @ u)
+
+    # -- outputs ------------------------------------------------------------------------------
+
+    def outputs(self, t: float, y: np.ndarray) -> dict[str, float]:
+        """The scene's outputs (reactions, drives, energy, points; the spec's names), computed
+        here: constraint reactions from the multipliers, tree-joint reactions from the
+        Newton-Euler balance of the child's subtree."""
+        qdd, lam = self.solve(t, y)
+        q, u = self.full(t, y)
+        args = self._args(t, q, u)
+        kin = [np.asarray(v, dtype=float) for v in self._kinematics(*args)]
+        bodies = self._body_motion(kin, qdd)
+        constraint_forces = self._constraint_forces(kin, lam, bodies)
+        wanted, out = self.mech.outputs, {}
+        for name in wanted.reactions:
+            if any(c.name == name for c in self.mech.constraints):
+                out.update(self._constraint_reaction(name, constraint_forces))
+            else:
+                out.update(self._joint_reaction(name, args, kin, bodies, constraint_forces, lam))
+        drives = {j.name: float(lam[self.m_closure + k]) for k, j in enumerate(self.driven_joints)}
+        for name in wanted.drives:
+            out[f"{name}.drive"] = drives[name]
+        if wanted.energy:
+            kinetic, potential = self.energies(t, y)
+            out.update({"energy.kinetic": kinetic, "energy.potential": potential,
+                        "energy.total": kinetic + potential})
+        for point in wanted.points:
+            r, v = self._point(point, args)
+            out.update({f"{point.label}.x": r[0], f"{point.label}.y": r[1],
+                        f"{point.label}.vx": v[0], f"{point.label}.vy": v[1]})
+        return out
+
+    def _point(self, point: PointRef, args: tuple) -> tuple[np.ndarray, np.ndarray]:
+        key = ("point", point.label)
+        if key not in self.__dict__:
+            value = point_of(point, self.frames)
+            velocity = value.jacobian(sp.Matrix(self.q)) * sp.Matrix(self.u)
+            self.__dict__[key] = _lambdify(self.args, [value, velocity])
+        r, v = self.__dict__[key](*args)
+        return np.ravel(np.asarray(r, dtype=float)), np.ravel(np.asarray(v, dtype=float))
+
+    def _body_motion(self, kin: list[np.ndarray], qdd: np.ndarray) -> dict[str, tuple]:
+        """Body -> (com position, com acceleration, angular acceleration)."""
+        out = {}
+        for i, body in enumerate(self.mech.bodies):
+            r, jr, br, _, ja, ba = kin[6 * i:6 * i + 6]
+            accel = jr.reshape(2, self.n) @ qdd + np.ravel(br)
+            alpha = float(ja.reshape(self.n) @ qdd + np.ravel(ba)[0])
+            out[body.name] = (np.ravel(r), accel, alpha)
+        return out
+
+    def _constraint_forces(self, kin, lam, bodies) -> dict[str, tuple]:
+        """Constraint -> (force on body(a) at point a, couple on body(a), point a, its axes)."""
+        base = 6 * len(self.mech.bodies)
+        out = {}
+        for i, c in enumerate(self.mech.constraints):
+            normal, angle_a = np.ravel(kin[base + 2 * i]), float(kin[base + 2 * i + 1])
+            mult = lam[self.rows[c.name]]
+            force = mult[:2] if c.type == "revolute" else mult[0] * normal
+            couple = float(mult[1]) if c.type == "prismatic" else 0.0
+            out[c.name] = (np.asarray(force, dtype=float), couple, angle_a)
+        return out
+
+    def _constraint_reaction(self, name: str, forces: dict) -> dict[str, float]:
+        force, couple, angle = forces[name]
+        out = self._named(name, force, angle)
+        if self.mech.constraint(name).type == "prismatic":
+            out[f"{name}.M"] = couple
+        return out
+
+    @staticmethod
+    def _named(name: str, force: np.ndarray, angle: float) -> dict[str, float]:
+        n = np.array([math.cos(angle), math.sin(angle)])
+        tt = np.array([-math.sin(angle), math.cos(angle)])
+        return {f"{name}.Fx": float(force[0]), f"{name}.Fy": float(force[1]),
+                f"{name}.Fn": float(force @ n), f"{name}.Ft": float(force @ tt)}
+
+    def _joint_reaction(self, name, args, kin, bodies, constraint_forces, lam) -> dict:
+        """Force (and couple about the child's origin) of the parent on the child's subtree:
+        sum(m a_C) - the loads on it - the constraint forces on it; a driven joint's drive
+        left out."""
+        joint = self.mech.joint(name)
+        inside = _subtree(self.mech, joint.child)
+        j = [jt.name for jt in self.mech.joints].index(name)
+        base = 6 * len(self.mech.bodies) + 2 * len(self.mech.constraints) + 3 * j
+        origin, angle = np.ravel(kin[base]), float(kin[base + 1])
+        axis = np.ravel(kin[base + 2])
+        force, moment = np.zeros(2), 0.0
+        for body in self.mech.bodies:
+            if body.name not in inside:
+                continue
+            mass, inertia = self._value(body.mass), self._value(body.inertia)
+            r, a, alpha = bodies[body.name]
+            force += mass * a
+            moment += inertia * alpha + _cross(r - origin, mass * a)
+        loads = self._loads(*args)
+        for k, body in enumerate(self.load_bodies):
+            if body not in inside:
+                continue
+            if k < self.n_forces:
+                where, f = (np.ravel(np.asarray(v, dtype=float)) for v in loads[k])
+                force -= f
+                moment -= _cross(where - origin, f)
+            else:
+                moment -= float(np.ravel(np.asarray(loads[k], dtype=float))[0])
+        for c in self.mech.constraints:
+            f, couple, _ = constraint_forces[c.name]
+            where = self._point(c.a, args)[0]  # where its force acts on both bodies
+            for body, sign in ((c.a.body, 1.0), (c.b.body, -1.0)):
+                if body in inside:
+                    force -= sign * f
+                    moment -= sign * (_cross(where - origin, f) + couple)
+        if joint.driven:
+            drive = float(lam[self.m_closure + list(self.driven_joints).index(joint)])
+            if joint.type == "prismatic":
+                force -= drive * axis
+            else:
+                moment -= drive
+        out = self._named(name, force, angle)
+        if joint.type in ("prismatic", "weld"):
+            out[f"{name}.M"] = moment
+        return out
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> float:
+    return float(a[0] * b[1] - a[1] * b[0])
