@@ -37,6 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import sympy as sp
+import yaml
 from reference import Frame, ReferenceModel, body_frames, resolve_parameters
 
 from nemc.constraints import Constraint
@@ -564,3 +565,159 @@ class LoopReference:
 
 def _cross(a: np.ndarray, b: np.ndarray) -> float:
     return float(a[0] * b[1] - a[1] * b[0])
+
+
+# ---------------------------------------------------------------------------------------------
+# Seeded random four-bars and closed chains
+
+
+def _r(value: float) -> float:
+    return round(float(value), 4)
+
+
+def _wrap(angle: float) -> float:
+    return float((angle + math.pi) % (2 * math.pi) - math.pi)
+
+
+@dataclass(frozen=True)
+class RandomFourbar:
+    """A random Grashof crank-rocker: its YAML and its two assemblies at the scene's q1."""
+
+    text: str
+    q1: float
+    branches: dict[str, tuple[float, float]]  # "open" / "crossed" -> (q2, q3), wrapped
+    constraint_a: str  # the body of the constraint's point a ("rocker" or "coupler")
+
+
+class _FourbarBuilder:
+    """Links: ground AD (tilted, anywhere), crank AB (the shortest), coupler BC, rocker DC.
+    Joint offsets, relative or absolute coupler angle, mass-centre offsets and the order of
+    the constraint's points are random; loads (a damped torque on the crank, a spring, a force
+    on the rocker) when asked."""
+
+    def __init__(self, rng: np.random.Generator) -> None:
+        self.rng = rng
+        while True:
+            L0, L1, L2, L3 = (_r(rng.uniform(lo, hi)) for lo, hi in
+                              ((0.8, 1.2), (0.15, 0.3), (0.8, 1.3), (0.6, 1.0)))
+            s, *_, long = sorted((L0, L1, L2, L3))
+            if s == L1 and s + long <= L0 + L1 + L2 + L3 - s - long - 0.1:  # Grashof, margin
+                break
+        self.L = (L0, L1, L2, L3)
+        self.A = np.array([_r(rng.uniform(-0.3, 0.3)), _r(rng.uniform(-0.3, 0.3))])
+        self.tilt = _r(rng.uniform(-0.5, 0.5))
+        self.D = self.A + L0 * np.array([math.cos(self.tilt), math.sin(self.tilt)])
+        self.D = np.round(self.D, 4)
+        self.offsets = [_r(rng.uniform(-1, 1)) if rng.random() < 0.5 else 0.0 for _ in range(3)]
+        self.absolute = bool(rng.random() < 0.5)
+
+    def angles(self, q1: float) -> dict[str, tuple[float, float]]:
+        """The two assemblies (q2, q3) at crank coordinate q1, by circle intersection."""
+        L0, L1, L2, L3 = self.L
+        o1, o2, o3 = self.offsets
+        th1 = q1 + o1
+        B = self.A + L1 * np.array([math.cos(th1), math.sin(th1)])
+        d = float(np.hypot(*(self.D - B)))
+        a = (L2**2 - L3**2 + d**2) / (2 * d)
+        h = math.sqrt(L2**2 - a**2)
+        e = (self.D - B) / d
+        out = {}
+        for sign in (1.0, -1.0):
+            C = B + a * e + sign * h * np.array([-e[1], e[0]])
+            th2 = math.atan2(*(C - B)[::-1])
+            th3 = math.atan2(*(C - self.D)[::-1])
+            q2 = th2 - o2 - (0.0 if self.absolute else th1)
+            opposite = _cross(self.D - B, self.A - B) * _cross(self.D - B, C - B) < 0
+            out["open" if opposite else "crossed"] = (_wrap(q2), _wrap(th3 - o3))
+        return out
+
+    def data(self, name: str, loads: bool, q1: float, w1: float, guess: tuple) -> dict:
+        rng = self.rng
+        L0, L1, L2, L3 = self.L
+        params: dict[str, object] = {"L0": L0, "L1": L1, "L2": L2, "L3": L3, "g": 9.81}
+        bodies = {}
+        for i, (body, length) in enumerate((("crank", L1), ("coupler", L2), ("rocker", L3)), 1):
+            params[f"m{i}"] = _r(rng.uniform(0.5, 2.0))
+            point = "B" if body == "crank" else "C"
+            bodies[body] = {"mass": f"m{i}",
+                            "inertia": f"m{i}*L{i}**2/12*{_r(rng.uniform(0.8, 1.5))}",
+                            "com": [f"L{i}/2", _r(rng.uniform(-0.1, 0.1))],
+                            "points": {point: [f"L{i}", 0], "P": [_r(rng.uniform(0, length)),
+                                                                  _r(rng.uniform(-0.2, 0.2))]}}
+        o1, o2, o3 = self.offsets
+        joints = {
+            "A": {"type": "revolute", "parent": GROUND, "child": "crank",
+                  "at": [float(self.A[0]), float(self.A[1])], "coordinate": "q1", "offset": o1},
+            "B": {"type": "revolute", "parent": "crank", "child": "coupler", "at": "B",
+                  "coordinate": "q2", "offset": o2,
+                  "angle": "absolute" if self.absolute else "relative"},
+            "D": {"type": "revolute", "parent": GROUND, "child": "rocker",
+                  "at": [float(self.D[0]), float(self.D[1])], "coordinate": "q3", "offset": o3},
+        }
+        ends = ["rocker.C", "coupler.C"]
+        if rng.random() < 0.5:
+            ends.reverse()
+        data: dict[str, object] = {
+            "name": name, "description": "seeded random Grashof crank-rocker four-bar",
+            "parameters": params, "gravity": [_r(rng.uniform(-0.3, 0.3)), "-g"],
+            "bodies": bodies, "joints": joints,
+            "constraints": {"C": {"type": "revolute", "a": ends[0], "b": ends[1]}},
+            "outputs": {"reactions": ["A", "B", "D", "C"], "energy": True,
+                        "points": ["coupler.P"]},
+            "simulation": {"t_span": [0, 2], "initial": {"q1": _r(q1), "dot(q1)": _r(w1)},
+                           "guess": {"q2": _r(guess[0]), "q3": _r(guess[1])},
+                           "method": "DOP853", "rtol": 1e-10, "atol": 1e-12}}
+        if loads:
+            data["loads"] = [
+                {"torque": f"{_r(rng.uniform(-2, 2))} - {_r(rng.uniform(0.05, 0.3))}*dot(q1)",
+                 "body": "crank"},
+                {"spring": {"a": "coupler.P", "b": {"body": GROUND, "at": [0.5, 1.2]},
+                            "k": _r(rng.uniform(5, 30)), "length": _r(rng.uniform(0.3, 0.8)),
+                            "damping": _r(rng.uniform(0, 0.5))}},
+                {"force": [f"{_r(rng.uniform(-1, 1))}*sin(3*t)", _r(rng.uniform(-1, 1))],
+                 "body": "rocker", "at": "P", "frame": "body"},
+            ]
+        return data
+
+
+def random_fourbar(rng: np.random.Generator, name: str = "random_fourbar", loads: bool = True,
+                   branch: str = "open") -> RandomFourbar:
+    """A seeded random crank-rocker whose scene assembles on `branch` (its guess is the branch's
+    angles moved by up to 0.15 rad)."""
+    builder = _FourbarBuilder(rng)
+    q1 = float(rng.uniform(-math.pi, math.pi))
+    branches = builder.angles(q1)
+    guess = tuple(v + float(rng.uniform(-0.15, 0.15)) for v in branches[branch])
+    data = builder.data(name, loads, q1, float(rng.uniform(-3, 3)), guess)
+    q1 = data["simulation"]["initial"]["q1"]
+    text = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
+    a_body = data["constraints"]["C"]["a"].split(".")[0]
+    return RandomFourbar(text, q1, builder.angles(q1), a_body)
+
+
+def closed_chain_yaml(n_links: int, closed: bool = True, name: str | None = None) -> str:
+    """n uniform links (m = 1, L = 1, relative angles) from a ground pivot at O, under gravity;
+    closed: the last link's tip pinned to the ground (a revolute constraint) where the scene's
+    initial configuration puts it, so the file's initial values assemble exactly. An
+    (n + 1)-bar linkage with n - 2 degrees of freedom; open: the same bodies as a plain chain."""
+    angles = [-0.3] + [2 * 0.3 / (n_links - 1)] * (n_links - 1)  # an arch from O
+    absolute = np.cumsum(angles)
+    tip = np.sum([np.cos(absolute), np.sin(absolute)], axis=1)
+    lines = [f"name: {name or ('closed' if closed else 'open') + str(n_links)}",
+             f"description: {n_links} links, {'closed to the ground' if closed else 'open'}",
+             "parameters: {m: 1, L: 1, g: 9.81}", "gravity: [0, -g]", "bodies:"]
+    for i in range(1, n_links + 1):
+        lines.append(f"  link{i}: {{mass: m, inertia: m*L**2/12, com: [L/2, 0], "
+                     "points: {tip: [L, 0]}}")
+    lines.append("joints:")
+    for i in range(1, n_links + 1):
+        parent, at = ("ground", "[0, 0]") if i == 1 else (f"link{i - 1}", "tip")
+        lines.append(f"  J{i}: {{type: revolute, parent: {parent}, child: link{i}, at: {at}, "
+                     f"coordinate: q{i}}}")
+    if closed:
+        lines += ["constraints:", f"  E: {{type: revolute, a: link{n_links}.tip, b: {{body: "
+                  f"ground, at: [{float(tip[0])!r}, {float(tip[1])!r}]}}}}"]
+    initial = ", ".join(f"q{i}: {angles[i - 1]!r}" for i in range(1, n_links + 1))
+    lines += ["simulation:", "  t_span: [0, 10]", f"  initial: {{{initial}}}",
+              "  method: DOP853", "  rtol: 1.0e-9", "  atol: 1.0e-11"]
+    return "\n".join(lines) + "\n"
