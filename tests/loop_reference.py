@@ -721,3 +721,51 @@ def closed_chain_yaml(n_links: int, closed: bool = True, name: str | None = None
     lines += ["simulation:", "  t_span: [0, 10]", f"  initial: {{{initial}}}",
               "  method: DOP853", "  rtol: 1.0e-9", "  atol: 1.0e-11"]
     return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------------------------------
+# Integration with projection (the index-1 form plus projection after every step)
+
+
+@dataclass
+class ProjectedRun:
+    t: np.ndarray
+    y: np.ndarray  # (n_state, n_t)
+    nfev: int
+    steps: int
+
+
+def projected_run(rhs: Callable, project: Callable, t_span: Sequence[float], y0: np.ndarray,
+                  rtol: float, atol: float, t_eval: Sequence[float] | None = None
+                  ) -> ProjectedRun:
+    """scipy's DOP853, step by step; after every step the state is projected onto the
+    constraints (``project(t, y)``) and the solver restarts its step from there (its stored
+    derivative recomputed: one more evaluation per step). States at t_eval are the step's dense
+    output, projected. Without t_eval: the projected state after each step."""
+    from scipy.integrate import DOP853
+
+    t0, t1 = (float(v) for v in t_span)
+    solver = DOP853(rhs, t0, np.asarray(y0, dtype=float), t1, rtol=rtol, atol=atol)
+    times = None if t_eval is None else np.asarray(t_eval, dtype=float)
+    out_t: list[float] = [t0] if times is None or times[0] == t0 else []
+    out_y: list[np.ndarray] = [solver.y.copy()] if out_t else []
+    k = len(out_t)
+    steps = 0
+    while solver.status == "running":
+        message = solver.step()
+        if solver.status == "failed":
+            raise RuntimeError(f"DOP853 failed at t = {solver.t}: {message}")
+        steps += 1
+        if times is not None:
+            dense = solver.dense_output()
+            while k < len(times) and times[k] <= solver.t:
+                out_t.append(float(times[k]))
+                out_y.append(project(times[k], dense(times[k])))
+                k += 1
+        solver.y = project(solver.t, solver.y)
+        solver.f = rhs(solver.t, solver.y)
+        solver.nfev += 1
+        if times is None:
+            out_t.append(solver.t)
+            out_y.append(solver.y.copy())
+    return ProjectedRun(np.array(out_t), np.array(out_y).T, solver.nfev, steps)
