@@ -769,3 +769,48 @@ def projected_run(rhs: Callable, project: Callable, t_span: Sequence[float], y0:
             out_t.append(solver.t)
             out_y.append(solver.y.copy())
     return ProjectedRun(np.array(out_t), np.array(out_y).T, solver.nfev, steps)
+
+
+def extended_precision_run(ref: LoopReference, t_span: Sequence[float], y0: np.ndarray,
+                           steps: int) -> np.ndarray:
+    """The state at t_span[1] by DOP853's 8th-order formula at a fixed step, in numpy's extended
+    precision (np.longdouble: 64-bit mantissa on x86), the index-1 equations solved in double and
+    refined twice in extended precision: an independent reference whose rounding lies far below
+    a double-precision run's (check its convergence by halving the step). No driven joints."""
+    from scipy.integrate._ivp import dop853_coefficients as dop
+
+    if len(ref.driven):
+        raise ValueError("extended_precision_run takes mechanisms without driven joints")
+    ld = np.longdouble
+    stages = dop.N_STAGES
+    a, b, c = (np.asarray(x, dtype=ld) for x in (dop.A[:stages, :stages], dop.B, dop.C[:stages]))
+    p = np.array(ref.p, dtype=ld)
+    n, m = ref.n, ref.Phi.rows
+
+    def rhs(t: np.longdouble, y: np.ndarray) -> np.ndarray:
+        M, f, Phi_q, gamma = ref._kkt(t, *y[0::2], *y[1::2], *p)
+        K = np.zeros((n + m, n + m), dtype=ld)
+        K[:n, :n] = np.asarray(M, dtype=ld).reshape(n, n)
+        if m:
+            G = np.asarray(Phi_q, dtype=ld).reshape(m, n)
+            K[:n, n:], K[n:, :n] = G.T, G
+        r = np.concatenate([np.asarray(f, dtype=ld).reshape(n),
+                            np.asarray(gamma, dtype=ld).reshape(m)])
+        K64 = K.astype(float)
+        x = np.linalg.solve(K64, r.astype(float)).astype(ld)
+        for _ in range(2):
+            x += np.linalg.solve(K64, (r - K @ x).astype(float)).astype(ld)
+        dy = np.empty(2 * n, dtype=ld)
+        dy[0::2], dy[1::2] = y[1::2], x[:n]
+        return dy
+
+    t0, t1 = ld(t_span[0]), ld(t_span[1])
+    h = (t1 - t0) / steps
+    y = np.asarray(y0, dtype=ld).copy()
+    k = np.empty((stages, len(y)), dtype=ld)
+    for i in range(steps):
+        t = t0 + i * h
+        for s in range(stages):
+            k[s] = rhs(t + c[s] * h, y + h * (a[s, :s] @ k[:s]))
+        y = y + h * (b @ k)
+    return y

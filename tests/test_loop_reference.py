@@ -26,7 +26,13 @@ import numpy as np
 import pytest
 import sympy as sp
 import yaml
-from loop_reference import AssemblyError, LoopReference, random_fourbar
+from loop_reference import (
+    AssemblyError,
+    LoopReference,
+    extended_precision_run,
+    projected_run,
+    random_fourbar,
+)
 from scipy.integrate import solve_ivp
 
 from nemc.validate import load_mechanism
@@ -378,3 +384,32 @@ def test_kapitza_against_its_hand_equation() -> None:
         assert dy[1] == pytest.approx(alpha, rel=1e-12, abs=1e-12)
         force = (mp + m) * (g + s_dd) + m * L / 2 * (alpha * math.cos(th) - w**2 * math.sin(th))
         assert ref.drives(t, np.array([th, w]))["shaker"] == pytest.approx(force, rel=1e-11)
+
+
+# ---------------------------------------------------------------------------------------------
+# The integrators the benchmark builds on
+
+
+def test_extended_precision_run_converges_to_the_double_precision_solution() -> None:
+    """8th order: halving the step shrinks the difference about 2^8 times; the result agrees
+    with scipy's tight DOP853 to that run's accuracy."""
+    ref = example("fourbar")
+    y0 = ref.initial_state()
+    runs = [extended_precision_run(ref, (0.0, 0.5), y0, steps) for steps in (100, 200, 400)]
+    first, second = (float(np.abs(a - b).max()) for a, b in zip(runs, runs[1:]))
+    assert second < first / 100 and second < 1e-11, (first, second)
+    tight = tight_run(ref, 0.5, y0, rtol=1e-13, atol=1e-14).y[:, -1]
+    np.testing.assert_allclose(runs[-1].astype(float), tight, rtol=0, atol=1e-10)
+
+
+def test_projected_run_keeps_the_loop_closed_and_follows_the_solution() -> None:
+    ref = example("fourbar")
+    y0 = ref.initial_state()
+    run = projected_run(ref.rhs, ref.project, (0.0, 2.0), y0, 1e-8, 1e-11,
+                        t_eval=np.linspace(0.0, 2.0, 9))
+    assert run.t.tolist() == np.linspace(0.0, 2.0, 9).tolist() and run.steps > 10
+    for t, y in zip(run.t, run.y.T):
+        position, velocity = ref.residual(t, y)
+        assert np.abs(position).max() < 1e-14 and np.abs(velocity).max() < 1e-12
+    tight = tight_run(ref, 2.0, y0).sol(run.t)
+    assert np.abs(run.y - tight).max() < 1e-5
