@@ -179,6 +179,7 @@ class LoopReference:
         self.driven = np.array([self.coordinates.index(j.coordinates[0]) for j in mech.driven],
                                dtype=int)
         self.frames = body_frames(self.tree)
+        self._points: dict[str, Callable] = {}
         self._build_constraints()
         self._build_functions()
 
@@ -467,17 +468,17 @@ class LoopReference:
                         "energy.total": kinetic + potential})
         for point in wanted.points:
             r, v = self._point(point, args)
-            out.update({f"{point.label}.x": r[0], f"{point.label}.y": r[1],
-                        f"{point.label}.vx": v[0], f"{point.label}.vy": v[1]})
+            out.update({f"{point.label}.x": float(r[0]), f"{point.label}.y": float(r[1]),
+                        f"{point.label}.vx": float(v[0]), f"{point.label}.vy": float(v[1])})
         return out
 
     def _point(self, point: PointRef, args: tuple) -> tuple[np.ndarray, np.ndarray]:
-        key = ("point", point.label)
-        if key not in self.__dict__:
+        """Ground position and velocity of a point fixed in a body (lambdified on first use)."""
+        if point.label not in self._points:
             value = point_of(point, self.frames)
             velocity = value.jacobian(sp.Matrix(self.q)) * sp.Matrix(self.u)
-            self.__dict__[key] = _lambdify(self.args, [value, velocity])
-        r, v = self.__dict__[key](*args)
+            self._points[point.label] = _lambdify(self.args, [value, velocity])
+        r, v = self._points[point.label](*args)
         return np.ravel(np.asarray(r, dtype=float)), np.ravel(np.asarray(v, dtype=float))
 
     def _body_motion(self, kin: list[np.ndarray], qdd: np.ndarray) -> dict[str, tuple]:
