@@ -45,7 +45,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
 import common  # noqa: E402 (the benchmarks folder is not a package)
-from common import RESULTS, ROOT, fmt_time, spread  # noqa: E402
+from common import ROOT, fmt_time, spread  # noqa: E402
 from native import ATOL_FACTOR, LADDER, Found, loosest_rtol, time_contenders  # noqa: E402
 
 FOURBAR = ROOT / "examples" / "fourbar.yaml"
@@ -456,14 +456,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     mode = common.mode_of(args)
     print(f"nemc closed-loop benchmark, {mode} mode", flush=True)
     result = run(MODES[mode])
-    folder = args.out or (Path(tempfile.mkdtemp(prefix="nemc-bench-loops-")) if args.smoke
-                          else RESULTS)
-    folder.mkdir(parents=True, exist_ok=True)
-    common.write_json(result, folder / "loops-latest.json")
-    text = markdown(result)
-    (folder / "loops-latest.md").write_text(text)
-    print(text)
-    print(f"written: {folder / 'loops-latest.json'}, {folder / 'loops-latest.md'}")
+    folder = common.results_folder(args, "nemc-bench-loops-")
+    common.write_results(result, folder, "loops", markdown(result))
     return 0
 
 

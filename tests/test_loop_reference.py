@@ -413,3 +413,13 @@ def test_projected_run_keeps_the_loop_closed_and_follows_the_solution() -> None:
         assert np.abs(position).max() < 1e-14 and np.abs(velocity).max() < 1e-12
     tight = tight_run(ref, 2.0, y0).sol(run.t)
     assert np.abs(run.y - tight).max() < 1e-5
+
+
+@pytest.mark.parametrize(("W", "stable"), [(200.0, True), (50.0, False)])
+def test_kapitza_example_claims_hold_in_the_reference(W: float, stable: bool) -> None:
+    """The example's comment: A**2 W**2 = 16 > 2 g l = 3.9 keeps the rod upright over the
+    scene's 3 s; A**2 W**2 = 1 lets it fall."""
+    ref = example("kapitza", W=W)
+    sol = tight_run(ref, 3.0, rtol=1e-9, atol=1e-11)
+    tilt = np.abs(sol.sol(np.linspace(0, 3, 601))[0] - math.pi / 2).max()
+    assert (tilt < 0.35) if stable else (tilt > 1.5), tilt
