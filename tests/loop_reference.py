@@ -696,6 +696,34 @@ def random_fourbar(rng: np.random.Generator, name: str = "random_fourbar", loads
     return RandomFourbar(text, q1, builder.angles(q1), a_body)
 
 
+SLIDER_PIN = ("  S: {type: revolute, parent: rod, child: slider, at: end, coordinate: q3, "
+              "angle: absolute}")
+SLIDER_GUIDE = ("guide: {type: prismatic, a: slider.origin, b: {body: ground, at: [0, 0]}, "
+                "axis: [1, 0]}")
+
+
+def slider_crank_variants(text: str) -> dict[str, str]:
+    """The slider_crank example with its slider held otherwise: "prismatic_joint", a prismatic
+    joint to the ground (coordinate x) with a revolute constraint `pin` at the rod's end;
+    "slot", a slot instead of the prismatic constraint (the slider's tilt q3 then free and,
+    its mass centre on the pin, decoupled: it spins at its initial rate 3 rad/s)."""
+    for needed in (SLIDER_PIN, SLIDER_GUIDE, "reactions: [O, guide]", "guess: {q2: 0, q3: 0}",
+                   "name: slider_crank", "initial: {q1: pi/4, dot(q1): 0}"):
+        if needed not in text:
+            raise ValueError(f"slider_crank.yaml changed: {needed!r} not found")
+    joint = (text.replace(SLIDER_PIN, "  S: {type: prismatic, parent: ground, child: slider, "
+                                      "coordinate: x}")
+             .replace(SLIDER_GUIDE, "pin: {type: revolute, a: rod.end, b: slider.origin}")
+             .replace("reactions: [O, guide]", "reactions: [O, S, pin]")
+             .replace("guess: {q2: 0, q3: 0}", "guess: {q2: 0, x: 0.4}")
+             .replace("name: slider_crank", "name: slider_crank_joint"))
+    slot = (text.replace(SLIDER_GUIDE, SLIDER_GUIDE.replace("type: prismatic", "type: slot"))
+            .replace("initial: {q1: pi/4, dot(q1): 0}",
+                     "initial: {q1: pi/4, dot(q1): 0, dot(q3): 3}")
+            .replace("name: slider_crank", "name: slider_crank_slot"))
+    return {"prismatic_joint": joint, "slot": slot}
+
+
 def closed_chain_yaml(n_links: int, closed: bool = True, name: str | None = None) -> str:
     """n uniform links (m = 1, L = 1, relative angles) from a ground pivot at O, under gravity;
     closed: the last link's tip pinned to the ground (a revolute constraint) where the scene's

@@ -32,6 +32,7 @@ from loop_reference import (
     extended_precision_run,
     projected_run,
     random_fourbar,
+    slider_crank_variants,
 )
 from scipy.integrate import solve_ivp
 
@@ -330,24 +331,13 @@ def test_values_over_determining_the_assembly_must_agree(tmp_path: Path) -> None
 # Constraint kinds against each other; a driven joint against its hand equation
 
 
-SLIDER_AS_JOINT = """\
-  S: {type: revolute, parent: rod, child: slider, at: end, coordinate: q3, angle: absolute}"""
-
-
 def test_prismatic_constraint_equals_a_prismatic_joint_and_a_slot(tmp_path: Path) -> None:
     """The slider held by the prismatic constraint, by a prismatic joint to the ground plus a
     revolute constraint at the pin, and by a slot (its tilt then free and decoupled)."""
-    text = (EXAMPLES / "slider_crank.yaml").read_text()
+    variants = slider_crank_variants((EXAMPLES / "slider_crank.yaml").read_text())
     as_constraint = example("slider_crank")
-    joint_text = text.replace(SLIDER_AS_JOINT, "  S: {type: prismatic, parent: ground, child: "
-                              "slider, coordinate: x}").replace(
-        "guide: {type: prismatic, a: slider.origin, b: {body: ground, at: [0, 0]}, axis: [1, 0]}",
-        "pin: {type: revolute, a: rod.end, b: slider.origin}").replace(
-        "reactions: [O, guide]", "reactions: [O, S, pin]").replace("q3: 0}", "x: 0.4}")
-    as_joint = from_text(joint_text, tmp_path, "slider_joint")
-    slot_text = text.replace("type: prismatic, a: slider.origin", "type: slot, a: slider.origin")
-    as_slot = from_text(slot_text.replace("reactions: [O, guide]", "reactions: [O]"), tmp_path,
-                        "slider_slot")
+    as_joint = from_text(variants["prismatic_joint"], tmp_path, "slider_joint")
+    as_slot = from_text(variants["slot"], tmp_path, "slider_slot")
     rng = np.random.default_rng(7)
     for _ in range(5):
         t, q1, w1 = float(rng.uniform(0, 1)), float(rng.uniform(-3, 3)), float(rng.uniform(-9, 9))

@@ -2,11 +2,12 @@
 independent Lagrange-multiplier reference (tests/loop_reference.py, checked itself in
 tests/test_loop_reference.py) and against conservation laws and a published solution.
 
-- Every loop or drive example (fourbar, fourbar_driven, slider_crank, kapitza, andrews) and seeded
-  random four-bars: state names; the scene's initial state assembled from `initial` + `guess`;
-  ``rhs`` at consistent states (random states projected onto the constraints, with and without
-  parameter overrides) to 1e-10 relative; every output (constraint and joint reactions, drives,
-  energy, points); ``constraint_residual``; ``simulate`` against a tight reference solution.
+- Every loop or drive example (fourbar, fourbar_driven, slider_crank, kapitza, andrews), the
+  slider-crank held by a slot or by a prismatic joint, and seeded random four-bars: state names;
+  the scene's initial state assembled from `initial` + `guess`; ``rhs`` at consistent states
+  (random states projected onto the constraints, with and without parameter overrides) to 1e-10
+  relative; every output (constraint and joint reactions, drives, energy, points);
+  ``constraint_residual``; ``simulate`` against a tight reference solution.
 - The four-bar: both assembly branches picked by `guess`; the constraint residual at every
   returned state at most the run's atol over 1000 s at rtol 1e-9, not growing; every method
   (scipy's, nemc's, ``simulate_many``; nemc.Taylor works or is refused by name); energy drift
@@ -32,7 +33,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
-from loop_reference import LoopReference, closed_chain_yaml, random_fourbar
+from loop_reference import (
+    LoopReference,
+    closed_chain_yaml,
+    random_fourbar,
+    slider_crank_variants,
+)
 from scipy.integrate import solve_ivp
 
 import nemc
@@ -300,6 +306,26 @@ def test_fourbar_example_both_branches(branch: str, tmp_path: Path) -> None:
     y0 = nemc.compile(path).initial_state()
     np.testing.assert_allclose([y0[2], y0[4]], [q2, q3], atol=1e-10)
     np.testing.assert_allclose(y0, reference(str(path)).initial_state(), atol=1e-11)
+
+
+@pytest.mark.parametrize("variant", ["prismatic_joint", "slot"])
+def test_slider_crank_held_by_a_slot_or_a_prismatic_joint(variant: str,
+                                                           random_folder: str) -> None:
+    """The other ways of holding the slider: a slot constraint, and a prismatic joint closed by
+    a revolute constraint (tests/loop_reference.slider_crank_variants)."""
+    text = slider_crank_variants((EXAMPLES / "slider_crank.yaml").read_text())[variant]
+    path = Path(random_folder) / f"slider_crank_{variant}.yaml"
+    path.write_text(text)
+    model, ref = compiled(str(path)), reference(str(path))
+    np.testing.assert_allclose(model.initial_state(), ref.initial_state(), rtol=1e-10,
+                               atol=1e-11)
+    for t, y in consistent_states(str(path), seed=650, count=4):
+        assert_rel_close(model.rhs(t, y), ref.rhs(t, y), RHS_RTOL, f"slider crank, {variant}")
+        assert_outputs_match(model, ref, t, y)
+    times = np.linspace(0, 2, 11)
+    res = model.simulate(t_span=(0.0, 2.0), t_eval=times, rtol=1e-10, atol=1e-12)
+    assert res.success, res.message
+    assert np.max(np.abs(res.y - trajectory(str(path), 2.0).sol(times))) < 1e-6
 
 
 # ---------------------------------------------------------------------------------------------
