@@ -237,6 +237,8 @@ class ArticulatedBody:
         """Loads equivalent to generalized forces Q on the coordinates (in file order)."""
         remaining = list(forces)
         for joint in self.joints.values():
+            if joint.driven:  # prescribed: not a coordinate of M
+                continue
             mine = [remaining.pop(0) for _ in joint.coordinates]
             joint.generalized_load(self, self.frame(joint.parent), self.geo.origin[joint.child],
                                    mine)

@@ -292,7 +292,7 @@ DYNAMICS = Caller("accelerations", "The accelerations", STATE_INPUTS, ("QDD", "q
 AUGMENTED = Caller("accelerations", "The accelerations, drives and unit passes",
                    STATE_INPUTS, ("ACC", "acc"), "v")
 INVERSE_MASS = Caller("inverse_mass_times", "M^-1 force",
-                      (("const double *", "y"), ("const double *", "p"),
+                      (("double", "t"), ("const double *", "y"), ("const double *", "p"),
                        ("const double *", "force")), ("QDD", "qdd"), "v")
 PRIMAL = Caller("jacobian_primal", "The accelerations and what their derivative reads",
                 STATE_INPUTS, ("QDD", "qdd"), "v")

@@ -476,9 +476,11 @@ class Model(LoopsMixin):
             jac[:, j] = (f(t, up) - f(t, down)) / (2 * h)
         return jac
 
-    def mass_matrix(self, y: Any, params: Mapping[str, float] | None = None) -> np.ndarray:
-        """The mass matrix M(q) of M qdd = f at state y, (n_coord, n_coord), for diagnostics:
-        the inverse of M^-1, whose columns the C code computes (built on first need)."""
+    def mass_matrix(self, y: Any, params: Mapping[str, float] | None = None,
+                    t: float = 0.0) -> np.ndarray:
+        """The mass matrix M(q) of M qdd = f at state y (and time t, where driven joints move
+        the bodies), (n_coord, n_coord), for diagnostics: the inverse of M^-1, whose columns the
+        C code computes (built on first need)."""
         n = len(self.coordinate_names)
         inverse = np.empty((n, n))
         p, state = self.parameter_vector(params), self._state(y)
@@ -486,9 +488,10 @@ class Model(LoopsMixin):
         if not source.has_part("jacobian"):
             raise ModelError("this standalone package was built without the mass matrix")
         buffer = source._buffer
-        status = source._c["inverse_mass_matrix"](buffer(state), buffer(p), buffer(inverse))
+        status = source._c["inverse_mass_matrix"](self._time(t), buffer(state), buffer(p),
+                                                  buffer(inverse))
         if status:
-            raise IntegrationFailure(0.0, state, status, self.state_names)
+            raise IntegrationFailure(float(t), state, status, self.state_names)
         return np.linalg.inv(inverse)
 
     def outputs(

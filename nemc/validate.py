@@ -41,10 +41,25 @@ from nemc.model import (
 )
 from nemc.parse import Node, parse_text
 
+
+def joint_keys(kind: type[Joint]) -> tuple[str, ...]:
+    """Every YAML key a joint of this kind takes (read from the kind, when asked)."""
+    return ("type", "parent", "child", *kind.keys, *(("motion",) if kind.drivable else ()))
+
+
+def constraint_keys(kind: type[Constraint]) -> tuple[str, ...]:
+    return ("type", "a", "b", *kind.keys)
+
+
+def every_key(keys) -> list[str]:
+    """Every key any kind of a table takes: a sibling kind's key 'does not apply'."""
+    return sorted({key for kind_keys in keys for key in kind_keys})
+
+
+# The registries as tables of keys, for the fuzzers and tests (validation reads the kinds).
 JOINT_TYPES = tuple(JOINT_KINDS)
-JOINT_KEYS = {name: ("type", "parent", "child", *kind.keys, *(("motion",) if kind.drivable else ()))
-              for name, kind in JOINT_KINDS.items()}
-CONSTRAINT_KEYS = {name: ("type", "a", "b", *kind.keys) for name, kind in CONSTRAINT_KINDS.items()}
+JOINT_KEYS = {name: joint_keys(kind) for name, kind in JOINT_KINDS.items()}
+CONSTRAINT_KEYS = {name: constraint_keys(kind) for name, kind in CONSTRAINT_KINDS.items()}
 LOAD_KEYS = {name: kind.keys for name, kind in LOAD_KINDS.items()}
 IMPLICIT_POINTS = ("origin", "com")
 TOP_KEYS = ("name", "description", "parameters", "constants", "gravity", "bodies", "joints",
@@ -639,15 +654,16 @@ def _joint(ctx: _Ctx, name: str, node: Node, path: str, edge: _Edge | None) -> J
     entries = _entries(node)
     kind = None
     if "type" in entries:
-        type_name = _choice(ctx, entries["type"], _join(path, "type"), JOINT_TYPES, "joint type")
+        type_name = _choice(ctx, entries["type"], _join(path, "type"), tuple(JOINT_KINDS),
+                            "joint type")
         kind = JOINT_KINDS.get(type_name) if type_name is not None else None
-    every_key = sorted({key for keys in JOINT_KEYS.values() for key in keys})
+    all_keys = every_key(joint_keys(k) for k in JOINT_KINDS.values())
     if kind is None:
-        _keys(ctx, node, path, every_key, ("type", "parent", "child"))
+        _keys(ctx, node, path, all_keys, ("type", "parent", "child"))
         return None
     required = ["type", "parent", "child", *([kind.coordinate_key] if kind.coordinate_key else [])]
-    _keys(ctx, node, path, JOINT_KEYS[kind.type], required,
-          owner=(f"a {kind.type} joint", every_key))
+    _keys(ctx, node, path, joint_keys(kind), required,
+          owner=(f"a {kind.type} joint", all_keys))
     count = len(ctx.problems)
     coordinates = _joint_coordinates(ctx, kind, name, entries, path)
     if edge is not None and (why := kind.parent_problem(edge.parent)) is not None:
@@ -806,9 +822,9 @@ def _constraint(ctx: _Ctx, name: str, node: Node, path: str) -> Constraint | Non
     type_name = None if type_node is None else _choice(
         ctx, type_node, _join(path, "type"), tuple(CONSTRAINT_KINDS), "constraint type")
     kind = CONSTRAINT_KINDS.get(type_name) if type_name is not None else None
-    every_key = sorted({key for keys in CONSTRAINT_KEYS.values() for key in keys})
-    allowed = CONSTRAINT_KEYS[kind.type] if kind is not None else every_key
-    owner = (f"a {kind.type} constraint" if kind is not None else "", every_key)
+    all_keys = every_key(constraint_keys(k) for k in CONSTRAINT_KINDS.values())
+    allowed = constraint_keys(kind) if kind is not None else all_keys
+    owner = (f"a {kind.type} constraint" if kind is not None else "", all_keys)
     count = len(ctx.problems)
     _keys(ctx, node, path, allowed, ("type", "a", "b"), owner=owner)
     reader = Reader(ctx, node, path)
@@ -849,8 +865,8 @@ def _load(ctx: _Ctx, node: Node, path: str) -> Load | None:
         return None
     kind = LOAD_KINDS[kinds[0]]
     count = len(ctx.problems)
-    every_key = {key for keys in LOAD_KEYS.values() for key in keys}
-    _keys(ctx, node, path, kind.keys, kind.required, owner=(f"a {kind.kind} load", every_key))
+    all_keys = every_key(k.keys for k in LOAD_KINDS.values())
+    _keys(ctx, node, path, kind.keys, kind.required, owner=(f"a {kind.kind} load", all_keys))
     fields = kind.read(Reader(ctx, node, path))
     if fields is None or len(ctx.problems) != count:
         return None

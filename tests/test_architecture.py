@@ -10,9 +10,11 @@ import dataclasses
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 import sympy
 
+import nemc
 from nemc import build
 from nemc.constraints import CONSTRAINT_KINDS, Constraint
 from nemc.derive import derive, with_diagnostics, with_taylor
@@ -169,3 +171,75 @@ def test_a_kind_holds_its_expressions_in_one_place() -> None:
             value = getattr(mapped, f.name)
             if isinstance(value, sympy.Basic):
                 assert value == marker, (item, f.name)
+
+
+# A constraint kind added the way docs/architecture.md says: its own class and one line in the
+# table. A rod of no mass between two points keeps their distance: Phi = |p_a - p_b| - length,
+# its multiplier the rod's tension (the force of b on a along b -> a).
+DISTANCE_LINKAGE = """\
+name: distance_linkage
+parameters: {g: 9.81}
+gravity: [0, -g]
+bodies:
+  crank: {mass: 1, inertia: 1/12, com: [0.5, 0], points: {B: [1, 0]}}
+  rocker: {mass: 1, inertia: 4/12, com: [1, 0], points: {C: [2, 0]}}
+joints:
+  A: {type: revolute, parent: ground, child: crank, coordinate: q1}
+  D: {type: revolute, parent: ground, child: rocker, at: [2.5, 0], coordinate: q3}
+constraints:
+  rod: {type: distance, a: crank.B, b: rocker.C, length: 2.5}
+outputs:
+  reactions: [rod]
+  energy: true
+simulation:
+  t_span: [0, 5]
+  initial: {q1: 1.0}
+  guess: {q3: 2.0}
+"""
+
+
+def distance_kind() -> type[Constraint]:
+    @dataclasses.dataclass(frozen=True)
+    class Distance(Constraint):
+        type = "distance"
+        keys = ("length",)
+        equations_count = 1
+        length: sympy.Expr = sympy.S.One
+
+        @classmethod
+        def read(cls, read):
+            return read.fields(length=read.fixed("length", sympy.S.One))
+
+        def separation(self, a, b):
+            pa, pb = a.point(self.a.xy), b.point(self.b.xy)
+            return pa[0] - pb[0], pa[1] - pb[1]
+
+        def equations(self, a, b):
+            dx, dy = self.separation(a, b)
+            return [sympy.sqrt(dx * dx + dy * dy) - self.length]
+
+        def reaction(self, a, b, multipliers):
+            dx, dy = self.separation(a, b)
+            norm = sympy.sqrt(dx * dx + dy * dy)
+            return (multipliers[0] * dx / norm, multipliers[0] * dy / norm), sympy.S.Zero
+
+    return Distance
+
+
+def test_a_new_constraint_kind_needs_its_class_and_a_line_in_the_table(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(CONSTRAINT_KINDS, "distance", distance_kind())
+    monkeypatch.setenv("NEMC_CACHE", str(tmp_path / "cache"))
+    path = tmp_path / "distance_linkage.yaml"
+    path.write_text(DISTANCE_LINKAGE)
+    model = nemc.compile(path)
+    result = model.simulate(method="nemc.Vern9", rtol=1e-10, atol=1e-12,
+                            t_eval=np.linspace(0, 5, 51))
+    assert result.success, result.message
+    crank_tip = np.array([np.cos(result.y[0]), np.sin(result.y[0])])
+    rocker_tip = np.array([2.5 + 2 * np.cos(result.y[2]), 2 * np.sin(result.y[2])])
+    np.testing.assert_allclose(np.hypot(*(crank_tip - rocker_tip)), 2.5, atol=1e-12)
+    energy = result.outputs["energy.total"]  # the rod does no work
+    assert np.ptp(energy) < 1e-8 * abs(energy).max()
+    tension = np.hypot(result.outputs["rod.Fx"], result.outputs["rod.Fy"])
+    assert np.all(np.isfinite(tension)) and tension.max() > 0.1
