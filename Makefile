@@ -13,7 +13,7 @@ export NEMC_CACHE ?= $(CURDIR)/.nemc-cache
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[dev]'
+	$(BIN)/pip install --quiet -e '.[dev,sweep]'
 	touch $(STAMP)
 
 run: $(STAMP)
