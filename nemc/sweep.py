@@ -18,6 +18,7 @@ the functions that need them.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -592,3 +593,93 @@ def run_dask(client: Any, ref: ModelRef, settings: Settings, inputs: Inputs,
         if in_flight:
             client.cancel(list(in_flight))
     return errors
+
+
+# -- the command line: plans of runs and a Dask client ----------------------------------------
+
+@dataclass(frozen=True)
+class Axis:
+    """One --grid NAME=START:STOP:N or --random NAME=LOW:HIGH."""
+
+    name: str
+    low: float
+    high: float
+    count: int = 0  # grid points; 0 for a random input
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": self.name, "low": self.low, "high": self.high, "count": self.count}
+
+
+def parse_axis(text: str, grid: bool) -> Axis:
+    """NAME=START:STOP:N (grid) or NAME=LOW:HIGH (random); ValueError says what is wrong."""
+    form = "NAME=START:STOP:N" if grid else "NAME=LOW:HIGH"
+    name, sep, rest = text.partition("=")
+    parts = rest.split(":")
+    if not sep or not name.strip() or len(parts) != (3 if grid else 2):
+        raise ValueError(f"expected {form}, got {text!r}")
+    try:
+        low, high = float(parts[0]), float(parts[1])
+        count = int(parts[2]) if grid else 0
+    except ValueError:
+        raise ValueError(f"{name.strip()}: expected numbers in {form}, got {text!r}") from None
+    if not (np.isfinite(low) and np.isfinite(high)) or (grid and count < 1):
+        raise ValueError(f"{name.strip()}: finite bounds and N >= 1 expected, got {text!r}")
+    return Axis(name.strip(), low, high, count)
+
+
+def plan_runs(model: Model, grids: Sequence[Axis], randoms: Sequence[Axis], runs: int | None,
+              seed: int, shared: Mapping[str, float]) -> tuple[dict, dict, dict]:
+    """The runs of `nemc sweep`: the grid's points (the first --grid varies slowest), each
+    with RUNS random draws of the --random inputs (uniform, seeded). Returns the initial-state
+    columns, the parameters (both by name) and the attributes that describe the plan."""
+    names = [a.name for a in [*grids, *randoms]] + list(shared)
+    for name in names:
+        if names.count(name) > 1:
+            raise ModelError(f"{name!r} is given more than once")
+        if name not in model.state_names and name not in model.parameter_names:
+            raise ModelError(f"{name!r} is neither a parameter {list(model.parameter_names)} "
+                             f"nor a state {list(model.state_names)}")
+    if runs is not None and not randoms:
+        raise ModelError("--runs counts random draws: give --random NAME=LOW:HIGH")
+    draws = runs or 1
+    axes = [np.linspace(a.low, a.high, a.count) for a in grids]
+    columns: dict[str, Any] = dict(shared)
+    points = np.meshgrid(*axes, indexing="ij") if axes else []
+    for axis, values in zip(grids, points):
+        columns[axis.name] = np.repeat(values.reshape(-1), draws)
+    total = int(np.prod([a.count for a in grids])) * draws
+    rng = np.random.default_rng(seed)
+    for axis in randoms:
+        columns[axis.name] = axis.low + (axis.high - axis.low) * rng.random(total)
+    y0 = {n: v for n, v in columns.items() if n in model.state_names}
+    params = {n: v for n, v in columns.items() if n not in model.state_names}
+    attrs = {"grid": json.dumps([a.describe() for a in grids]),
+             "random": json.dumps([a.describe() for a in randoms]), "draws_per_point": draws,
+             "seed": seed}
+    return y0, params, attrs
+
+
+def output_times(t_span: Sequence[float], count: int) -> np.ndarray:
+    """COUNT output times equally spaced after the start, the last at the end."""
+    t0, t1 = float(t_span[0]), float(t_span[1])
+    return t0 + (t1 - t0) * np.arange(1, count + 1) / count
+
+
+@contextlib.contextmanager
+def dask_client(address: str | None) -> Iterator[Any]:
+    """None: no client; 'local' or 'local:N': a LocalCluster of N worker processes (one
+    thread each; N default: the cores); else the address of a running scheduler."""
+    if address is None:
+        yield None
+        return
+    distributed = require("distributed")
+    name, _, count = address.partition(":")
+    if name == "local":
+        workers = int(count) if count else os.cpu_count() or 1
+        with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                      dashboard_address=None) as cluster, \
+                distributed.Client(cluster) as client:
+            yield client
+    else:
+        with distributed.Client(address, timeout="30s") as client:
+            yield client
