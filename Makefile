@@ -33,6 +33,7 @@ bench: $(PEERS_STAMP)
 	$(BIN)/python benchmarks/scaling.py
 	$(BIN)/python benchmarks/stiff.py
 	$(BIN)/python benchmarks/native.py
+	$(BIN)/python benchmarks/sweep.py
 
 bench-quick: $(STAMP)
 	$(BIN)/nemc bench --quick

@@ -128,7 +128,10 @@ class Inputs:
         sizes |= {full.shape[0]} if full is not None else set()
         if len(sizes) > 1:
             raise ModelError(f"sweep: the inputs disagree on the number of runs: {sorted(sizes)}")
-        return cls(sizes.pop() if sizes else 1, full, columns, shared)
+        runs = sizes.pop() if sizes else 1
+        if runs < 1:
+            raise ModelError("sweep: no runs (the inputs are empty)")
+        return cls(runs, full, columns, shared)
 
     def chunk(self, start: int, stop: int) -> ChunkInputs:
         def part(values: dict[str, Any]) -> dict[str, Any]:
@@ -563,7 +566,8 @@ def run_dask(client: Any, ref: ModelRef, settings: Settings, inputs: Inputs,
              todo: list[tuple[int, int]], tracker: Tracker, retries: int) -> list[str]:
     """The chunks as Dask tasks, two per worker thread in flight (bounded memory on the
     workers and here), stored as they complete. A task that still fails after its retries
-    (or whose workers keep dying: KilledWorker) leaves its runs NOT_RUN and is reported."""
+    (or whose workers keep dying: KilledWorker) leaves its runs NOT_RUN and is reported, and
+    no further chunk is submitted (the same sweep run again continues)."""
     distributed = require("distributed")
     pending_chunks = iter(todo)
     completed = distributed.as_completed()
@@ -571,9 +575,7 @@ def run_dask(client: Any, ref: ModelRef, settings: Settings, inputs: Inputs,
     in_flight: dict[Any, tuple[int, int]] = {}
 
     def fill() -> None:
-        window = max(2, 2 * sum(w.get("nthreads", 1) for w in
-                                client.scheduler_info().get("workers", {}).values()))
-        for a, b in take(pending_chunks, window - len(in_flight)):
+        for a, b in take(pending_chunks, 2 * cluster_threads(client) - len(in_flight)):
             future = client.submit(run_chunk, ref, settings, inputs.chunk(a, b), pure=False,
                                    retries=retries, key=f"nemc-sweep-{a}-{os.urandom(6).hex()}")
             in_flight[future] = (a, b)
@@ -585,14 +587,26 @@ def run_dask(client: Any, ref: ModelRef, settings: Settings, inputs: Inputs,
             a, b = in_flight.pop(future)
             if future.status == "finished":
                 tracker.accept(future.result())
-            else:
+            else:  # failed after its retries: likely every chunk would; submit no more
                 errors.append(f"runs {a}..{b - 1}: {future.exception()!r}")
+                pending_chunks = iter(())
             future.release()
             fill()
     finally:
         if in_flight:
             client.cancel(list(in_flight))
     return errors
+
+
+def cluster_threads(client: Any) -> int:
+    """The cluster's worker threads now (workers may come and go: adaptive clusters)."""
+    try:
+        info = client.scheduler_info(n_workers=0)  # the totals only
+    except TypeError:  # an older distributed: no n_workers
+        info = client.scheduler_info()
+    total = info.get("total_threads") or sum(
+        w.get("nthreads", 1) for w in info.get("workers", {}).values())
+    return max(1, int(total))
 
 
 # -- the command line: plans of runs and a Dask client ----------------------------------------
@@ -683,3 +697,4 @@ def dask_client(address: str | None) -> Iterator[Any]:
     else:
         with distributed.Client(address, timeout="30s") as client:
             yield client
+

@@ -72,3 +72,11 @@ def test_native_smoke_mode_writes_the_equal_error_table(tmp_path: Path) -> None:
     text = (out / "native-latest.md").read_text()
     assert text.startswith("# nemc native integrators at equal error")
     assert "speed-up vs lambdify(cse)" in text
+
+
+def test_sweep_smoke_mode_compares_clusters_and_machinery(tmp_path: Path) -> None:
+    out = run_script("sweep.py", tmp_path)
+    result = json.loads((out / "sweep-latest.json").read_text())
+    assert all(result["identical_to_simulate_many"].values()), result
+    assert set(result["ratios"]) >= {"2 workers vs 1 (throughput)", "sweep (zarr) / simulate_many"}
+    assert all(math.isfinite(r["median"]) for r in result["ratios"].values())
