@@ -212,6 +212,13 @@ def test_core_nemc_imports_none_of_the_sweep_extra():
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
+def test_a_missing_extra_says_how_to_install_it():
+    from nemc.sweep_store import require
+
+    with pytest.raises(ImportError, match=r"pip install 'nemc\[sweep\]'"):
+        require("nemc_no_such_module")
+
+
 def cli(*args, **kwargs):
     return subprocess.run([*NEMC, "sweep", str(EXAMPLE), *args], capture_output=True,
                           text=True, **kwargs)
