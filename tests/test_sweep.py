@@ -81,6 +81,16 @@ def test_local_sweep_equals_serial_whatever_the_chunking(model, runs, chunk_runs
     assert np.array_equal(result.dataset["y0"].values, y0s)
 
 
+def test_defaults_are_simulate_many_defaults(model, runs):
+    """No settings given: the scene's t_span, t_eval, tolerances and ensemble method, as
+    simulate_many resolves them (the sweep resolves them once, for every worker)."""
+    y0s, params = runs
+    result = sweep(model, y0s[:10], params={"m2": params["m2"][:10]}, progress=False)
+    reference = model.simulate_many(y0s[:10], params={"m2": params["m2"][:10]}, threads=1)
+    assert_same_runs(result, reference)
+    assert result.dataset.attrs["method"] == reference.method
+
+
 def test_dask_sweep_to_zarr_equals_serial(model, runs, client, tmp_path):
     y0s, params = runs
     result = sweep(model, y0s, params=params, client=client, chunk_runs=9,
