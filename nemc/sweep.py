@@ -691,7 +691,7 @@ def dask_client(address: str | None) -> Iterator[Any]:
     if name == "local":
         workers = int(count) if count else os.cpu_count() or 1
         with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                      dashboard_address=None) as cluster, \
+                                      dashboard_address=":0") as cluster, \
                 distributed.Client(cluster) as client:
             yield client
     else:

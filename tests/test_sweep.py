@@ -66,7 +66,7 @@ def client():
     from distributed import Client, LocalCluster
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as dask_client:
+                      dashboard_address=":0") as cluster, Client(cluster) as dask_client:
         yield dask_client
 
 
