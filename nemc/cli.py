@@ -170,9 +170,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     except (ModelError, sweeps.SweepStoreError) as error:
         print(f"{args.mechanism}: {error}", file=sys.stderr)
         return 2
-    except sweeps.SweepInterrupted as stop:
-        print(f"\ninterrupted: {stop.done} of {stop.runs} runs kept in {out}; run the same "
-              "command again to continue", file=sys.stderr)
+    except KeyboardInterrupt as stop:  # SweepInterrupted, or Ctrl-C while setting up
+        kept = f"{stop.done} of {stop.runs} runs" if isinstance(stop, sweeps.SweepInterrupted) \
+            else "the finished runs"
+        print(f"\ninterrupted: {kept} kept in {out}; run the same command again to continue",
+              file=sys.stderr)
         return 130
     except ImportError as error:
         print(f"nemc: {error}", file=sys.stderr)

@@ -466,10 +466,10 @@ def sweep(
 
 def sweep_layout(model: Model, settings: Settings, inputs: Inputs, chunk_runs: int | None,
                  attrs: Mapping[str, Any] | None) -> Layout:
-    identity = {
+    identity = {  # what the results depend on (not the C parts a build happens to have)
         "model": model.metadata.get("source_hash", model.name), "name": model.name,
-        "parts": sorted(model.metadata["generated"]), "settings": settings.__dict__,
-        "inputs": inputs.digest(), "runs": inputs.runs,
+        "nemc": __version__, "settings": settings.__dict__, "inputs": inputs.digest(),
+        "runs": inputs.runs,
     }
     fingerprint = hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
     chunk = chunk_runs or default_chunk_runs(inputs.runs, model.n_state, len(settings.t_eval))
