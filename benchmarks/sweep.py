@@ -48,8 +48,16 @@ def initial_states(count: int) -> np.ndarray:
 
 
 def contenders(model: Any, y0s: np.ndarray, clients: dict[str, Any], scratch: Path,
-               chunk: int) -> dict[str, Callable[[], Any]]:
+               chunk: int, busy: dict[str, list[float]]) -> dict[str, Callable[[], Any]]:
+    """The contenders; a cluster's sweeps add their chunks' seconds on the workers to BUSY."""
     from nemc.sweep import sweep
+
+    def on_cluster(name: str, client: Any) -> Callable[[], Any]:
+        def call() -> Any:
+            busy[name].append(0.0)
+            return sweep(model, y0s, client=client, chunk_runs=chunk, progress=False,
+                         on_chunk=lambda report: add(busy[name], report.seconds), **SETTINGS)
+        return call
 
     def into_zarr() -> Any:
         out = scratch / "runs.zarr"
@@ -62,10 +70,12 @@ def contenders(model: Any, y0s: np.ndarray, clients: dict[str, Any], scratch: Pa
         "sweep (memory)": lambda: sweep(model, y0s, threads=THREADS, chunk_runs=chunk,
                                         progress=False, **SETTINGS),
         "sweep (zarr)": into_zarr,
-        **{f"sweep on {name}": (lambda c=client: sweep(model, y0s, client=c, chunk_runs=chunk,
-                                                       progress=False, **SETTINGS))
-           for name, client in clients.items()},
+        **{f"sweep on {name}": on_cluster(name, client) for name, client in clients.items()},
     }
+
+
+def add(totals: list[float], seconds: float) -> None:
+    totals[-1] += seconds
 
 
 def rounds(calls: dict[str, Callable[[], Any]], count: int) -> tuple[dict, list]:
@@ -107,13 +117,19 @@ def measure(mode: str) -> dict[str, Any]:
             LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=":0") as two, \
             Client(one) as client1, Client(two) as client2:
         clients = {"1 worker": client1, "2 workers": client2}
-        calls = contenders(model, y0s, clients, Path(scratch), chunk)
+        busy: dict[str, list[float]] = {name: [] for name in clients}
+        calls = contenders(model, y0s, clients, Path(scratch), chunk, busy)
         warm = {name: call() for name, call in calls.items()}  # workers load the model
         reference = warm.pop("simulate_many").y
         identical = {name: bool(np.array_equal(np.asarray(r.y), reference, equal_nan=True))
                      for name, r in warm.items()}
+        for seconds in busy.values():
+            seconds.clear()
         samples, loads = rounds(calls, count)
     return {
+        "workers_busy": {name: busy_fraction(seconds, samples[f"sweep on {name}"]["values"],
+                                             workers=int(name.split()[0]))
+                         for name, seconds in busy.items()},
         "runs": runs, "rounds": count, "chunk_runs": chunk, "threads": THREADS,
         "settings": {k: (v.tolist() if isinstance(v, np.ndarray) else v)
                      for k, v in SETTINGS.items()},
@@ -128,6 +144,14 @@ def measure(mode: str) -> dict[str, Any]:
                                                         "simulate_many"),
         },
     }
+
+
+def busy_fraction(task_seconds: list[float], wall: list[float], workers: int) -> dict:
+    """How much of the sweep's time its workers spent in chunks (median and spread over the
+    rounds): what Dask and nemc leave idle, apart from what other work on the machine takes."""
+    fractions = [s / (workers * w) for s, w in zip(task_seconds, wall)]
+    return {"median": statistics.median(fractions), "min": min(fractions),
+            "max": max(fractions)}
 
 
 def markdown(result: dict[str, Any]) -> str:
@@ -148,6 +172,10 @@ def markdown(result: dict[str, Any]) -> str:
     for name, r in result["ratios"].items():
         lines.append(f"| {name} | {r['median']:.3f} | {r['min']:.3f}–{r['max']:.3f} | "
                      f"{r['of_fastest']:.3f} |")
+    busy = ", ".join(f"{name}: {b['median']:.3f} ({b['min']:.3f}–{b['max']:.3f})"
+                     for name, b in result["workers_busy"].items())
+    lines += ["", f"Share of the cluster sweeps' time the workers spent integrating chunks "
+              f"(the rest: Dask, nemc, idle workers): {busy}."]
     lines += ["", f"Load average before each round: {result['loadavg_per_round']}. The "
               "machine has 2 cores shared with other developers: a busy neighbour shows in "
               "the spreads and lowers the 2-worker ratio.", ""]

@@ -19,6 +19,7 @@ the functions that need them.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hashlib
 import json
 import os
@@ -186,7 +187,7 @@ def run_chunk(model_or_ref: Model | ModelRef, settings: Settings,
     refuses get status INPUTS_REFUSED and the reason, the others run as usual."""
     started = time.perf_counter()
     model, key = (model_or_ref, "") if isinstance(model_or_ref, Model) else \
-        (worker_model(model_or_ref), model_or_ref.key)
+        worker_model(model_or_ref)
     n = chunk.stop - chunk.start
     reasons: dict[int, str] = {}
     try:
@@ -280,29 +281,32 @@ class ModelRef:
     key: str
 
 
-_MODELS: dict[str, Model] = {}
+_MODELS: dict[str, tuple[Model, str]] = {}
 _MODELS_LOCK = threading.Lock()
 
 
-def worker_model(ref: ModelRef) -> Model:
-    """The model of REF in this process: built or loaded from this machine's nemc cache on
-    first use, then kept (one per build key and process)."""
+def worker_model(ref: ModelRef) -> tuple[Model, str]:
+    """The model of REF in this process and the key it was built under here: built or loaded
+    from this machine's nemc cache on first use, then kept (one per build key and process)."""
     with _MODELS_LOCK:
-        model = _MODELS.get(ref.key)
-        if model is None:
-            from .pipeline import compile_source
+        if ref.key not in _MODELS:
+            _MODELS[ref.key] = build_ref(ref)
+        return _MODELS[ref.key]
 
-            recipe = ref.recipe
-            model = compile_source(recipe.source, ref.jacobian, taylor=ref.taylor,
-                                   energy=recipe.energy, chunk_steps=recipe.chunk_steps).model
-            _MODELS[ref.key] = model
-        return model
+
+def build_ref(ref: ModelRef) -> tuple[Model, str]:
+    from .pipeline import compile_source
+
+    recipe = ref.recipe
+    compiled = compile_source(recipe.source, ref.jacobian, taylor=ref.taylor,
+                              energy=recipe.energy, chunk_steps=recipe.chunk_steps)
+    return compiled.model, compiled.package.name  # the package folder is named by its key
 
 
 def model_ref(model: Model) -> ModelRef:
-    """What a worker needs to build MODEL as it is now (with the parts it has gained since)."""
-    from .build import build_key
-
+    """What a worker needs to build MODEL as it is now (with the parts it has gained since),
+    and the key of that build here (a worker with another key has another nemc, compiler or
+    Python: the sweep warns)."""
     recipe = getattr(model, "recipe", None)
     if recipe is None:
         raise ModelError("sweep on a Dask cluster needs a model from nemc.compile (workers "
@@ -312,14 +316,8 @@ def model_ref(model: Model) -> ModelRef:
         jacobian, taylor = recipe.jacobian, recipe.taylor
     else:
         jacobian, taylor = "jacobian" in parts, "taylor" in parts
-    options: dict[str, Any] = {"jacobian": "auto" if jacobian is None else bool(jacobian)}
-    if recipe.energy:
-        options["energy"] = True
-    if taylor is not None:
-        options["taylor"] = bool(taylor)
-    if recipe.chunk_steps is not None:
-        options["chunk_steps"] = recipe.chunk_steps
-    return ModelRef(recipe, jacobian, taylor, build_key(recipe.source, options))
+    ref = ModelRef(recipe, jacobian, taylor, "")
+    return dataclasses.replace(ref, key=build_ref(ref)[1])  # a cache hit, as a rule
 
 
 # -- the sweep --------------------------------------------------------------------------------
@@ -511,12 +509,14 @@ class Tracker:
                                       self.resumed + self.ran, self.runs))
 
     def check_build(self, key: str) -> None:
-        if key and key not in self.keys:  # pragma: no cover - needs a mixed cluster
+        """Warn once per key when a worker's build differs from this machine's."""
+        if key and key not in self.keys:
             import warnings
 
             self.keys.add(key)
             warnings.warn(f"a worker built the model under another key ({key}): its nemc, "
-                          "compiler or Python differ from this machine's", stacklevel=2)
+                          "compiler or Python differ from this machine's, and its results "
+                          "may differ in the last bits", stacklevel=2)
 
     def close(self) -> None:
         if self.bar is not None:

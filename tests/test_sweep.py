@@ -222,6 +222,29 @@ def test_core_nemc_imports_none_of_the_sweep_extra():
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
+def test_workers_report_the_key_they_built_under_and_a_mismatch_warns(model, runs):
+    """A worker builds the shipped recipe itself; the key it built under comes back with
+    each chunk, and one that differs from this machine's warns (other nemc or compiler)."""
+    import dataclasses
+    import warnings
+
+    from nemc.sweep import Inputs, Settings, Tracker, model_ref, run_chunk
+
+    ref = model_ref(model)
+    settings = Settings.resolve(model, SETTINGS["t_span"], SETTINGS["t_eval"], "nemc.DOP853",
+                                1e-8, 1e-10)
+    chunk = Inputs.of(model, runs[0][:3], None).chunk(0, 3)
+    out = run_chunk(dataclasses.replace(ref, key="another-machine"), settings, chunk)
+    assert out.build_key == ref.key
+    assert np.array_equal(out.y, serial(model, runs[0][:3], None).y)
+    tracker = Tracker(None, 3, 0, False, None, dataclasses.replace(ref, key="another-machine"))
+    with pytest.warns(UserWarning, match="another key"):
+        tracker.check_build(out.build_key)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tracker.check_build(out.build_key)  # once per key
+
+
 def test_a_missing_extra_says_how_to_install_it():
     from nemc.sweep_store import require
 
