@@ -183,11 +183,19 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def report_sweep(result) -> int:
-    """The summary: runs, time, rate, failures listed (the first 20); 1 if any run failed."""
-    rate = result.ran / result.seconds if result.seconds > 0 else 0.0
+    """The summary: runs, time, rate, failures counted by status and listed (the first 20);
+    1 if any run failed or did not run."""
+    import numpy as np
+
+    rate = f"{result.ran / result.seconds:.0f} runs/s" if result.ran else "nothing left to run"
     print(f"{result.runs} runs ({result.resumed} done before) in {result.seconds:.1f} s, "
-          f"{rate:.0f} runs/s; {result.failed} failed, {result.not_run} not run -> "
-          f"{result.path}")
+          f"{rate}; {result.failed} failed, {result.not_run} not run -> {result.path}")
+    if result.failed:
+        from .sweep_store import STATUS_MEANINGS
+
+        codes, counts = np.unique(result.status[result.status != 0], return_counts=True)
+        print("failed runs: " + ", ".join(f"{n} {STATUS_MEANINGS.get(int(c), c)} ({c})"
+                                          for c, n in zip(codes, counts)))
     for run, status, message in result.failures(20):
         print(f"  run {run}: status {status}: {message}")
     if result.failed > 20:
