@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 PEERS_STAMP := $(VENV)/.peers-installed
 export NEMC_CACHE ?= $(CURDIR)/.nemc-cache
 
-.PHONY: run test bench bench-quick stress lint clean
+.PHONY: run test wheel-check bench bench-quick stress lint clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -22,6 +22,21 @@ run: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
+
+# The built wheel, installed alone into a fresh virtual environment (no source tree on the path),
+# compiles and simulates an example, and its exported package runs on its own (CI runs this).
+WHEEL_CHECK := build/wheel-check
+wheel-check: $(STAMP)
+	rm -rf $(WHEEL_CHECK) && mkdir -p $(WHEEL_CHECK)
+	$(BIN)/pip wheel --quiet --no-deps . -w $(WHEEL_CHECK)/dist
+	$(PYTHON) -m venv $(WHEEL_CHECK)/venv
+	$(WHEEL_CHECK)/venv/bin/pip install --quiet $(WHEEL_CHECK)/dist/nemc-*.whl
+	cd $(WHEEL_CHECK) && NEMC_CACHE=$(CURDIR)/$(WHEEL_CHECK)/cache venv/bin/nemc simulate \
+		$(CURDIR)/examples/double_pendulum.yaml --method nemc.Taylor | tail -1 | grep -q "reached the end"
+	cd $(WHEEL_CHECK) && NEMC_CACHE=$(CURDIR)/$(WHEEL_CHECK)/cache venv/bin/nemc compile \
+		$(CURDIR)/examples/two_link_robot_arm.yaml -o out
+	cd $(WHEEL_CHECK)/out && ../venv/bin/python -c "import two_link_robot_arm as m; \
+		r = m.simulate(method='nemc.Radau'); assert r.success, r.message; print('wheel OK:', r.y[:, -1])"
 
 # The peers are optional: without them (no network, no wheel) the benchmarks record them as absent.
 $(PEERS_STAMP): $(STAMP)

@@ -66,7 +66,8 @@ def mechanics_model(path: Path) -> MechanicsModel:
     import sympy as sp
     from sympy.physics import mechanics as me
 
-    from nemc.model import GROUND, JointSpring, symbol
+    from nemc.loads import JointSpring
+    from nemc.model import GROUND, symbol
     from nemc.validate import load_mechanism
 
     sys.path.insert(0, str(common.ROOT / "tests"))

@@ -17,134 +17,115 @@ absolute (x, y of the body origin and its angle), so its body is a root whatever
 the file. An absolute-angle revolute joint moves like a relative one with the joint rate
 dot(q) - omega_parent; its coordinate's acceleration is the body's angular acceleration.
 
-Loads (gravity, torques, forces, springs, joint springs) all enter as spatial forces on bodies;
-a joint spring acts as equal and opposite couples (or, on a prismatic joint, forces along its
-axis) on the two bodies it joins. `inverse_mass_program` runs the same algorithm at rest with
-only unit generalized forces applied, which gives the columns of M^-1 for diagnostics.
+What depends on a joint's kind (its placement, motion axes, how its coordinates' accelerations
+follow, how a load on it acts) the joint answers itself (nemc/joints/); gravity and the loads of
+the YAML (nemc/loads/, Load.act) all enter as spatial forces on bodies. `inverse_mass_program`
+runs the same algorithm at rest with only unit generalized forces applied, which gives the
+columns of M^-1 for diagnostics.
 """
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import sympy
 
 from . import model as m
-from .kinematics import joints_parent_first
+from .constraints import Constraint
+from .joints import Joint
+from .kinematics import joints_parent_first, prescribed_motion
 from .program import Program, ProgramBuilder
+from .spatial import (
+    M3,
+    V2,
+    V3,
+    ZERO3,
+    add,
+    cross_force,
+    dot,
+    mat_vec,
+    point_force,
+    rigid_inertia,
+    scale,
+)
 
 Expr = sympy.Expr
-V3 = tuple[Expr, Expr, Expr]  # a planar spatial motion or force vector
-M3 = tuple[V3, V3, V3]  # a 3 x 3 matrix (spatial inertias are symmetric)
-ZERO3: V3 = (sympy.S.Zero,) * 3
-
-
-def add(a: Sequence[Expr], b: Sequence[Expr]) -> tuple[Expr, ...]:
-    return tuple(x + y for x, y in zip(a, b))
-
-
-def scale(a: Sequence[Expr], k: Expr) -> tuple[Expr, ...]:
-    return tuple(x * k for x in a)
-
-
-def dot(a: Sequence[Expr], b: Sequence[Expr]) -> Expr:
-    return sum((x * y for x, y in zip(a, b)), sympy.S.Zero)
-
-
-def mat_vec(a: M3, v: V3) -> V3:
-    return tuple(dot(row, v) for row in a)  # type: ignore[return-value]
-
-
-def cross_motion(v: V3, w: V3) -> V3:
-    """v x w for motion vectors (the derivative of w moving with velocity v)."""
-    return (sympy.S.Zero, v[2] * w[0] - v[0] * w[2], v[0] * w[1] - v[1] * w[0])
-
-
-def cross_force(v: V3, f: V3) -> V3:
-    """v x* f for a force f (v x* I v is the velocity-product force of a body)."""
-    return (v[1] * f[2] - v[2] * f[1], -v[0] * f[2], v[0] * f[1])
-
-
-def point_force(at: Sequence[Expr], force: Sequence[Expr]) -> V3:
-    """A force applied at ground point `at`, as a spatial force about O."""
-    return (at[0] * force[1] - at[1] * force[0], force[0], force[1])
-
-
-def couple(torque: Expr) -> V3:
-    return (torque, sympy.S.Zero, sympy.S.Zero)
-
-
-def point_velocity(v: V3, at: Sequence[Expr]) -> tuple[Expr, Expr]:
-    """Velocity of the body point at ground point `at`, for body spatial velocity v."""
-    return (v[1] - v[0] * at[1], v[2] + v[0] * at[0])
-
-
-def rigid_inertia(mass: Expr, inertia: Expr, com: Sequence[Expr]) -> M3:
-    """Spatial inertia about O of a body with this mass, central inertia and mass center."""
-    cx, cy = com
-    return (
-        (inertia + mass * (cx * cx + cy * cy), -mass * cy, mass * cx),
-        (-mass * cy, mass, sympy.S.Zero),
-        (mass * cx, sympy.S.Zero, mass),
-    )
 
 
 class Geometry:
-    """Angles, their cosines and sines, and origins of all bodies, as program names."""
+    """Angles, their cosines and sines, and origins of all bodies, as program names; each
+    joint places its child (Joint.place, the placement every derivation uses)."""
 
-    def __init__(self, mech: m.Mechanism, prog: ProgramBuilder, value: Callable):
-        self.prog, self.value = prog, value
+    def __init__(self, joints: Sequence[Joint], prog: ProgramBuilder, value: Callable,
+                 coordinate: Callable[[str], Expr]):
+        self.prog, self.value, self.coordinate = prog, value, coordinate
         zero, one = sympy.S.Zero, sympy.S.One
         self.angle = {m.GROUND: zero}
         self.trig = {m.GROUND: (one, zero)}
         self.origin = {m.GROUND: (zero, zero)}
-        for joint in joints_parent_first(mech.joints):
+        for joint in joints_parent_first(joints):
             self._place(joint)
 
-    def _place(self, joint: m.Joint) -> None:
-        parent, coords = joint.parent, [m.symbol(c) for c in joint.coordinates]
-        offset = self.value(joint.offset)
-        if joint.type == "free":
-            angle, origin = coords[2], (coords[0], coords[1])
-        elif joint.type == "revolute":
-            base = sympy.S.Zero if joint.angle == "absolute" else self.angle[parent]
-            angle, origin = base + coords[0] + offset, self.point(parent, joint.at)
-        elif joint.type == "prismatic":
-            slide = scale(self.rotate(parent, self.unit_axis(joint)), coords[0])
-            angle = self.angle[parent] + offset
-            origin = self.prog.lets(add(self.point(parent, joint.at), slide))
-        else:  # weld
-            angle, origin = self.angle[parent] + offset, self.point(parent, joint.at)
+    def _place(self, joint: Joint) -> None:
+        coordinates = [self.coordinate(c) for c in joint.coordinates]
+        angle, origin = joint.place(ProgramFrame(self, joint.parent), coordinates)
+        self.origin[joint.child] = self.prog.lets(origin)  # type: ignore[assignment]
         angle = self.prog.let(angle)
         self.angle[joint.child] = angle
         self.trig[joint.child] = (self.prog.let(sympy.cos(angle)), self.prog.let(sympy.sin(angle)))
-        self.origin[joint.child] = origin
 
-    def unit_axis(self, joint: m.Joint) -> tuple[Expr, Expr]:
-        ax, ay = (self.value(a) for a in joint.axis)
-        norm = sympy.sqrt(ax * ax + ay * ay)
-        return ax / norm, ay / norm
-
-    def rotate(self, body: str, xy: Sequence[Expr]) -> tuple[Expr, Expr]:
+    def rotate(self, body: str, xy: Sequence[Expr]) -> V2:
         """A body-frame vector in ground axes."""
         c, s = self.trig[body]
         x, y = (self.value(v) for v in xy)
         return c * x - s * y, s * x + c * y
 
-    def point(self, body: str, xy: Sequence[Expr]) -> tuple[Expr, Expr]:
+    def point(self, body: str, xy: Sequence[Expr]) -> V2:
         """Ground position of the point fixed in `body` at body coordinates xy."""
         return self.prog.lets(add(self.origin[body], self.rotate(body, xy)))  # type: ignore
+
+
+class ProgramFrame:
+    """A body's pose for the joints and loads acting in the articulated-body algorithm
+    (joints.base.Frame): every value it makes is named in the program."""
+
+    def __init__(self, geo: Geometry, body: str):
+        self.geo, self.body = geo, body
+
+    @property
+    def angle(self) -> Expr:
+        return self.geo.angle[self.body]
+
+    @property
+    def origin(self) -> V2:
+        return self.geo.origin[self.body]
+
+    def rotate(self, xy: Sequence[Expr]) -> V2:
+        return self.geo.rotate(self.body, xy)
+
+    def point(self, xy: Sequence[Expr]) -> V2:
+        return self.geo.point(self.body, xy)
+
+    def velocity(self, xy: Sequence[Expr]) -> V2:
+        raise NotImplementedError("the articulated-body algorithm uses spatial velocities")
+
+    def name(self, expr: Expr) -> Expr:
+        return self.geo.prog.let(expr)
+
+    def names(self, exprs: Sequence[Expr]) -> tuple[Expr, ...]:
+        return self.geo.prog.lets(exprs)
 
 
 @dataclass
 class Node:
     """A body with its own degrees of freedom, and the bodies welded to it."""
 
-    joint: m.Joint
+    joint: Joint
     parent: str  # the parent node's body, or ground
     members: list[str]
+    status: int  # what the generated code returns when this node's inertia is singular
+    prescribed: Expr | None = None  # a driven joint's acceleration (its coordinate's qdd)
     axes: list[V3] = field(default_factory=list)  # the joint's motion subspace S
     rates: list[Expr] = field(default_factory=list)  # the joint's rates
     velocity: V3 = ZERO3
@@ -155,67 +136,67 @@ class Node:
     u_vector: V3 = ZERO3  # U = I^A S
     d_inverse: Expr = sympy.S.Zero  # 1 / (S^T I^A S)
     u_force: Expr = sympy.S.Zero  # u = -S^T p^A
+    acceleration: V3 = ZERO3  # its body's spatial acceleration (pass 3)
 
 
 class ArticulatedBody:
-    """The three passes over the nodes of one mechanism, writing into one program."""
+    """The three passes over the nodes of one mechanism, writing into one program. Its joints
+    and loads have their expressions in runtime symbols (value: constants folded).
+
+    A driven joint's coordinate, rate and acceleration are its motion's (Featherstone's hybrid
+    dynamics): its node does not articulate, it hands its whole inertia to its parent with the
+    bias of its prescribed acceleration, and its drive is S^T (I^A a + p^A). at_rest: velocities
+    and prescribed accelerations zero (the passes of M^-1 times generalized forces)."""
 
     def __init__(self, mech: m.Mechanism, value: Callable, *, at_rest: bool = False):
         self.mech, self.value, self.at_rest = mech, value, at_rest
+        self.joints = {joint.name: joint.map_expressions(value) for joint in mech.joints}
+        self.motions = {joint.coordinates[0]: prescribed_motion(joint)
+                        for joint in self.joints.values() if joint.driven}
         self.prog = ProgramBuilder()
-        self.geo = Geometry(mech, self.prog, value)
+        self.geo = Geometry(list(self.joints.values()), self.prog, value, self.coordinate)
         self.node_of: dict[str, str] = {m.GROUND: m.GROUND}
         self.nodes: dict[str, Node] = {}
-        for joint in joints_parent_first(mech.joints):
-            self._add_body(joint)
+        status = {name: k for k, name in enumerate(self.joints, start=1)}  # file order
+        for joint in joints_parent_first(self.joints.values()):
+            self._add_body(joint, status[joint.name])
 
-    def _add_body(self, joint: m.Joint) -> None:
-        if joint.type == "weld":
+    def _add_body(self, joint: Joint, status: int) -> None:
+        if joint.merged:
             node = self.node_of[joint.parent]
             self.node_of[joint.child] = node
             if node != m.GROUND:
                 self.nodes[node].members.append(joint.child)
             return
-        parent = m.GROUND if joint.type == "free" else self.node_of[joint.parent]
+        parent = m.GROUND if joint.floating else self.node_of[joint.parent]
         self.node_of[joint.child] = joint.child
-        self.nodes[joint.child] = Node(joint, parent, [joint.child])
+        prescribed = None
+        if joint.driven:
+            prescribed = sympy.S.Zero if self.at_rest else self.motions[joint.coordinates[0]][2]
+        self.nodes[joint.child] = Node(joint, parent, [joint.child], status, prescribed)
 
-    # -- pass 1: velocities ---------------------------------------------------------------
+    # -- what joints and loads acting here use (loads.base.ArticulatedLoads) --------------
+
+    def frame(self, body: str) -> ProgramFrame:
+        return ProgramFrame(self.geo, body)
+
+    def joint(self, name: str) -> Joint:
+        return self.joints[name]
+
+    def coordinate(self, name: str) -> Expr:
+        """A coordinate's value: its symbol, or a driven coordinate's motion."""
+        return self.motions[name][0] if name in self.motions else m.symbol(name)
 
     def speed(self, coordinate: str) -> Expr:
-        return sympy.S.Zero if self.at_rest else m.rate_symbol(coordinate)
+        if self.at_rest:
+            return sympy.S.Zero
+        if coordinate in self.motions:
+            return self.motions[coordinate][1]
+        return m.rate_symbol(coordinate)
 
     def velocity(self, body: str) -> V3:
         node = self.node_of[body]
         return ZERO3 if node == m.GROUND else self.nodes[node].velocity
-
-    def _motion(self, node: Node) -> None:
-        joint, geo, parent_v = node.joint, self.geo, self.velocity(node.parent)
-        speeds = [self.speed(c) for c in joint.coordinates]
-        if joint.type == "free":
-            x, y = geo.origin[joint.child]
-            one, zero = sympy.S.One, sympy.S.Zero
-            node.axes = [(zero, one, zero), (zero, zero, one), (one, y, -x)]
-            node.rates = speeds
-        elif joint.type == "revolute":
-            px, py = geo.origin[joint.child]
-            node.axes = [(sympy.S.One, py, -px)]
-            absolute = joint.angle == "absolute"
-            node.rates = [self.prog.let(speeds[0] - parent_v[0]) if absolute else speeds[0]]
-        else:  # prismatic
-            ax, ay = self.prog.lets(geo.rotate(joint.parent, geo.unit_axis(joint)))
-            node.axes, node.rates = [(sympy.S.Zero, ax, ay)], speeds
-        relative = ZERO3
-        for axis, rate in zip(node.axes, node.rates):
-            relative = add(relative, scale(axis, rate))
-        node.velocity = self.prog.lets(add(parent_v, relative))
-        if joint.type == "free":
-            ux, uy, uth = node.rates
-            node.bias_acceleration = self.prog.lets((sympy.S.Zero, uth * uy, -uth * ux))
-        else:
-            node.bias_acceleration = self.prog.lets(cross_motion(node.velocity, relative))
-
-    # -- loads ----------------------------------------------------------------------------
 
     def apply(self, body: str, force: V3) -> None:
         node = self.node_of[body]
@@ -225,78 +206,40 @@ class ArticulatedBody:
     def apply_at(self, body: str, at: Sequence[Expr], force: Sequence[Expr]) -> None:
         self.apply(body, point_force(at, force))
 
+    # -- pass 1: velocities ---------------------------------------------------------------
+
+    def _motion(self, node: Node) -> None:
+        joint, parent_v = node.joint, self.velocity(node.parent)
+        speeds = [self.speed(c) for c in joint.coordinates]
+        node.axes, node.rates = joint.motion_subspace(self.frame(joint.parent),
+                                             self.geo.origin[joint.child], parent_v, speeds)
+        if len(node.axes) > 1 and not joint.floating:
+            raise NotImplementedError(f"{joint.type} joint {joint.name}: the articulated-body "
+                                      "algorithm here projects joints of one degree of freedom")
+        relative = ZERO3
+        for axis, rate in zip(node.axes, node.rates):
+            relative = add(relative, scale(axis, rate))
+        node.velocity = self.prog.lets(add(parent_v, relative))  # type: ignore[assignment]
+        node.bias_acceleration = self.prog.lets(  # type: ignore[assignment]
+            joint.bias_acceleration(node.velocity, relative, node.rates))  # type: ignore
+
+    # -- loads ----------------------------------------------------------------------------
+
     def _loads(self) -> None:
         gx, gy = (self.value(g) for g in self.mech.gravity)
         for body in self.mech.bodies:
             mass = self.value(body.mass)
             self.apply_at(body.name, self.geo.point(body.name, body.com), (mass * gx, mass * gy))
         for load in self.mech.loads:
-            if isinstance(load, m.Torque):
-                torque = self.prog.let(self.value(load.expr))
-                self.apply(load.body, couple(torque))
-                self.apply(load.reaction, couple(-torque))
-            elif isinstance(load, m.Force):
-                force = [self.value(c) for c in load.components]
-                if load.frame == "body":
-                    force = self.geo.rotate(load.body, force)
-                at = self.geo.point(load.body, load.at)
-                self.apply_at(load.body, at, self.prog.lets(force))
-            elif isinstance(load, m.Spring):
-                self._spring(load)
-            elif isinstance(load, m.JointSpring):
-                self._joint_spring(self.mech.joint(load.joint), load)
-
-    def _spring(self, spring: m.Spring) -> None:
-        pa = self.geo.point(spring.a.body, spring.a.xy)
-        pb = self.geo.point(spring.b.body, spring.b.xy)
-        va = point_velocity(self.velocity(spring.a.body), pa)
-        vb = point_velocity(self.velocity(spring.b.body), pb)
-        d = self.prog.lets((pb[0] - pa[0], pb[1] - pa[1]))
-        length = self.prog.let(sympy.sqrt(dot(d, d)))
-        stretch_rate = dot(d, (vb[0] - va[0], vb[1] - va[1])) / length
-        value = self.value
-        pull = value(spring.k) * (length - value(spring.length))
-        pull = self.prog.let((pull + value(spring.damping) * stretch_rate) / length)
-        on_a = self.prog.lets(scale(d, pull))
-        self.apply_at(spring.a.body, pa, on_a)
-        self.apply_at(spring.b.body, pb, scale(on_a, -1))
-
-    def _joint_spring(self, joint: m.Joint, spring: m.JointSpring) -> None:
-        value = self.value
-        if joint.type == "prismatic":
-            q = m.symbol(joint.coordinates[0])
-            relative, rate = q, self.speed(joint.coordinates[0])
-        else:
-            relative = self.geo.angle[joint.child] - self.geo.angle[joint.parent]
-            relative -= value(joint.offset)
-            rate = self.velocity(joint.child)[0] - self.velocity(joint.parent)[0]
-        tension = -value(spring.k) * (relative - value(spring.rest))
-        tension = self.prog.let(tension - value(spring.damping) * rate)
-        self._joint_load(joint, tension)
-
-    def _joint_load(self, joint: m.Joint, tension: Expr) -> None:
-        """Equal and opposite loads on a joint's bodies doing power tension * (joint rate)."""
-        if joint.type == "prismatic":
-            along = self.prog.lets(self.geo.rotate(joint.parent, self.geo.unit_axis(joint)))
-            at = self.geo.origin[joint.child]
-            self.apply_at(joint.child, at, scale(along, tension))
-            self.apply_at(joint.parent, at, scale(along, -tension))
-        else:
-            self.apply(joint.child, couple(tension))
-            self.apply(joint.parent, couple(-tension))
+            load.map_expressions(self.value).act(self)
 
     def generalized_forces(self, forces: Sequence[Expr]) -> None:
         """Loads equivalent to generalized forces Q on the coordinates (in file order)."""
         remaining = list(forces)
-        for joint in self.mech.joints:
+        for joint in self.joints.values():
             mine = [remaining.pop(0) for _ in joint.coordinates]
-            if joint.type == "free":
-                self.apply_at(joint.child, self.geo.origin[joint.child], mine[:2])
-                self.apply(joint.child, couple(mine[2]))
-            elif joint.type == "revolute" and joint.angle == "absolute":
-                self.apply(joint.child, couple(mine[0]))
-            elif mine:
-                self._joint_load(joint, mine[0])
+            joint.generalized_load(self, self.frame(joint.parent), self.geo.origin[joint.child],
+                                   mine)
 
     # -- pass 2: articulated inertias and bias forces -------------------------------------
 
@@ -310,22 +253,29 @@ class ArticulatedBody:
         node.inertia = self._symmetric(inertia)  # type: ignore[arg-type]
         external = ZERO3
         for load in node.loads:
-            external = add(external, load)
+            external = add(external, load)  # type: ignore[assignment]
         momentum = mat_vec(node.inertia, node.velocity)
-        node.bias_force = add(cross_force(node.velocity, momentum), scale(external, -1))
+        node.bias_force = add(cross_force(node.velocity, momentum), scale(external, -1))  # type: ignore
 
     def _symmetric(self, a: M3) -> M3:
         upper = {(i, j): self.prog.let(a[i][j]) for i in range(3) for j in range(i, 3)}
-        return tuple(tuple(upper[min(i, j), max(i, j)] for j in range(3)) for i in range(3))
+        return tuple(tuple(upper[min(i, j), max(i, j)] for j in range(3)) for i in range(3))  # type: ignore
 
-    def _articulate(self, node: Node, status: int) -> None:
-        """Project the node's articulated inertia through its joint (1 degree of freedom)."""
+    def _articulate(self, node: Node) -> None:
+        """Project the node's articulated inertia through its joint (1 degree of freedom), or
+        for a driven joint hand it whole to the parent with its prescribed motion's bias."""
+        node.inertia = self._symmetric(node.inertia)  # type: ignore[arg-type]
+        node.bias_force = self.prog.lets(node.bias_force)  # type: ignore[assignment]
+        if node.prescribed is not None:
+            if node.parent != m.GROUND:
+                moving = add(node.bias_acceleration, scale(node.axes[0], node.prescribed))
+                self._pass_to_parent(node, node.inertia,
+                                     add(node.bias_force, mat_vec(node.inertia, moving)))
+            return
         axis = node.axes[0]
-        node.inertia = self._symmetric(node.inertia)
-        node.bias_force = self.prog.lets(node.bias_force)
-        node.u_vector = self.prog.lets(mat_vec(node.inertia, axis))
+        node.u_vector = self.prog.lets(mat_vec(node.inertia, axis))  # type: ignore[assignment]
         d = self.prog.let(dot(axis, node.u_vector))
-        self.prog.require_positive(d, status)
+        self.prog.require_positive(d, node.status)
         node.d_inverse = self.prog.let(1 / d)
         node.u_force = self.prog.let(-dot(axis, node.bias_force))
         if node.parent == m.GROUND:
@@ -336,40 +286,101 @@ class ArticulatedBody:
             for i in range(3)
         )
         passed = self._symmetric(passed)  # type: ignore[arg-type]
-        force = add(node.bias_force, mat_vec(passed, node.bias_acceleration))
+        force = add(node.bias_force, mat_vec(passed, node.bias_acceleration))  # type: ignore
         force = add(force, scale(u_vec, node.u_force * d_inv))
+        self._pass_to_parent(node, passed, force)
+
+    def _pass_to_parent(self, node: Node, inertia: M3, force: Sequence[Expr]) -> None:
         parent = self.nodes[node.parent]
-        parent.inertia = tuple(add(a, b) for a, b in zip(parent.inertia, passed))
-        parent.bias_force = add(parent.bias_force, force)
+        parent.inertia = tuple(add(a, b) for a, b in zip(parent.inertia, inertia))  # type: ignore
+        parent.bias_force = add(parent.bias_force, force)  # type: ignore[assignment]
 
     # -- pass 3: accelerations ------------------------------------------------------------
 
     def _accelerate(self, node: Node, accel: dict[str, V3]) -> list[Expr]:
-        """The node's spatial acceleration (into accel) and its coordinates' accelerations."""
+        """The node's spatial acceleration (into accel) and its coordinates' accelerations (a
+        driven joint's: none, they are prescribed)."""
+        if node.joint.floating:
+            return self._root_accelerations(node, accel)
         parent_a = ZERO3 if node.parent == m.GROUND else accel[node.parent]
         base = add(parent_a, node.bias_acceleration)
-        if node.joint.type == "free":
-            return self._free_accelerations(node, accel)
         axis = node.axes[0]
+        if node.prescribed is not None:
+            accel[node.joint.child] = self.prog.lets(add(base, scale(axis, node.prescribed)))  # type: ignore
+            return []
         joint_acc = self.prog.let((node.u_force - dot(node.u_vector, base)) * node.d_inverse)
-        accel[node.joint.child] = self.prog.lets(add(base, scale(axis, joint_acc)))
-        if node.joint.type == "revolute" and node.joint.angle == "absolute":
-            return [accel[node.joint.child][0]]
-        return [joint_acc]
+        accel[node.joint.child] = self.prog.lets(add(base, scale(axis, joint_acc)))  # type: ignore
+        return node.joint.coordinate_accelerations([joint_acc], accel[node.joint.child])
 
-    def _free_accelerations(self, node: Node, accel: dict[str, V3]) -> list[Expr]:
-        """A free body is a root: I^A a = -p^A gives its spatial acceleration a directly."""
-        node.inertia = self._symmetric(node.inertia)
-        status = self.mech.joints.index(node.joint) + 1
-        a = solve_symmetric(self.prog, node.inertia, scale(node.bias_force, -1), status)
+    def _root_accelerations(self, node: Node, accel: dict[str, V3]) -> list[Expr]:
+        """A root node: I^A a = -p^A gives its spatial acceleration a directly."""
+        node.inertia = self._symmetric(node.inertia)  # type: ignore[arg-type]
+        a = solve_symmetric(self.prog, node.inertia, scale(node.bias_force, -1), node.status)  # type: ignore
         accel[node.joint.child] = a
-        x, y = self.geo.origin[node.joint.child]
-        w = add(a, scale(node.bias_acceleration, -1))  # = S qdd
-        return [self.prog.let(w[1] - y * w[0]), self.prog.let(w[2] + x * w[0]), w[0]]
+        return node.joint.root_accelerations(a, node.bias_acceleration,
+                                             self.geo.origin[node.joint.child], self.prog.let)
+
+    def _drive(self, node: Node, acceleration: V3, bias: V3) -> Expr:
+        """The drive of a driven joint: S^T (I^A a + p^A), what its joint transmits along S."""
+        return self.prog.let(dot(node.axes[0], add(mat_vec(node.inertia, acceleration), bias)))  # type: ignore
+
+    # -- M^-1 times generalized forces, with this configuration's articulated inertias ------
+
+    def unit_pass(self, constraint: Constraint, equation: int) -> tuple[list[Expr], list[Expr]]:
+        """The undriven coordinates' accelerations and the drives under the reaction of a unit
+        multiplier of the constraint's equation alone, at rest: M^-1 Phi_q^T e_k for the tree
+        with its driven joints held (and what their drives must add). Reuses the articulated
+        inertias of the main passes (run first)."""
+        sink = PassLoads(self.node_of)
+        unit = [sympy.S.One if j == equation else sympy.S.Zero
+                for j in range(constraint.equations_count)]
+        constraint.map_expressions(self.value).act(
+            sink, self.frame(constraint.a.body), self.frame(constraint.b.body), unit)
+        order = list(self.nodes.values())
+        bias = {node.joint.child: scale(sink.total(node.joint.child), -1) for node in order}
+        u_force: dict[str, Expr] = {}
+        for node in reversed(order):
+            child = node.joint.child
+            bias[child] = self.prog.lets(bias[child])
+            if node.joint.floating or node.parent == m.GROUND and node.prescribed is not None:
+                continue
+            passed = bias[child]
+            if node.prescribed is None:
+                u_force[child] = self.prog.let(-dot(node.axes[0], bias[child]))
+                if node.parent == m.GROUND:
+                    continue
+                passed = add(passed, scale(node.u_vector, u_force[child] * node.d_inverse))
+            bias[node.parent] = add(bias[node.parent], passed)
+        qdd: dict[str, Expr] = {}
+        drives: dict[str, Expr] = {}
+        accel: dict[str, V3] = {}
+        for node in order:
+            child = node.joint.child
+            base = ZERO3 if node.parent == m.GROUND else accel[node.parent]
+            if node.joint.floating:
+                a = solve_symmetric(self.prog, node.inertia, scale(bias[child], -1), node.status)  # type: ignore
+                accel[child] = a
+                qdd.update(zip(node.joint.coordinates, node.joint.root_accelerations(
+                    a, ZERO3, self.geo.origin[child], self.prog.let)))
+            elif node.prescribed is not None:
+                accel[child] = base
+                drives[node.joint.name] = self._drive(node, base, bias[child])
+            else:
+                joint_acc = self.prog.let((u_force[child] - dot(node.u_vector, base))
+                                          * node.d_inverse)
+                accel[child] = self.prog.lets(add(base, scale(node.axes[0], joint_acc)))  # type: ignore
+                qdd.update(zip(node.joint.coordinates,
+                               node.joint.coordinate_accelerations([joint_acc], accel[child])))
+        return ([qdd[c] for c in self.mech.coordinates],
+                [drives[joint.name] for joint in self.mech.driven])
 
     # -- the whole algorithm --------------------------------------------------------------
 
     def run(self, extra_forces: Sequence[Expr] = ()) -> Program:
+        """The program of the accelerations of the undriven coordinates (file order), then the
+        drives of the driven joints, then for each loop constraint equation its unit pass:
+        accelerations and drives. extra_forces: generalized forces applied instead of the loads
+        (M^-1 Q, with at_rest)."""
         order = list(self.nodes.values())
         for node in order:
             self._motion(node)
@@ -380,19 +391,52 @@ class ArticulatedBody:
         for node in order:
             self._own_terms(node)
         for node in reversed(order):
-            if node.joint.type != "free":
-                self._articulate(node, self.mech.joints.index(node.joint) + 1)
+            if not node.joint.floating:
+                self._articulate(node)
         accel: dict[str, V3] = {}
         qdd: dict[str, Expr] = {}
+        drives: dict[str, Expr] = {}
         for node in order:
             values = self._accelerate(node, accel)
             qdd.update(zip(node.joint.coordinates, values))
-        return self.prog.finish(qdd[c] for c in self.mech.coordinates)
+            if node.prescribed is not None:
+                drives[node.joint.name] = self._drive(node, accel[node.joint.child],
+                                                      node.bias_force)
+        results = [qdd[c] for c in self.mech.coordinates]
+        if not extra_forces:
+            results += [drives[joint.name] for joint in self.mech.driven]
+        for constraint in () if extra_forces else self.mech.constraints:
+            for equation in range(constraint.equations_count):
+                unit_qdd, unit_drives = self.unit_pass(constraint, equation)
+                results += unit_qdd + unit_drives
+        return self.prog.finish(results)
+
+
+class PassLoads:
+    """The loads of one unit pass, by node (a LoadSink for Joint.generalized_load)."""
+
+    def __init__(self, node_of: dict[str, str]):
+        self.node_of = node_of
+        self.loads: dict[str, list[V3]] = {}
+
+    def apply(self, body: str, force: V3) -> None:
+        node = self.node_of[body]
+        if node != m.GROUND:
+            self.loads.setdefault(node, []).append(force)
+
+    def apply_at(self, body: str, at: Sequence[Expr], force: Sequence[Expr]) -> None:
+        self.apply(body, point_force(at, force))
+
+    def total(self, node: str) -> V3:
+        total = ZERO3
+        for force in self.loads.get(node, []):
+            total = add(total, force)  # type: ignore[assignment]
+        return total
 
 
 def solve_symmetric(prog: ProgramBuilder, a: M3, b: V3, status: int) -> V3:
     """x with a x = b for a symmetric positive definite 3 x 3 a, by LDL^T with guarded pivots."""
-    n = 3
+    n = len(b)
     low = [[sympy.S.Zero] * n for _ in range(n)]
     diag = [sympy.S.Zero] * n
     for j in range(n):
@@ -412,17 +456,18 @@ def solve_symmetric(prog: ProgramBuilder, a: M3, b: V3, status: int) -> V3:
 
 
 def dynamics_program(mech: m.Mechanism, value: Callable) -> Program:
-    """qdd(t, q, dq) for the mechanism's loads: the right-hand side's accelerations."""
+    """qdd(t, q, dq) for the mechanism's loads (the right-hand side's accelerations), then the
+    drives of its driven joints, then the unit passes of its loop constraints
+    (ArticulatedBody.run)."""
     return ArticulatedBody(mech, value).run()
 
 
-@functools.cache
 def generalized_force_symbols(n: int) -> tuple[sympy.Symbol, ...]:
-    """Q_k as symbols no name from the file can equal (the emitter prints them as Q[k])."""
+    """Q_k as new symbols no name from the file can equal (the emitter prints them as Q[k])."""
     return tuple(sympy.Dummy(f"generalized_force_{k}", real=True) for k in range(n))
 
 
-def inverse_mass_program(mech: m.Mechanism, value: Callable) -> Program:
-    """M^-1 Q at rest with only the generalized forces Q (generalized_force_symbols) applied."""
-    forces = generalized_force_symbols(len(mech.coordinates))
+def inverse_mass_program(mech: m.Mechanism, value: Callable,
+                         forces: Sequence[sympy.Symbol]) -> Program:
+    """M^-1 Q at rest with only the generalized forces Q (symbols, one per coordinate)."""
     return ArticulatedBody(mech, value, at_rest=True).run(forces)

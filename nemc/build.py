@@ -1,7 +1,9 @@
 """Build: generated code -> a standalone package in the content-addressed cache.
 
 A build is keyed by a hash of the mechanism file and of everything that changes the generated
-code (nemc's source and templates, the compiler flags, the Python ABI, cffi's version). It is
+code or its binary: the modules that derive, optimize and emit it and the templates (not the
+runtime, the CLI or the reports: editing a plot label rebuilds nothing), the compiler command
+and flags, the Python ABI, cffi's version. It is
 assembled in a private temporary folder and published by one atomic rename, so concurrent
 builds of the same input both succeed and leave one good build, and a killed build leaves
 only a temporary folder that the next build ignores (and removes once it is a day old).
@@ -10,8 +12,9 @@ The last file written, BUILD_OK, is a manifest of every other file's sha256. A c
 used only when every file matches it: a truncated, edited or partly deleted entry is moved
 aside and rebuilt, never imported.
 
-The package holds the readable C source, compiled on its own with the flags below, a cffi
-API-mode wrapper linked against it, the runtime (nemc/runtime.py, copied) and model.json.
+A cache entry holds the readable C source, compiled on its own with the flags below, a cffi
+API-mode wrapper linked against it, and model.json; `export` adds the runtime (nemc/runtime.py
+and nemc/methods.py, as they are now) to make the standalone package.
 """
 
 from __future__ import annotations
@@ -35,13 +38,22 @@ import cffi
 
 from . import __version__
 from .errors import BuildError
+from .resources import template_files
 
 if TYPE_CHECKING:  # emit imports sympy; a cached load must not
     from .emit import Emitted
 
 NEMC_DIR = Path(__file__).resolve().parent
-TEMPLATE_DIR = NEMC_DIR.parent / "templates"
-CC = os.environ.get("CC", "gcc")
+# nemc's modules that do not change what a build contains: they run, present or measure it.
+# Every other module under nemc/ (and every template) is part of the build key.
+NOT_IN_BUILD_KEY = frozenset({
+    "cli.py", "report.py", "show.py", "stress.py", "stress_report.py", "load.py", "errors.py",
+    "runtime.py", "loops_runtime.py",  # copied into the exported package by `export`
+})
+# The runtime of a standalone package: copied from nemc when a package is exported, under these
+# names (the package's __init__ imports ._runtime, which imports .methods).
+RUNTIME_FILES = {"runtime.py": "_runtime.py", "methods.py": "methods.py",
+                 "loops_runtime.py": "loops_runtime.py"}
 CFLAGS = ["-O2", "-fPIC", "-Wall", "-Wextra", "-std=c99"]  # never -ffast-math: it changes answers
 COMPLETE = "BUILD_OK"
 STALE_SCRATCH_S = 24 * 3600  # a temporary build folder this old was left by a killed build
@@ -67,11 +79,21 @@ def cache_root() -> Path:
     return Path(base) / "nemc"
 
 
+def build_modules() -> list[Path]:
+    """nemc's modules whose content changes what a build contains (all but NOT_IN_BUILD_KEY)."""
+    return sorted(path for path in NEMC_DIR.rglob("*.py")
+                  if path.relative_to(NEMC_DIR).as_posix() not in NOT_IN_BUILD_KEY)
+
+
 def code_fingerprint() -> str:
-    """A hash of nemc's own code and templates: any change to them changes every build key."""
+    """A hash of the code that makes builds (build_modules and the templates): any change to
+    it changes every build key."""
     digest = hashlib.sha256()
-    for path in sorted([*NEMC_DIR.glob("*.py"), *TEMPLATE_DIR.glob("*.tmpl")]):
-        digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    for path in build_modules():
+        name = path.relative_to(NEMC_DIR).as_posix()
+        digest.update(name.encode() + b"\0" + path.read_bytes())
+    for template in template_files():
+        digest.update(f"templates/{template.name}".encode() + b"\0" + template.read_bytes())
     return digest.hexdigest()
 
 
@@ -84,7 +106,7 @@ def build_key(source: Source, options: dict | None = None) -> str:
         "options": options or {},
         "abi": sysconfig.get_config_var("EXT_SUFFIX"),
         "cffi": cffi.__version__,
-        "cc": CC,
+        "cc": compiler(),
         "cflags": CFLAGS,
     }
     return hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()[:24]
@@ -140,8 +162,8 @@ def cached_package(key: str) -> Path | None:
 
 
 def compiler() -> list[str]:
-    """The C compiler command: $CC as the environment gives it at import (a command line)."""
-    return shlex.split(CC) or ["gcc"]
+    """The C compiler command: $CC as the environment gives it now (a command line), or gcc."""
+    return shlex.split(os.environ.get("CC", "")) or ["gcc"]
 
 
 def start(command: list[str]) -> subprocess.Popen:
@@ -151,7 +173,7 @@ def start(command: list[str]) -> subprocess.Popen:
     except OSError as error:
         raise BuildError(f"cannot run the C compiler {command[0]!r} ({error.strerror}): install "
                          "gcc, or set the CC environment variable to a working C compiler "
-                         f"(CC is {CC!r})") from None
+                         f"(CC is {os.environ.get('CC', '')!r})") from None
 
 
 def compile_c(c_file: Path, wrapper_file: Path, out_file: Path) -> None:
@@ -180,9 +202,9 @@ def write_package(code: Emitted, folder: Path) -> None:
     """Everything of the standalone package except the compiled extension."""
     folder.mkdir()
     (folder / "__init__.py").write_text(code.package_init)
-    shutil.copyfile(NEMC_DIR / "runtime.py", folder / "_runtime.py")
     (folder / "model.json").write_text(json.dumps(code.metadata, indent=1) + "\n")
     (folder / f"{code.name}.c").write_text(code.c_source)
+    (folder / f"{code.name}.h").write_text(code.header)
 
 
 def scratch_folder(root: Path, name: str) -> Path:
@@ -262,6 +284,8 @@ def copy_out(package: Path, out_dir: Path, name: str) -> Path:
     staging = Path(tempfile.mkdtemp(prefix=f".{name}-", dir=out_dir))
     try:
         shutil.copytree(package, staging / name, ignore=shutil.ignore_patterns("__pycache__"))
+        for module, copied in RUNTIME_FILES.items():
+            shutil.copyfile(NEMC_DIR / module, staging / name / copied)
         old = staging / "old"
         if target.exists():
             os.rename(target, old)

@@ -304,20 +304,18 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
+    """Run a benchmark script's main() with this command's options (the scripts live in
+    benchmarks/, beside the package in a source checkout)."""
     import runpy
 
     script = "scaling.py" if args.scaling else "run.py"
     suite = Path(__file__).resolve().parent.parent / "benchmarks" / script
     if not suite.is_file():
-        print(f"the benchmark suite is not here: {suite}", file=sys.stderr)
+        print(f"the benchmark suite is not here: {suite} (it ships with nemc's source, not "
+              "with an installed wheel)", file=sys.stderr)
         return 1
-    sys.argv = [str(suite)] + (["--quick"] if args.quick else []) + (
-        ["--sizes", args.sizes] if args.sizes else [])
-    try:
-        runpy.run_path(str(suite), run_name="__main__")
-    except SystemExit as done:
-        return int(done.code or 0)
-    return 0
+    argv = (["--quick"] if args.quick else []) + (["--sizes", args.sizes] if args.sizes else [])
+    return int(runpy.run_path(str(suite))["main"](argv) or 0)
 
 
 COMMANDS = {

@@ -21,14 +21,32 @@ from functools import cached_property
 import sympy
 
 from . import model as m
-from .articulated import dynamics_program, inverse_mass_program
-from .kinematics import Kinematics, applied_loads
+from .articulated import dynamics_program, generalized_force_symbols, inverse_mass_program
+from .kinematics import Kinematics, applied_loads, motion_substitutions
+from .loops import LoopEquations, loop_equations
 from .mass_form import MAX_COORDINATES, mass_form_program
 from .outputs import derive_outputs
 from .program import Program
-from .tangent import tangent_program
-from .taylor import series_cost
+from .tangent import seed_symbols, tangent_program
+from .taylor import series_cost, unsupported_operation
 from .values import resolve_values
+
+
+@dataclass(frozen=True)
+class DynamicsLayout:
+    """What the dynamics program's results are, in order: the accelerations of the undriven
+    coordinates (of the tree: before any constraint force), the drives of the driven joints,
+    then per constraint equation k its unit pass (the accelerations and drives under the
+    reaction of a unit multiplier k: M^-1 Phi_q^T's column k), then the constraint bias G."""
+
+    coordinates: int
+    drives: int = 0
+    equations: int = 0
+
+    @property
+    def augmented(self) -> bool:
+        """Whether the right-hand side is more than the tree's accelerations."""
+        return bool(self.drives or self.equations)
 
 
 @dataclass(frozen=True)
@@ -46,9 +64,17 @@ class Equations:
     outputs: tuple[tuple[str, sympy.Expr], ...]  # may contain the acceleration symbols
     checks: tuple[tuple[str, sympy.Expr], ...]  # key path -> expression that must be > 0
     initial_state: tuple[sympy.Expr, ...]
-    jacobian: Program | None = None  # d qdd / d y along seed[]: see tangent.py
+    jacobian: Program | None = None  # d qdd / d y along the seeds: see tangent.py
+    seeds: Mapping[sympy.Symbol, sympy.Symbol] = dataclasses.field(default_factory=dict)
+    # ^ state symbol -> the symbol of its tangent (the Jacobian's column), with the jacobian
     inverse_mass: Program | None = None  # M^-1 Q at rest, with the jacobian
+    generalized_forces: tuple[sympy.Symbol, ...] = ()  # Q, the inverse_mass program's input
     taylor: Program | None = None  # the program nemc.Taylor's coefficients come from, if built
+    taylor_unavailable: str | None = None  # why nemc.Taylor cannot be built: FILE:LINE: ...
+    layout: DynamicsLayout | None = None  # what the dynamics program's results are
+    loops: LoopEquations | None = None  # the constraint equations, with constraints
+    multipliers: tuple[sympy.Symbol, ...] = ()  # lambda, per constraint equation
+    drives: tuple[sympy.Symbol, ...] = ()  # the drives of the driven joints, in file order
 
     @property
     def n(self) -> int:
@@ -58,6 +84,14 @@ class Equations:
     def state(self) -> tuple[sympy.Symbol, ...]:
         """The state in y's order: each coordinate followed by its rate."""
         return tuple(s for pair in zip(self.coordinates, self.speeds) for s in pair)
+
+    @property
+    def accelerations_program(self) -> Program:
+        """The dynamics program with only the accelerations as results (what Taylor and the
+        Jacobian differentiate; the same as dynamics for a tree)."""
+        if self.layout is None or not self.layout.augmented:
+            return self.dynamics
+        return Program(self.dynamics.steps, self.dynamics.results[: self.n]).pruned()
 
     @cached_property
     def mass_forcing(self) -> tuple[sympy.Matrix, sympy.Matrix]:
@@ -116,6 +150,7 @@ def runtime_values(mech: m.Mechanism) -> Callable[[object], sympy.Expr]:
 
 def derive(mech: m.Mechanism) -> Equations:
     """The whole derivation stage: the accelerations' program, outputs, runtime symbols only."""
+    mech = with_motions(mech)
     values = resolve_values(mech)
     kin = Kinematics(mech)
     runtime = runtime_values(mech)
@@ -124,6 +159,13 @@ def derive(mech: m.Mechanism) -> Equations:
         for b in mech.bodies
         for field in ("mass", "inertia")
     )
+    loops = loop_equations(mech, kin, runtime) if mech.constraints else None
+    count = loops.count if loops is not None else 0
+    multipliers = tuple(sympy.Dummy(f"multiplier_{k}", real=True) for k in range(count))
+    drives = tuple(sympy.Dummy(f"drive_{joint.name}", real=True) for joint in mech.driven)
+    dynamics = dynamics_program(mech, runtime)
+    if loops is not None:  # the constraint bias G joins the program's results
+        dynamics = Program(dynamics.steps, dynamics.results + loops.bias)
     return Equations(
         mechanism=mech,
         coordinates=kin.q,
@@ -132,33 +174,106 @@ def derive(mech: m.Mechanism) -> Equations:
         parameters=values.runtime_symbols,
         parameter_defaults=values.runtime_defaults,
         derived_parameters=values.derived,
-        dynamics=dynamics_program(mech, runtime),
-        outputs=tuple((name, runtime(expr)) for name, expr in derive_outputs(mech, kin)),
+        dynamics=dynamics,
+        outputs=tuple((name, runtime(expr)) for name, expr in
+                      derive_outputs(mech, kin, dict(zip((j.name for j in mech.driven), drives)),
+                                     multipliers_by_constraint(mech, multipliers))),
         checks=checks,
         initial_state=initial_state(mech, runtime),
+        layout=DynamicsLayout(len(kin.q), len(drives), count),
+        loops=loops,
+        multipliers=multipliers,
+        drives=drives,
     )
+
+
+def with_motions(mech: m.Mechanism) -> m.Mechanism:
+    """The mechanism with the driven coordinates (and their rates) replaced by their prescribed
+    values wherever loads and output expressions name them."""
+    motions = motion_substitutions(mech)
+    if not motions:
+        return mech
+
+    def prescribe(expr: sympy.Expr) -> sympy.Expr:
+        return sympy.sympify(expr).xreplace(motions)
+
+    outputs = dataclasses.replace(mech.outputs, expressions=tuple(
+        (name, prescribe(expr)) for name, expr in mech.outputs.expressions))
+    return dataclasses.replace(mech, loads=tuple(load.map_expressions(prescribe)
+                                                 for load in mech.loads), outputs=outputs)
+
+
+def multipliers_by_constraint(mech: m.Mechanism, multipliers: tuple[sympy.Symbol, ...]
+                              ) -> dict[str, list[sympy.Symbol]]:
+    found: dict[str, list[sympy.Symbol]] = {}
+    start = 0
+    for constraint in mech.constraints:
+        found[constraint.name] = list(multipliers[start: start + constraint.equations_count])
+        start += constraint.equations_count
+    return found
 
 
 def with_diagnostics(eqs: Equations) -> Equations:
     """Add the Jacobian (forward-mode derivative of the program) and M^-1 for diagnostics."""
+    seeds = dict(zip(eqs.state, seed_symbols(len(eqs.state))))
+    forces = generalized_force_symbols(eqs.n)
+    if eqs.loops is not None:  # the projected right-hand side: its Jacobian by differences
+        return dataclasses.replace(
+            eqs, inverse_mass=inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism),
+                                                   forces), generalized_forces=forces)
     return dataclasses.replace(
         eqs,
-        jacobian=tangent_program(eqs.dynamics, eqs.state),
-        inverse_mass=inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism)),
+        jacobian=tangent_program(eqs.accelerations_program, seeds),
+        seeds=seeds,
+        inverse_mass=inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism), forces),
+        generalized_forces=forces,
     )
 
 
 def with_taylor(eqs: Equations) -> Equations:
     """Ask for nemc.Taylor's code, from the program with the fewer Cauchy sums per order: the
-    articulated-body program, or on small mechanisms the mass-matrix form (nemc/mass_form.py)."""
-    program = eqs.dynamics
+    articulated-body program, or on small mechanisms the mass-matrix form (nemc/mass_form.py).
+    A load whose expressions have no Taylor recurrence makes it unavailable, said with the
+    load's FILE:LINE."""
+    refusal = taylor_refusal(eqs)
+    if refusal is not None:
+        return dataclasses.replace(eqs, taylor_unavailable=refusal)
+    program = eqs.accelerations_program
     if eqs.n <= MAX_COORDINATES:
         candidate = mass_form_program(*eqs.mass_forcing)
-        if series_cost(candidate, eqs.state, m.TIME) < series_cost(program, eqs.state, m.TIME):
+        if (series_cost(candidate, eqs.coordinates, eqs.speeds, m.TIME)
+                < series_cost(program, eqs.coordinates, eqs.speeds, m.TIME)):
             program = candidate
     return dataclasses.replace(eqs, taylor=program)
 
 
+def taylor_refusal(eqs: Equations) -> str | None:
+    """Where the equations use an operation with no Taylor recurrence here, with its place in
+    the file, or None."""
+    mech = eqs.mechanism
+    if mech.constraints:
+        where = mech.constraints[0].loc
+        return (f"{where.file}:{where.line}: {where.key}: a closed loop's state is projected "
+                "onto its constraints (a Newton solve), which has no Taylor recurrence")
+    runtime, varying = runtime_values(mech), {*eqs.state, m.TIME}
+    for joint in mech.driven:
+        why = unsupported_operation(runtime(joint.motion), varying)
+        if why is not None:
+            where = joint.loc
+            return (f"{where.file}:{where.line}: {where.key}.motion: {why} has no Taylor "
+                    "recurrence here")
+    for load in mech.loads:
+        for key, expr in load.expressions():
+            why = unsupported_operation(runtime(expr), varying)
+            if why is not None:
+                where = load.location
+                return (f"{where.file}:{where.line}: {where.key}.{key}: {why} has no Taylor "
+                        "recurrence here")
+    return None
+
+
 def initial_state(mech: m.Mechanism, runtime) -> tuple[sympy.Expr, ...]:
-    given: Mapping[str, sympy.Expr] = mech.simulation.initial
+    """The scene's initial state: the values given, else (closed loops: where the assembly
+    starts) the guess, else 0."""
+    given: Mapping[str, sympy.Expr] = {**mech.simulation.guess, **mech.simulation.initial}
     return tuple(runtime(given.get(name, sympy.S.Zero)) for name in mech.state_names)

@@ -1,16 +1,21 @@
-"""Emission: C source, its cffi declarations and the runtime metadata, from templates.
+"""Emission: C source, its header (which is also the cffi declarations) and the runtime metadata,
+from the templates.
 
-The templates in templates/ own the signatures, loops and memory layout; this module prints
-only straight-line bodies. Every symbol is printed through an explicit table (coordinates and
-rates -> y[...], parameters -> p[...], accelerations -> qdd[...], temporaries -> x<k>), so no
-name from the YAML ever reaches C code; names appear only inside comments, sanitized.
+The templates own the C: signatures, loops, memory layout. templates/model.h.tmpl is the one
+description of the model's C interface: its functions, enums and run structure, and the layout
+macros (Q(i), DQ(i), P(k), QDD(i), ...) through which printed code reads and writes its arrays;
+its declarations are cut out verbatim as the cffi cdef. This module prints only straight-line
+bodies of statements, through an explicit symbol table (coordinates -> Q(i), parameters -> P(k),
+temporaries -> x<k>, ...), so no name from the YAML ever reaches C code; names appear only inside
+comments, sanitized.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import re
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from string import Template
 
 import sympy
@@ -18,22 +23,20 @@ from sympy.printing.c import C99CodePrinter
 
 from . import __version__
 from . import model as m
-from .articulated import generalized_force_symbols
-from .derive import Equations
+from .derive import DynamicsLayout, Equations
 from .optimize import Block
 from .program import Guard, Program
-from .tangent import seed_symbols
+from .resources import read_template
 from .taylor import TAYLOR_MAX_ORDER, TaylorUnsupported, series_code
-
-TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 
 
 @dataclass(frozen=True)
 class Emitted:
-    """The generated code of one model: C source, cffi declarations, runtime metadata."""
+    """The generated code of one model: C source and header, cffi declarations, metadata."""
 
     name: str
     c_source: str
+    header: str
     cdef: str
     package_init: str
     metadata: dict
@@ -56,7 +59,7 @@ class SymbolTablePrinter(C99CodePrinter):
 
 
 def template(name: str) -> Template:
-    return Template((TEMPLATES / name).read_text())
+    return Template(read_template(name))
 
 
 def comment_text(text: str) -> str:
@@ -66,18 +69,28 @@ def comment_text(text: str) -> str:
 
 
 def symbol_table(eqs: Equations, block: Block) -> dict[sympy.Symbol, str]:
+    """Every symbol the printed code may meet -> its C: a layout macro of the header
+    (templates/model.h.tmpl) for the arrays, its own name for a temporary."""
     names: dict[sympy.Symbol, str] = {m.TIME: "t"}
     for i, (q, u) in enumerate(zip(eqs.coordinates, eqs.speeds)):
-        names[q], names[u] = f"y[{2 * i}]", f"y[{2 * i + 1}]"
-    names.update({a: f"qdd[{i}]" for i, a in enumerate(eqs.accelerations)})
-    names.update({s: f"p[{k}]" for k, s in enumerate(eqs.parameters)})
-    names.update({s: f"Q[{k}]" for k, s in enumerate(generalized_force_symbols(eqs.n))})
-    names.update({s: f"seed[{k}]" for k, s in enumerate(seed_symbols(2 * eqs.n))})
+        names[q], names[u] = f"Q({i})", f"DQ({i})"
+    names.update({a: f"QDD({i})" for i, a in enumerate(eqs.accelerations)})
+    names.update({s: f"P({k})" for k, s in enumerate(eqs.parameters)})
+    names.update({s: f"FORCE({k})" for k, s in enumerate(eqs.generalized_forces)})
+    names.update({s: f"DRIVE({j})" for j, s in enumerate(eqs.drives)})
+    names.update({s: f"LAMBDA({k})" for k, s in enumerate(eqs.multipliers)})
+
+    if eqs.seeds:
+        for i, (q, u) in enumerate(zip(eqs.coordinates, eqs.speeds)):
+            names[eqs.seeds[q]], names[eqs.seeds[u]] = f"SEED_Q({i})", f"SEED_DQ({i})"
     names.update({s: s.name for s, _ in block.temporaries})
     for program in (*block.programs.values(), eqs.taylor):
         if program is not None:
             names.update({s: s.name for s, _ in program.assignments()})
     return names
+
+
+# ---- straight-line bodies --------------------------------------------------------------------
 
 
 def needed(block: Block, exprs: tuple[sympy.Expr, ...]) -> list[tuple[sympy.Symbol, sympy.Expr]]:
@@ -102,11 +115,14 @@ def body(
 
 
 def program_body(
-    printer: SymbolTablePrinter, program: Program, results: str, indent: str = "    ",
-    passed: dict[sympy.Symbol, str] | None = None,
+    printer: SymbolTablePrinter, program: Program, results: str | Sequence[str],
+    indent: str = "    ", passed: dict[sympy.Symbol, str] | None = None,
 ) -> str:
-    """Straight-line C of a program: its named steps, its guards, then `results[i] = ...;`.
+    """Straight-line C of a program: its named steps, its guards, then `results(i) = ...;`
+    (results: a layout macro), or `results[i] = ...;` (results: a target per result).
     passed: the names to hand on to other functions, each copied there right after its step."""
+    targets = ([f"{results}({i})" for i in range(len(program.results))]
+               if isinstance(results, str) else list(results))
     passed = passed or {}
     lines = []
     for step in program.steps:
@@ -117,23 +133,27 @@ def program_body(
             lines.append(f"{indent}const double {step[0].name} = {printer.doprint(step[1])};")
             if step[0] in passed:
                 lines.append(f"{indent}{passed[step[0]]} = {step[0].name};")
-    lines += [
-        f"{indent}{results}[{i}] = {printer.doprint(expr)};"
-        for i, expr in enumerate(program.results)
-    ]
+    lines += [f"{indent}{target} = {printer.doprint(expr)};"
+              for target, expr in zip(targets, program.results)]
     return "\n".join(lines)
+
+
+def indexed(array: str, exprs: tuple[sympy.Expr, ...]) -> list[tuple[str, sympy.Expr]]:
+    return [(f"{array}[{k}]", expr) for k, expr in enumerate(exprs)]
 
 
 # ---- long programs in parts (issue 5) ------------------------------------------------------
 # gcc's register allocation is superlinear in a function's size: a program longer than
-# CHUNK_STEPS steps is printed as consecutive part functions of at most that many steps, which
-# its caller runs in order. A value one part defines and a later part (or the results) uses
-# travels through an array on the caller's stack; the operations are the same, so are the
-# numbers. gcc CPU seconds for the model's C of a 32/64-body chain with the Jacobian: 11.8/33.8
-# in one body each, 3.6-3.9/6.1-7.0 with parts of 100 to 300 steps, 4.4/7.3 with 400; the RHS
-# costs the same or less (docs/decisions.md).
+# CHUNK_STEPS steps is printed as consecutive part functions (templates/part.c.tmpl) of at most
+# that many steps, which its caller runs in order. A value one part defines and a later part (or
+# the results) uses travels through an array on the caller's stack; the operations are the
+# same, so are the numbers. gcc CPU seconds for the model's C of a 32/64-body chain with the
+# Jacobian: 11.8/33.8 in one body each, 3.6-3.9/6.1-7.0 with parts of 100 to 300 steps, 4.4/7.3
+# with 400; the RHS costs the same or less (docs/decisions.md).
 
 CHUNK_STEPS = 300
+
+Parameter = tuple[str, str]  # (C type, name) of a function parameter
 
 
 @dataclass(frozen=True)
@@ -150,10 +170,15 @@ class Caller:
 
     function: str  # the part functions are <function>_part<k>
     what: str  # what the program computes, for the parts' comments
-    inputs: tuple[str, ...]  # C parameter declarations the program's expressions may read
-    results: str  # the array the results are written to
+    inputs: tuple[Parameter, ...]  # the parameters the program's expressions may read
+    results: tuple[str, str]  # (layout macro the results are written through, its array)
     array: str  # the array passing values from part to part
     indent: str = "    "
+    targets: tuple[str, ...] = ()  # where each result goes, when not results[0](i)
+
+    @property
+    def writes(self) -> str | tuple[str, ...]:
+        return self.targets or self.results[0]
 
 
 def split_steps(program: Program, chunk_steps: int) -> list[Program]:
@@ -189,10 +214,6 @@ def has_guard(program: Program) -> bool:
     return any(isinstance(step, Guard) for step in program.steps)
 
 
-def parameter_name(declaration: str) -> str:
-    return declaration.split()[-1].lstrip("*")
-
-
 def part_function(
     printer: SymbolTablePrinter, part: Program, caller: Caller, number: int, count: int,
     passed: dict[sympy.Symbol, str],
@@ -203,38 +224,33 @@ def part_function(
     elsewhere = {name: c for name, c in passed.items() if name not in defined_here}
     part_printer = SymbolTablePrinter({**printer.names, **elsewhere})
     mine = {name: passed[name] for name in names if name in passed}
-    text = program_body(part_printer, part, caller.results, passed=mine)
-    declarations = [*caller.inputs, f"double *{caller.array}"]
+    text = program_body(part_printer, part, caller.writes if part.results else caller.results[0],
+                        passed=mine)
+    parameters = [*caller.inputs, ("double *", caller.array)]
     if part.results:
-        declarations.append(f"double *{caller.results}")
-    unused = [parameter_name(d) for d in declarations
-              if not re.search(rf"\b{parameter_name(d)}\b", text)]
+        parameters.append(("double *", caller.results[1]))
     guarded = has_guard(part)
-    steps = f"{names[0].name} to {names[-1].name}" if names else "no named steps"
-    return "\n".join([
-        "",
-        f"/* {caller.what}, part {number} of {count}: {steps}. */",
-        f"static {'int' if guarded else 'void'} {caller.function}_part{number}"
-        f"({', '.join(declarations)})",
-        "{",
-        *([f"    {' '.join(f'(void){name};' for name in unused)}"] if unused else []),
-        text,
-        *(["    return 0;"] if guarded else []),
-        "}",
-        "",
-    ])
+    return template("part.c.tmpl").substitute(
+        what=caller.what, number=number, count=count,
+        steps=f"{names[0].name} to {names[-1].name}" if names else "no named steps",
+        return_type="int" if guarded else "void", function=caller.function,
+        parameters=", ".join(f"{ctype}{'' if ctype.endswith('*') else ' '}{name}"
+                             for ctype, name in parameters),
+        unused=" ".join(f"(void){name};" for _, name in parameters),
+        body=text, finish="\n    return 0;" if guarded else "",
+    )
 
 
 def part_calls(parts: list[Program], caller: Caller, n_passed: int) -> str:
     """The caller's body: the array, then each part in order, returning a non-zero status."""
-    arguments = ", ".join([*(parameter_name(d) for d in caller.inputs), caller.array])
+    arguments = ", ".join([*(name for _, name in caller.inputs), caller.array])
     indent = caller.indent
     lines = [f"{indent}double {caller.array}[{max(n_passed, 1)}];"
              " /* intermediates passed between the parts */"]
     if any(has_guard(part) for part in parts):
         lines.append(f"{indent}int status;")
     for number, part in enumerate(parts, start=1):
-        last = f", {caller.results}" if number == len(parts) else ""
+        last = f", {caller.results[1]}" if number == len(parts) else ""
         call = f"{caller.function}_part{number}({arguments}{last});"
         if has_guard(part):
             lines += [f"{indent}status = {call}", f"{indent}if (status)",
@@ -265,19 +281,23 @@ def print_program(
 ) -> Printed:
     """One body when the program is short, parts when it is long."""
     if program.size <= chunk_steps:
-        return Printed("", program_body(printer, program, caller.results, caller.indent))
+        return Printed("", program_body(printer, program, caller.writes, caller.indent))
     return in_parts(printer, program, caller, chunk_steps)[0]
 
 
-DYNAMICS = Caller("accelerations", "The accelerations",
-                  ("double t", "const double *y", "const double *p"), "qdd", "v")
-INVERSE_MASS = Caller("inverse_mass_times", "M^-1 Q",
-                      ("const double *y", "const double *p", "const double *Q"), "qdd", "v")
+STATE_INPUTS: tuple[Parameter, ...] = (("double", "t"), ("const double *", "y"),
+                                       ("const double *", "p"))
+DYNAMICS = Caller("accelerations", "The accelerations", STATE_INPUTS, ("QDD", "qdd"), "v")
+AUGMENTED = Caller("accelerations", "The accelerations, drives and unit passes",
+                   STATE_INPUTS, ("ACC", "acc"), "v")
+INVERSE_MASS = Caller("inverse_mass_times", "M^-1 force",
+                      (("const double *", "y"), ("const double *", "p"),
+                       ("const double *", "force")), ("QDD", "qdd"), "v")
 PRIMAL = Caller("jacobian_primal", "The accelerations and what their derivative reads",
-                DYNAMICS.inputs, "qdd", "v")
+                STATE_INPUTS, ("QDD", "qdd"), "v")
 TANGENT = Caller("jacobian_tangent", "The derivative of the accelerations along seed",
-                 ("double t", "const double *y", "const double *p", "const double *seed",
-                  "const double *v"), "dqdd", "dv", indent=" " * 8)
+                 (*STATE_INPUTS, ("const double *", "seed"), ("const double *", "v")),
+                 ("DQDD", "dqdd"), "dv", indent=" " * 8)
 
 
 def jacobian_programs(
@@ -286,49 +306,97 @@ def jacobian_programs(
     """The primal (run once) and its tangent (once per column): in parts when either is long,
     the primal then also passing on every value the tangent reads."""
     if max(primal.size, tangent.size) <= chunk_steps:
-        return (Printed("", program_body(printer, primal, PRIMAL.results)),
-                Printed("", program_body(printer, tangent, TANGENT.results, TANGENT.indent)))
+        return (Printed("", program_body(printer, primal, PRIMAL.results[0])),
+                Printed("", program_body(printer, tangent, TANGENT.results[0], TANGENT.indent)))
     primal_code, passed = in_parts(printer, primal, PRIMAL, chunk_steps, symbols_used(tangent))
     tangent_printer = SymbolTablePrinter({**printer.names, **passed})
     return primal_code, in_parts(tangent_printer, tangent, TANGENT, chunk_steps)[0]
 
 
-def indexed(array: str, exprs: tuple[sympy.Expr, ...]) -> list[tuple[str, sympy.Expr]]:
-    return [(f"{array}[{k}]", expr) for k, expr in enumerate(exprs)]
+# ---- the sections of the C source ------------------------------------------------------------
 
 
 def outputs_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str) -> str:
+    """The scene's outputs, or the function saying the scene asks for none. A model with drives
+    or loops computes them at its state brought onto the constraints, with its accelerations,
+    multipliers and drives."""
     if not eqs.outputs:
-        return ""
+        return template("outputs_absent.c.tmpl").substitute(prefix=prefix)
     exprs = block.groups["outputs"]
-    uses_qdd = any(s in eqs.accelerations for e in exprs for s in _all_symbols(block, e))
+    if eqs.layout is not None and eqs.layout.augmented:
+        state, before = "given", read_template("consistent_dynamics.c.tmpl")
+    else:
+        uses_qdd = any(s in eqs.accelerations for e in exprs for s in _all_symbols(block, e))
+        state, before = "y", read_template("accelerations.c.tmpl") if uses_qdd else ""
     return template("outputs.c.tmpl").substitute(
-        prefix=prefix,
-        n_output=len(exprs),
+        prefix=prefix, state=state,
         output_names=comment_text(", ".join(name for name, _ in eqs.outputs)),
-        accelerations=template("accelerations.c.tmpl").template if uses_qdd else "",
+        accelerations=before,
         outputs=body(printer, block, indexed("out", exprs)),
     )
+
+
+def dynamics_targets(layout: DynamicsLayout) -> tuple[str, ...]:
+    """Where each result of an augmented dynamics program goes (DynamicsLayout's order)."""
+    n, d = layout.coordinates, layout.drives
+    targets = [f"ACC_QDD({i})" for i in range(n)] + [f"ACC_DRIVE({j})" for j in range(d)]
+    for k in range(layout.equations):
+        targets += [f"ACC_UNIT_QDD({k}, {i})" for i in range(n)]
+        targets += [f"ACC_UNIT_DRIVE({k}, {j})" for j in range(d)]
+    return tuple(targets + [f"ACC_BIAS({k})" for k in range(layout.equations)])
+
+
+def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str,
+                     chunk_steps: int) -> str:
+    """The right-hand side: a tree's (templates/tree.c.tmpl), or with drives or loops the
+    articulated-body program with its unit passes, the multipliers and the projection onto
+    the constraints (templates/loops.c.tmpl)."""
+    program = block.programs["dynamics"]
+    if eqs.layout is None or not eqs.layout.augmented:
+        dynamics = print_program(printer, program, DYNAMICS, chunk_steps)
+        return template("tree.c.tmpl").substitute(
+            prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body)
+    caller = dataclasses.replace(AUGMENTED, targets=dynamics_targets(eqs.layout))
+    dynamics = print_program(printer, program, caller, chunk_steps)
+    return template("loops.c.tmpl").substitute(
+        prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body,
+        constraint_values=constraint_values(eqs, block, printer))
+
+
+def constraint_values(eqs: Equations, block: Block, printer: SymbolTablePrinter) -> str:
+    """PHI, PHI_Q and PHI_T of the loop constraints (empty without loops)."""
+    if eqs.loops is None:
+        return ""
+    count, n = eqs.loops.count, eqs.n
+    exprs = block.groups["constraints"]
+    targets = ([f"PHI({k})" for k in range(count)]
+               + [f"PHI_Q({k}, {i})" for k in range(count) for i in range(n)]
+               + [f"PHI_T({k})" for k in range(count)])
+    return body(printer, block, list(zip(targets, exprs)))
 
 
 def jacobian_section(
     eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str, chunk_steps: int
 ) -> str:
-    if eqs.jacobian is None:
-        return ""
+    """The Jacobian (exact; by differences for a closed loop's projected right-hand side) and
+    M^-1, or the functions saying this build has none."""
     programs = block.programs
-    primal, tangent = jacobian_programs(
-        printer, programs["dynamics"], programs["jacobian"], chunk_steps
-    )
+    if "inverse_mass" not in programs:
+        return template("jacobian_absent.c.tmpl").substitute(prefix=prefix)
     inverse_mass = print_program(printer, programs["inverse_mass"], INVERSE_MASS, chunk_steps)
+    inverse_mass_text = template("inverse_mass.c.tmpl").substitute(
+        prefix=prefix, inverse_mass_parts=inverse_mass.functions, inverse_mass=inverse_mass.body)
+    if eqs.jacobian is None:
+        return template("jacobian_differences.c.tmpl").substitute(prefix=prefix) + inverse_mass_text
+    primal, tangent = jacobian_programs(
+        printer, programs.get("primal", programs["dynamics"]), programs["jacobian"], chunk_steps
+    )
     return template("jacobian.c.tmpl").substitute(
         prefix=prefix,
         jacobian_parts=primal.functions + tangent.functions,
         primal=primal.body,
         tangent=tangent.body,
-        inverse_mass_parts=inverse_mass.functions,
-        inverse_mass=inverse_mass.body,
-    )
+    ) + inverse_mass_text
 
 
 def _all_symbols(block: Block, expr: sympy.Expr) -> set[sympy.Symbol]:
@@ -338,9 +406,36 @@ def _all_symbols(block: Block, expr: sympy.Expr) -> set[sympy.Symbol]:
     return found
 
 
+def header(eqs: Equations, prefix: str) -> str:
+    """The model's C interface (templates/model.h.tmpl)."""
+    mech = eqs.mechanism
+    return template("model.h.tmpl").substitute(
+        name=mech.name, version=__version__, source=comment_text(mech.source),
+        source_hash=mech.source_hash, prefix=prefix, n_coord=eqs.n, n_state=2 * eqs.n,
+        n_param=len(eqs.parameters), n_output=len(eqs.outputs), n_drive=len(eqs.drives),
+        n_lambda=len(eqs.multipliers),
+        parameter_names=comment_text(", ".join(s.name for s in eqs.parameters)),
+        state_names=comment_text(", ".join(mech.state_names)),
+        equation_names=comment_text(", ".join(equation_labels(eqs))),
+    )
+
+
+def equation_labels(eqs: Equations) -> list[str]:
+    """Each constraint equation as `constraint[k]`, for comments and messages."""
+    owners = eqs.loops.owners if eqs.loops is not None else ()
+    return [f"{name}[{owners[:i].count(name)}]" for i, name in enumerate(owners)]
+
+
+CDEF = re.compile(r"/\* NEMC_CDEF_BEGIN \*/\n(.*)/\* NEMC_CDEF_END \*/", re.DOTALL)
+
+
+def cdef(header_text: str) -> str:
+    """The cffi declarations: the header's text between its NEMC_CDEF markers, verbatim."""
+    return CDEF.search(header_text).group(1)  # type: ignore[union-attr]
+
+
 def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int) -> str:
     mech, printer = eqs.mechanism, SymbolTablePrinter(symbol_table(eqs, block))
-    dynamics = print_program(printer, block.programs["dynamics"], DYNAMICS, chunk_steps)
     return template("model.c.tmpl").substitute(
         name=mech.name,
         version=__version__,
@@ -349,54 +444,29 @@ def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int) -> str
         description=comment_text(mech.description),
         state_names=comment_text(", ".join(mech.state_names)),
         parameter_names=comment_text(", ".join(s.name for s in eqs.parameters)),
-        n_coord=eqs.n,
-        n_state=2 * eqs.n,
         prefix=prefix,
-        dynamics_parts=dynamics.functions,
-        dynamics=dynamics.body,
+        dynamics_section=dynamics_section(eqs, block, printer, prefix, chunk_steps),
         check_names=comment_text(", ".join(key for key, _ in eqs.checks)),
         checks=body(printer, block, indexed("out", block.groups["checks"])),
         initial=body(printer, block, indexed("y0", block.groups["initial"])),
         outputs_section=outputs_section(eqs, block, printer, prefix),
         jacobian_section=jacobian_section(eqs, block, printer, prefix, chunk_steps),
+        loops_absent="" if eqs.loops is not None else
+        template("loops_absent.c.tmpl").substitute(prefix=prefix),
     )
 
 
 def generated_functions(eqs: Equations) -> list[str]:
-    """The C functions a model gets: outputs and jacobian only when needed."""
-    diagnostics = ["jacobian", "inverse_mass_matrix"] if eqs.jacobian is not None else []
+    """The parts a model's build has: outputs and jacobian only when needed (the header
+    declares every function; those of a part not built return NEMC_NOT_BUILT)."""
+    diagnostics = (["jacobian", "inverse_mass_matrix"] if eqs.inverse_mass is not None else [])
     outputs = ["outputs"] if eqs.outputs else []
     return ["rhs", "rhs_many", "checks", "initial_state"] + outputs + diagnostics
 
 
-def cdef(prefix: str, functions: list[str]) -> str:
-    lines = [
-        f"int {prefix}rhs(double t, const double *y, const double *p, double *dy);",
-        f"int {prefix}rhs_many(int n, const double *ts, const double *ys, const double *p,"
-        " double *dys);",
-        f"void {prefix}checks(const double *p, double *out);",
-        f"void {prefix}initial_state(const double *p, double *y0);",
-    ]
-    if "outputs" in functions:
-        lines.append(
-            f"int {prefix}outputs(int n_t, const double *ts, const double *ys, const double *p,"
-            " double *out);"
-        )
-    if "jacobian" in functions:
-        lines.append(
-            f"int {prefix}jacobian(double t, const double *y, const double *p, double *jac);"
-        )
-    if "inverse_mass_matrix" in functions:
-        lines.append(
-            f"int {prefix}inverse_mass_matrix(const double *y, const double *p, double *minv);"
-        )
-    return "\n".join(lines) + "\n"
-
-
 def coordinate_kinds(mech: m.Mechanism) -> list[str]:
     """"angle" or "length" for each coordinate (plots show angles in degrees)."""
-    kinds = {"revolute": ["angle"], "prismatic": ["length"], "free": ["length", "length", "angle"]}
-    return [kind for joint in mech.joints for kind in kinds.get(joint.type, [])]
+    return [kind for joint in mech.joints for kind in joint.coordinate_kinds]
 
 
 def metadata(eqs: Equations, prefix: str) -> dict:
@@ -417,6 +487,9 @@ def metadata(eqs: Equations, prefix: str) -> dict:
         "check_names": [key for key, _ in eqs.checks],
         "output_names": [name for name, _ in eqs.outputs],
         "generated": generated_functions(eqs),
+        "drive_names": [joint.name for joint in mech.driven],
+        "constraint_equations": list(eqs.loops.owners) if eqs.loops is not None else [],
+        "initial_given": [name for name in mech.state_names if name in sim.initial],
         "scene": {
             "t_span": list(sim.t_span) if sim.t_span else None,
             "t_eval": list(sim.t_eval) if sim.t_eval is not None else None,
@@ -428,21 +501,22 @@ def metadata(eqs: Equations, prefix: str) -> dict:
     }
 
 
-# ---- native integrators (issue 9): appended to every model's C and cdef --------------------
+# ---- native integrators (issue 9): appended to every model's C -------------------------------
 
 
 def native_section(eqs: Equations, prefix: str, taylor: str) -> str:
     """The model-independent integrators and the model's thin entry points to them. Radau only
     in builds with the Jacobian: it halves the compile time the integrators add elsewhere;
     Taylor (the model's own coefficients) only in builds that ask for it."""
-    jacobian = f"{prefix}jacobian" if eqs.jacobian is not None else "NULL"
+    has_jacobian = eqs.inverse_mass is not None  # built with the diagnostics (exact or not)
+    jacobian = f"{prefix}jacobian" if has_jacobian else "NULL"
     entry = template("integrators_entry.c.tmpl").substitute(
         name=eqs.mechanism.name, prefix=prefix, jacobian=jacobian
     )
-    sections = ["integrators.h.tmpl", "integrators.c.tmpl"]
-    if eqs.jacobian is not None:  # Radau needs the Jacobian: built with it, on first need
+    sections = ["integrators.c.tmpl"]
+    if has_jacobian:  # Radau needs the Jacobian: built with it, on first need
         sections.append("radau.c.tmpl")
-    return "\n" + "".join(template(name).template for name in sections) + taylor + entry
+    return "\n" + "".join(read_template(name) for name in sections) + taylor + entry
 
 
 # Taylor loops of at most this many lines are also written out for order 0 alone, where the
@@ -451,18 +525,32 @@ def native_section(eqs: Equations, prefix: str, taylor: str) -> str:
 PEEL_MAX_LINES = 300
 
 
+def taylor_rows(eqs: Equations) -> dict[sympy.Symbol, str]:
+    """The row of Taylor coefficients of each state entry (declared by taylor_declarations)."""
+    rows = {q: f"xq{i}" for i, q in enumerate(eqs.coordinates)}
+    rows.update({u: f"xdq{i}" for i, u in enumerate(eqs.speeds)})
+    return rows
+
+
+def taylor_declarations(eqs: Equations) -> list[str]:
+    return [line for i in range(eqs.n) for line in (
+        f"double *xq{i} = TAYLOR_ROW(x, STATE_Q({i}));",
+        f"double *xdq{i} = TAYLOR_ROW(x, STATE_DQ({i}));")]
+
+
 def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, str | None]:
     """nemc.Taylor's C when the build asks for it: (source, None), or ("", why it cannot be)."""
+    if eqs.taylor_unavailable is not None:
+        return "", eqs.taylor_unavailable
     if eqs.taylor is None:
         return "", None
-    rows = [f"x{i}" for i in range(len(eqs.state))]
     try:
-        code = series_code(eqs.taylor, eqs.state, rows, m.TIME, printer.doprint)
+        code = series_code(eqs.taylor, eqs.coordinates, eqs.speeds, taylor_rows(eqs), m.TIME,
+                           printer.doprint)
     except TaylorUnsupported as why:
         return "", str(why)
-    declarations = [f"double *{row} = x + {i} * TAYLOR_STRIDE;" for i, row in enumerate(rows)]
 
-    def block(lines: tuple[str, ...] | list[str], indent: str) -> str:
+    def block(lines: Iterable[str], indent: str) -> str:
         return "\n".join(indent + line for line in lines)
 
     peel = len(code.loop) <= PEEL_MAX_LINES
@@ -470,24 +558,11 @@ def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, st
                   *("    " + line for line in code.loop), "}"] if peel else []
     return template("taylor.c.tmpl").substitute(
         max_order=TAYLOR_MAX_ORDER, n_series=max(code.n_series, 1),
-        declarations=block(declarations + list(code.declarations), "    "),
+        declarations=block(taylor_declarations(eqs) + list(code.declarations), "    "),
         constants=block(code.constants, "    "), start=block(code.start, "    "),
         order_zero=block(order_zero, "    "), first_order=1 if peel else 0,
         loop=block(code.loop, "        "),
     ), None
-
-
-def native_cdef(prefix: str) -> str:
-    return template("integrators.h.tmpl").template + "\n".join([
-        f"int {prefix}integrate(int method, nemc_run *run, const double *y0, const double *p);",
-        f"int {prefix}integrate_many(int method, const nemc_run *settings, int k,"
-        " const double *y0s, const double *ps, int p_stride, double *y_evals, int *statuses,"
-        " long *counts);",
-        f"void {prefix}free_steps(nemc_run *run);",
-    ]) + "\n"
-
-
-# ---- end of the native integrators' hook ---------------------------------------------------
 
 
 def emit(eqs: Equations, block: Block, chunk_steps: int | None = None) -> Emitted:
@@ -501,13 +576,16 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None) -> Emitte
                                   else "mass matrix")
     if taylor_unavailable:
         info["taylor_unavailable"] = taylor_unavailable
+    interface = header(eqs, prefix)
     return Emitted(
         name=eqs.mechanism.name,
         c_source=c_source(eqs, block, prefix, chunk_steps or CHUNK_STEPS)
         + native_section(eqs, prefix, taylor),
-        cdef=cdef(prefix, generated_functions(eqs)) + native_cdef(prefix),
+        header=interface,
+        cdef=cdef(interface),
         package_init=template("package_init.py.tmpl").substitute(
             name=eqs.mechanism.name, version=__version__
         ),
         metadata=info,
     )
+

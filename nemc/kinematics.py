@@ -1,19 +1,25 @@
 """Planar kinematics of a mechanism's bodies, and its applied loads as forces and couples.
 
-Each body's angle and origin are built joint by joint from the ground; velocities and
+Each body's angle and origin are built joint by joint from the ground, each joint placing its
+child (Joint.place, the same placement the articulated-body algorithm uses); velocities and
 accelerations are time derivatives, with the symbols ddot(q) standing for the unknown
-accelerations. The loads of the YAML (and gravity) become point forces, body couples and
-generalized forces of joint springs.
+accelerations. Gravity and the loads of the YAML (Load.applied) become point forces, body
+couples and generalized forces.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import sympy
 
 from . import model as m
+
+if TYPE_CHECKING:
+    from .joints import Joint
+    from .loads import PointForce
 
 Vec = sympy.Matrix  # 2x1 column
 
@@ -52,25 +58,21 @@ class Kinematics:
             m.GROUND: BodyKinematics(sympy.S.Zero, vec([0, 0]))
         }
         self._joint_of = {joint.child: joint for joint in mech.joints}
+        self.motions = {joint.coordinates[0]: prescribed_motion(joint) for joint in mech.driven}
         for joint in joints_parent_first(mech.joints):
-            self.bodies[joint.child] = self._place_child(joint)
+            angle, origin = joint.place(self.frame(joint.parent),
+                                        [self.coordinate(c) for c in joint.coordinates])
+            self.bodies[joint.child] = BodyKinematics(angle, vec(origin))
 
-    def _place_child(self, joint: m.Joint) -> BodyKinematics:
-        parent = self.bodies[joint.parent]
-        at = parent.origin + rotation(parent.angle) * vec(joint.at)
-        coords = [m.symbol(c) for c in joint.coordinates]
-        if joint.type == "revolute":
-            base = sympy.S.Zero if joint.angle == "absolute" else parent.angle
-            return BodyKinematics(base + coords[0] + joint.offset, at)
-        if joint.type == "prismatic":
-            axis = vec(joint.axis)
-            unit = axis / sympy.sqrt(axis.dot(axis))
-            return BodyKinematics(
-                parent.angle + joint.offset, at + rotation(parent.angle) * unit * coords[0]
-            )
-        if joint.type == "free":
-            return BodyKinematics(coords[2], vec(coords[:2]))
-        return BodyKinematics(parent.angle + joint.offset, at)  # weld
+    def coordinate(self, name: str) -> sympy.Expr:
+        """A coordinate's value: its symbol, or a driven coordinate's motion (of t)."""
+        return self.motions[name][0] if name in self.motions else m.symbol(name)
+
+    def speed(self, name: str) -> sympy.Expr:
+        return self.motions[name][1] if name in self.motions else m.rate_symbol(name)
+
+    def frame(self, body: str) -> SymbolicFrame:
+        return SymbolicFrame(self, body)
 
     def angle(self, body: str) -> sympy.Expr:
         return self.bodies[body].angle
@@ -90,16 +92,9 @@ class Kinematics:
 
     def origin_velocity(self, body: str) -> Vec:
         joint = self._joint_of[body]
-        if joint.type == "free":
-            return vec([m.rate_symbol(c) for c in joint.coordinates[:2]])
-        if joint.type != "prismatic":
-            return self.velocity(joint.parent, joint.at)
-        axis = vec(joint.axis)
-        unit = axis / sympy.sqrt(axis.dot(axis))
-        q, u = m.symbol(joint.coordinates[0]), m.rate_symbol(joint.coordinates[0])
-        slide_point = [joint.at[0] + unit[0] * q, joint.at[1] + unit[1] * q]
-        along = rotation(self.angle(joint.parent)) * unit * u
-        return self.velocity(joint.parent, slide_point) + along
+        return vec(joint.origin_velocity(self.frame(joint.parent),
+                                         [self.coordinate(c) for c in joint.coordinates],
+                                         [self.speed(c) for c in joint.coordinates]))
 
     def rate(self, expr: sympy.Matrix | sympy.Expr) -> sympy.Matrix | sympy.Expr:
         """d/dt of an expression of q, dq and t, with qdd as the symbols of the accelerations."""
@@ -113,7 +108,61 @@ class Kinematics:
         return [sympy.diff(expr, u) for u in self.u]
 
 
-def joints_parent_first(joints: Iterable[m.Joint]) -> list[m.Joint]:
+class SymbolicFrame:
+    """A body's pose for a joint placing its child (joints.base.Frame): plain expressions."""
+
+    def __init__(self, kin: Kinematics, body: str):
+        self.kin, self.body = kin, body
+
+    @property
+    def angle(self) -> sympy.Expr:
+        return self.kin.angle(self.body)
+
+    @property
+    def origin(self) -> tuple[sympy.Expr, sympy.Expr]:
+        origin = self.kin.bodies[self.body].origin
+        return origin[0], origin[1]
+
+    def rotate(self, xy: Sequence[sympy.Expr]) -> tuple[sympy.Expr, sympy.Expr]:
+        rotated = rotation(self.angle) * vec(xy)
+        return rotated[0], rotated[1]
+
+    def point(self, xy: Sequence[sympy.Expr]) -> tuple[sympy.Expr, sympy.Expr]:
+        position = self.kin.position(self.body, tuple(xy))  # type: ignore[arg-type]
+        return position[0], position[1]
+
+    def velocity(self, xy: Sequence[sympy.Expr]) -> tuple[sympy.Expr, sympy.Expr]:
+        velocity = self.kin.velocity(self.body, tuple(xy))  # type: ignore[arg-type]
+        return velocity[0], velocity[1]
+
+    def name(self, expr: sympy.Expr) -> sympy.Expr:
+        return expr
+
+    def names(self, exprs: Sequence[sympy.Expr]) -> tuple[sympy.Expr, ...]:
+        return tuple(exprs)
+
+
+def prescribed_motion(joint: Joint) -> tuple[sympy.Expr, sympy.Expr, sympy.Expr]:
+    """A driven joint's coordinate, rate and acceleration: its motion and their derivatives."""
+    motion = sympy.sympify(joint.motion)
+    rate = sympy.diff(motion, m.TIME)
+    return motion, rate, sympy.diff(rate, m.TIME)
+
+
+def motion_substitutions(mech: m.Mechanism) -> dict[sympy.Symbol, sympy.Expr]:
+    """Each driven coordinate's symbol, rate and acceleration -> its prescribed value (where
+    loads and outputs name them)."""
+    found: dict[sympy.Symbol, sympy.Expr] = {}
+    for joint in mech.driven:
+        name = joint.coordinates[0]
+        values = prescribed_motion(joint)
+        for symbol, value in zip((m.symbol(name), m.rate_symbol(name), m.accel_symbol(name)),
+                                 values):
+            found[symbol] = value
+    return found
+
+
+def joints_parent_first(joints: Iterable[Joint]) -> list[Joint]:
     placed, pending, ordered = {m.GROUND}, list(joints), []
     while pending:
         ready = [j for j in pending if j.parent in placed]
@@ -126,56 +175,17 @@ def joints_parent_first(joints: Iterable[m.Joint]) -> list[m.Joint]:
     return ordered
 
 
-def joint_relative(kin: Kinematics, joint: m.Joint) -> sympy.Expr:
-    """A joint's relative angle (child - parent - offset) or prismatic displacement."""
-    if joint.type == "prismatic":
-        return m.symbol(joint.coordinates[0])
-    return kin.angle(joint.child) - kin.angle(joint.parent) - joint.offset
-
-
-@dataclass(frozen=True)
-class PointForce:
-    """A force (ground frame) applied at a point fixed in a body."""
-
-    body: str
-    xy: m.Vec2
-    force: Vec
-
-
-def applied_loads(mech: m.Mechanism, kin: Kinematics) -> tuple[list[PointForce], list, list]:
+def applied_loads(mech: m.Mechanism, kin: Kinematics
+                  ) -> tuple[list[PointForce], list, list]:
     """Gravity and the YAML's loads as point forces, body couples and generalized forces.
 
-    Returns (point forces, couples as (body, torque), generalized forces as (coordinate
-    gradient vector, scalar) pairs whose contribution is scalar * d(relative)/dq)."""
+    Returns (point forces, couples as (body, torque), generalized forces as (displacement,
+    scalar) pairs whose contribution is scalar * d(displacement)/dq)."""
+    from .loads import Applied, PointForce
+
     g = vec(mech.gravity)
-    forces = [PointForce(b.name, b.com, b.mass * g) for b in mech.bodies]
-    couples: list[tuple[str, sympy.Expr]] = []
-    generalized: list[tuple[sympy.Expr, sympy.Expr]] = []
+    applied = Applied(forces=[PointForce(b.name, b.com, b.mass * g) for b in mech.bodies])
     for load in mech.loads:
-        if isinstance(load, m.Torque):
-            couples += [(load.body, load.expr), (load.reaction, -load.expr)]
-        elif isinstance(load, m.Force):
-            f = vec(load.components)
-            if load.frame == "body":
-                f = rotation(kin.angle(load.body)) * f
-            forces.append(PointForce(load.body, load.at, f))
-        elif isinstance(load, m.Spring):
-            forces += spring_forces(load, kin)
-        elif isinstance(load, m.JointSpring):
-            rel = joint_relative(kin, mech.joint(load.joint))
-            tension = -load.k * (rel - load.rest) - load.damping * kin.rate(rel)
-            generalized.append((rel, tension))
-    return [f for f in forces if f.body != m.GROUND], couples, generalized
-
-
-def spring_forces(spring: m.Spring, kin: Kinematics) -> list[PointForce]:
-    """The spring-damper's forces on its two end points (ground frame)."""
-    d = kin.position(spring.b.body, spring.b.xy) - kin.position(spring.a.body, spring.a.xy)
-    length = sympy.sqrt(d.dot(d))
-    stretch_rate = d.dot(kin.rate(d)) / length
-    pull = spring.k * (length - spring.length) + spring.damping * stretch_rate
-    on_a = d / length * pull
-    return [
-        PointForce(spring.a.body, spring.a.xy, on_a),
-        PointForce(spring.b.body, spring.b.xy, -on_a),
-    ]
+        applied.add(load.applied(kin))
+    forces = [f for f in applied.forces if f.body != m.GROUND]
+    return forces, applied.couples, applied.generalized

@@ -1,5 +1,8 @@
 """The validated mechanism: the plain value the loader hands to every later stage.
 
+Joints and loads are values of their kinds (nemc/joints/, nemc/loads/), which know what their
+kind means; this module holds what is common to every mechanism.
+
 Every expression is a sympy expression over the symbols made by the helpers below, so all
 stages agree on names: a parameter, constant or coordinate ``q`` is ``Symbol("q")``, its rate
 ``dot(q)`` is ``Symbol("dot(q)")`` and time is ``Symbol("t")``. Every item keeps the location
@@ -11,15 +14,21 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Literal, Union
+from typing import TYPE_CHECKING
 
 import sympy
+
+if TYPE_CHECKING:  # the kinds build on this module's values
+    from .constraints import Constraint
+    from .joints import Joint
+    from .loads import Load
 
 Expr = sympy.Expr
 Vec2 = tuple[sympy.Expr, sympy.Expr]
 
 TIME = sympy.Symbol("t", real=True)
 GROUND = "ground"
+ZERO2: Vec2 = (sympy.S.Zero, sympy.S.Zero)
 
 
 def symbol(name: str) -> sympy.Symbol:
@@ -78,77 +87,19 @@ class PointRef:
     label: str  # how the user wrote it: "link1.B", "link1.com", "ground.[2, 0]"
 
 
-JointType = Literal["revolute", "prismatic", "free", "weld"]
-
-
-@dataclass(frozen=True)
-class Joint:
-    name: str
-    type: JointType
-    parent: str  # a body name or "ground"
-    child: str
-    at: Vec2  # attachment point in the parent's frame (resolved from a point name if given so)
-    coordinates: tuple[str, ...]  # revolute/prismatic: 1, free: 3 (x, y, th), weld: 0
-    angle: Literal["relative", "absolute"] = "relative"  # revolute only
-    offset: Expr = sympy.S.Zero
-    axis: Vec2 = (sympy.S.One, sympy.S.Zero)  # prismatic only, in the parent frame
-    loc: Loc | None = None
-
-
-@dataclass(frozen=True)
-class Torque:
-    """A couple ``expr`` on ``body`` and ``-expr`` on ``reaction``."""
-
-    expr: Expr
-    body: str
-    reaction: str
-    loc: Loc
-
-
-@dataclass(frozen=True)
-class Force:
-    components: Vec2
-    body: str
-    at: Vec2  # point of application in the body frame (default: com)
-    frame: Literal["ground", "body"]
-    loc: Loc
-
-
-@dataclass(frozen=True)
-class Spring:
-    a: PointRef
-    b: PointRef
-    k: Expr
-    length: Expr
-    damping: Expr
-    loc: Loc
-
-
-@dataclass(frozen=True)
-class JointSpring:
-    joint: str
-    k: Expr
-    rest: Expr
-    damping: Expr
-    loc: Loc
-
-
-Load = Union[Torque, Force, Spring, JointSpring]  # noqa: UP007 (a runtime alias)
-
-
 @dataclass(frozen=True)
 class Outputs:
-    reactions: tuple[str, ...] = ()  # joint names
+    reactions: tuple[str, ...] = ()  # joint and constraint names
     energy: bool = False
     points: tuple[PointRef, ...] = ()
     accelerations: bool = False
     expressions: tuple[tuple[str, Expr], ...] = ()
+    drives: tuple[str, ...] = ()  # driven joints' names
 
     @property
     def empty(self) -> bool:
-        return not (
-            self.reactions or self.energy or self.points or self.accelerations or self.expressions
-        )
+        return not (self.reactions or self.energy or self.points or self.accelerations
+                    or self.expressions or self.drives)
 
 
 @dataclass(frozen=True)
@@ -160,6 +111,7 @@ class Simulation:
     method: str | None = None
     rtol: float | None = None
     atol: float | None = None
+    guess: Mapping[str, Expr] = field(default_factory=dict)  # closed loops: assembly start
 
 
 @dataclass(frozen=True)
@@ -173,13 +125,20 @@ class Mechanism:
     gravity: Vec2
     bodies: tuple[Body, ...]
     joints: tuple[Joint, ...]  # in the order listed: this fixes the coordinate order
+    # (each a kind of nemc/joints/, each load a kind of nemc/loads/)
     loads: tuple[Load, ...]
     outputs: Outputs
     simulation: Simulation
+    constraints: tuple[Constraint, ...] = ()  # loop-closing joints (nemc/constraints/)
 
     @property
     def coordinates(self) -> tuple[str, ...]:
-        return tuple(q for joint in self.joints for q in joint.coordinates)
+        """The coordinates in the state: every joint's, but a driven joint's (prescribed)."""
+        return tuple(q for joint in self.joints if not joint.driven for q in joint.coordinates)
+
+    @property
+    def driven(self) -> tuple[Joint, ...]:
+        return tuple(joint for joint in self.joints if joint.driven)
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -190,3 +149,6 @@ class Mechanism:
 
     def joint(self, name: str) -> Joint:
         return next(j for j in self.joints if j.name == name)
+
+    def constraint(self, name: str) -> Constraint:
+        return next(c for c in self.constraints if c.name == name)

@@ -9,7 +9,7 @@ order='none' on an 8-link chain; FIELD-NOTES.md), so the canonical ordering is s
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import sympy
 from sympy.codegen.rewriting import create_expand_pow_optimization, optimize
@@ -27,15 +27,16 @@ class Block:
 
     temporaries: tuple[tuple[sympy.Symbol, sympy.Expr], ...]
     groups: dict[str, tuple[sympy.Expr, ...]]
-    programs: dict[str, Program] = field(default_factory=dict)  # rewritten, by name
+    programs: dict[str, Program]  # the programs, rewritten, by name
 
 
 def rewrite(expr: sympy.Expr) -> sympy.Expr:
     return optimize(expr, REWRITES) if isinstance(expr, sympy.Basic) else expr
 
 
-def shared_cse(groups: dict[str, tuple[sympy.Expr, ...]]) -> Block:
-    """One CSE over all groups; each group keeps its own (reduced) expressions."""
+def shared_cse(groups: dict[str, tuple[sympy.Expr, ...]]) -> tuple[
+        tuple[tuple[sympy.Symbol, sympy.Expr], ...], dict[str, tuple[sympy.Expr, ...]]]:
+    """One CSE over all groups: the shared temporaries, and each group's reduced expressions."""
     flat = [expr for exprs in groups.values() for expr in exprs]
     symbols = sympy.numbered_symbols("x", cls=sympy.Dummy, real=True)  # never a file's x0
     temporaries, reduced = sympy.cse(flat, symbols=symbols, order="none")
@@ -43,7 +44,7 @@ def shared_cse(groups: dict[str, tuple[sympy.Expr, ...]]) -> Block:
     for name, exprs in groups.items():
         split[name] = tuple(rewrite(e) for e in reduced[start : start + len(exprs)])
         start += len(exprs)
-    return Block(tuple((s, rewrite(e)) for s, e in temporaries), split)
+    return tuple((s, rewrite(e)) for s, e in temporaries), split
 
 
 def rewrite_program(program: Program) -> Program:
@@ -54,15 +55,19 @@ def rewrite_program(program: Program) -> Program:
 
 
 def optimize_equations(eqs: Equations) -> Block:
+    loops = eqs.loops
     groups = {
         "outputs": tuple(expr for _, expr in eqs.outputs),
         "checks": tuple(expr for _, expr in eqs.checks),
         "initial": eqs.initial_state,
+        "constraints": () if loops is None else
+        (*loops.values, *(v for row in loops.jacobian for v in row), *loops.rate),
     }
+    primal = eqs.accelerations_program if eqs.jacobian is not None else None
     programs = {"dynamics": eqs.dynamics, "jacobian": eqs.jacobian,
-                "inverse_mass": eqs.inverse_mass}
-    block = shared_cse(groups)
-    block.programs.update(
-        {name: rewrite_program(prog) for name, prog in programs.items() if prog is not None}
-    )
-    return block
+                "inverse_mass": eqs.inverse_mass,
+                "primal": primal if primal is not eqs.dynamics else None}
+    temporaries, reduced = shared_cse(groups)
+    rewritten = {name: rewrite_program(prog) for name, prog in programs.items()
+                 if prog is not None}
+    return Block(temporaries, reduced, rewritten)

@@ -100,12 +100,12 @@ def compile_source(
     with timed(timings, "load"):
         model = load_package(package)
 
-    def variant(*, jacobian: bool, taylor: bool) -> Model:
-        """This mechanism's build with these parts (the model's first need of one)."""
-        return compile_source(source, jacobian, energy=energy, taylor=taylor,
-                              chunk_steps=chunk_steps).model
+    def compile_parts(parts: frozenset[str]) -> Model:
+        """This mechanism built with these optional parts (Model.compiled_with)."""
+        return compile_source(source, "jacobian" in parts, energy=energy,
+                              taylor="taylor" in parts, chunk_steps=chunk_steps).model
 
-    model.variant_provider = variant
+    model.part_compiler = compile_parts
     model.recipe = Recipe(source, jacobian, taylor, energy, chunk_steps,
                           tuple(model.metadata["generated"]))
     return Compiled(model, package, cached, timings)
@@ -118,8 +118,8 @@ def generate_and_build(
     from .build import build
     from .derive import derive, with_diagnostics, with_taylor
     from .emit import emit
+    from .methods import IMPLICIT_METHODS
     from .optimize import optimize_equations
-    from .runtime import IMPLICIT_METHODS
     from .validate import validate_text
 
     with timed(timings, "validate"):

@@ -43,6 +43,10 @@ class Program:
     def size(self) -> int:
         return len(self.steps)
 
+    def pruned(self) -> Program:
+        """The program without the steps its results and guards do not need."""
+        return Program(prune(list(self.steps), self.results), self.results)
+
 
 def is_cheap(expr: sympy.Expr) -> bool:
     """Atoms and a number times an atom are used in place, never given a name."""

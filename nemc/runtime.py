@@ -20,13 +20,19 @@ from typing import Any
 
 import numpy as np
 
-SCIPY_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
-# Integrators in the model's own C (templates/integrators.c.tmpl), no Python in the loop.
-NATIVE_METHODS = ("nemc.DOP853", "nemc.Radau", "nemc.Vern9", "nemc.Taylor")
-METHODS = SCIPY_METHODS + NATIVE_METHODS
-IMPLICIT_METHODS = ("Radau", "BDF", "LSODA", "nemc.Radau")  # these get the analytic Jacobian
+from .loops_runtime import LoopsMixin
+from .methods import (  # noqa: F401 (re-exported: the runtime's public names)
+    DEFAULT_METHOD,
+    IMPLICIT_METHODS,
+    METHODS,
+    NATIVE_METHODS,
+    SCIPY_METHODS,
+    TAYLOR_METHODS,
+)
+
 DEFAULT_T_SPAN = (0.0, 10.0)
-DEFAULT_METHOD = "nemc.DOP853"
+OPTIONAL_PARTS = frozenset({"jacobian", "taylor"})  # C a build has only when asked for
+KINEMATIC_POINTS = 201  # the default times of a kinematic analysis over t_span
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-9
 
@@ -38,11 +44,12 @@ class ModelError(ValueError):
 class IntegrationFailure(ArithmeticError):
     """The equations cannot be evaluated at a state (singular mass matrix, non-finite values)."""
 
-    def __init__(self, t: float, y: np.ndarray, status: int, state_names: Sequence[str]):
+    def __init__(self, t: float, y: np.ndarray, status: int, state_names: Sequence[str],
+                 cause: str | None = None):
         self.t, self.y, self.status = t, np.array(y), status
         state = ", ".join(f"{n}={v:.6g}" for n, v in zip(state_names, self.y))
-        super().__init__(f"at t={t:.9g}: {failure_cause(self.y, status, state_names)}; "
-                         f"state: {state}")
+        cause = cause or failure_cause(self.y, status, state_names)
+        super().__init__(f"at t={t:.9g}: {cause}; state: {state}")
 
 
 def failure_cause(y: np.ndarray, status: int, state_names: Sequence[str]) -> str:
@@ -120,8 +127,10 @@ def read_metadata(path: Path) -> dict:
     return json.loads(Path(path).read_text())
 
 
-class Model:
+class Model(LoopsMixin):
     """A compiled mechanism: names, defaults, rhs, jacobian, outputs and simulate."""
+
+    _model_error = ModelError  # what LoopsMixin raises
 
     def __init__(self, metadata: dict, ffi: Any, lib: Any):
         self.metadata = metadata
@@ -144,9 +153,10 @@ class Model:
             if hasattr(lib, prefix + name)
         }
         self._default_p = np.array(metadata["parameter_defaults"], dtype=float)
-        # Builds a variant with more parts (the C Jacobian, nemc.Taylor's code) on first need
-        # (set by nemc; None in a standalone package).
-        self.variant_provider: Callable[..., Model] | None = None
+        # Compiles this mechanism with more parts (set by nemc's pipeline; None in a
+        # standalone package, which has only the parts it was built with): see compiled_with.
+        self.part_compiler: Callable[[frozenset[str]], Model] | None = None
+        self._variants: dict[str, Model] = {}
         self._checked: tuple[tuple, np.ndarray] = ((), self._default_p)
 
     @property
@@ -252,8 +262,8 @@ class Model:
         """A state from an array, or from a dict of coordinate / dot(q) values (others 0)."""
         if y0 is None:
             return self.initial_state(params)
-        if isinstance(y0, Mapping):
-            state = np.zeros(self.n_state)
+        if isinstance(y0, Mapping):  # closed loops: the others start from the scene's guess
+            state = self.initial_state(params) if self.has_loops else np.zeros(self.n_state)
             for name, value in y0.items():
                 if name not in self.state_names:
                     close = difflib.get_close_matches(str(name), self.state_names, n=1)
@@ -281,7 +291,7 @@ class Model:
             dy = np.empty(n)
             status = c_rhs(t, buffer(y), p_buffer, buffer(dy))
             if status:
-                raise IntegrationFailure(t, y, status, names)
+                raise IntegrationFailure(t, y, status, names, self.loop_failure(status))
             return dy
 
         rhs.last = last  # type: ignore[attr-defined]
@@ -318,26 +328,33 @@ class Model:
             return function(self._time(t), self._state(y))
         return self._finite_difference_jacobian(self._time(t), self._state(y), params)
 
-    def _has(self, part: str) -> bool:
-        """Whether the build has this part ("jacobian", "taylor"); builds and switches to the
-        variant that adds it, keeping the others, on first need."""
-        generated = self.metadata["generated"]
-        unavailable = f"{part}_unavailable" in self.metadata  # asked for before, impossible
-        if part not in generated and not unavailable and self.variant_provider is not None:
-            upgraded = self.variant_provider(**{name: name in generated or name == part
-                                                for name in ("jacobian", "taylor")})
-            self._c, self._lib, self._ffi = upgraded._c, upgraded._lib, upgraded._ffi
-            self.metadata = upgraded.metadata
+    def has_part(self, part: str) -> bool:
+        """Whether this build has the optional part "jacobian" or "taylor" (a query only)."""
         return part in self.metadata["generated"]
 
-    def _has_jacobian(self) -> bool:
-        return self._has("jacobian")
+    def compiled_with(self, part: str) -> Model:
+        """This mechanism's model with the optional part "jacobian" (the exact Jacobian, also
+        needed by nemc.Radau and mass_matrix) or "taylor" (nemc.Taylor's coefficients): this
+        model when its build has it; otherwise the build that adds it to this one's parts,
+        compiled now (sympy and the C compiler: seconds) or loaded from the cache, and kept for
+        later calls. A standalone package compiles nothing: it returns itself."""
+        if self.has_part(part) or self.part_compiler is None:
+            return self
+        if f"{part}_unavailable" in self.metadata:  # this mechanism cannot have it
+            return self
+        if part not in self._variants:
+            have = {name for model in (self, *self._variants.values())
+                    for name in model.metadata["generated"]}
+            self._variants[part] = self.part_compiler(frozenset(have & OPTIONAL_PARTS | {part}))
+        return self._variants[part]
 
     def _jacobian_function(self, p: np.ndarray):
         """A fast closure d rhs/d y for implicit integrators, or None without a C Jacobian."""
-        if not self._has_jacobian():
+        source = self.compiled_with("jacobian")
+        if not source.has_part("jacobian"):
             return None
-        c_jac, buffer, n, names = self._c["jacobian"], self._buffer, self.n_state, self.state_names
+        c_jac, buffer, n, names = (source._c["jacobian"], source._buffer, self.n_state,
+                                   self.state_names)
         p_buffer = buffer(p)
 
         def jacobian(t: float, y: np.ndarray) -> np.ndarray:
@@ -367,10 +384,11 @@ class Model:
         n = len(self.coordinate_names)
         inverse = np.empty((n, n))
         p, state = self.parameter_vector(params), self._state(y)
-        if not self._has_jacobian():
+        source = self.compiled_with("jacobian")
+        if not source.has_part("jacobian"):
             raise ModelError("this standalone package was built without the mass matrix")
-        buffer = self._buffer
-        status = self._c["inverse_mass_matrix"](buffer(state), buffer(p), buffer(inverse))
+        buffer = source._buffer
+        status = source._c["inverse_mass_matrix"](buffer(state), buffer(p), buffer(inverse))
         if status:
             raise IntegrationFailure(0.0, state, status, self.state_names)
         return np.linalg.inv(inverse)
@@ -415,8 +433,22 @@ class Model:
         atol = float(atol if atol is not None else self.scene["atol"] or DEFAULT_ATOL)
         times = self._times(span, t_eval)
         state0 = self.state_vector(y0, params)
+        if self.has_loops:
+            state0, freedom = self.assembled(span[0], state0, self.given_mask(y0), p)
+            if freedom == 0:
+                return self._kinematic_run(span, state0, times, rtol, atol, p)
+            result = self._integrate(method, span, state0, times, rtol, atol, p, params)
+            result.y = self.projected(result.t, result.y, p)
+            return result
+        return self._integrate(method, span, state0, times, rtol, atol, p, params)
+
+    def _integrate(self, method: str, span: tuple[float, ...], state0: np.ndarray, times: Any,
+                   rtol: float, atol: float, p: np.ndarray,
+                   params: Mapping[str, float] | None) -> SimulationResult:
+        """One run from state0 with the method: nemc's own, or scipy's solve_ivp."""
         if method in NATIVE_METHODS:
-            return self._simulate_native(method, span, state0, times, rtol, atol, p)
+            model = self._native_model(method)
+            return model._simulate_native(method, span, state0, times, rtol, atol, p)
         from scipy.integrate import solve_ivp  # here: importing scipy costs more than a load
 
         rhs = self._rhs_function(p)
@@ -436,6 +468,20 @@ class Model:
             success=bool(sol.success), method=method, rtol=rtol, atol=atol,
             params=dict(zip(self.parameter_names, p.tolist())),
         )
+
+    def _kinematic_run(self, span: tuple[float, ...], state0: np.ndarray, times: Any,
+                       rtol: float, atol: float, p: np.ndarray) -> SimulationResult:
+        """A mechanism its drives leave without a degree of freedom: no integration, its
+        states computed from the constraints at each time of t_eval (default: 201 over
+        t_span), the outputs (drives, reactions) there."""
+        times = np.linspace(*span, KINEMATIC_POINTS) if times is None else np.asarray(times)
+        t, y, failure = self.kinematic_states(times.astype(float), state0, p)
+        return SimulationResult(
+            t=t, y=y, outputs=self._lazy_outputs(t, y, p), nfev=0, njev=0, nlu=0,
+            status=0 if failure is None else -1, success=failure is None,
+            message=failure or "Kinematic analysis: no degree of freedom left by the drives; "
+            "the states come from the constraints at each time.",
+            method="kinematic", rtol=rtol, atol=atol, params=self.parameters_at(p))
 
     def _times(self, span: tuple[float, ...], t_eval: Sequence[float] | None) -> Any:
         if t_eval is not None:
@@ -474,17 +520,33 @@ class Model:
 
     # -- native integration: integrators in the model's C (NATIVE_METHODS) -------------------
 
+    def _native_model(self, method: str) -> Model:
+        """The model whose build has what the native method needs: nemc.Radau the Jacobian,
+        nemc.Taylor its coefficients (compiled now when this build lacks them)."""
+        if method in IMPLICIT_METHODS:
+            model = self.compiled_with("jacobian")
+            if not model.has_part("jacobian"):
+                raise ModelError(f"{method} needs the analytic Jacobian, and this build has"
+                                 " none: compile it with jacobian=True (or a scene method that"
+                                 " is implicit)")
+            return model
+        if method in TAYLOR_METHODS:
+            model = self.compiled_with("taylor")
+            if not model.has_part("taylor"):
+                why = model.metadata.get("taylor_unavailable")
+                raise ModelError(f"{method} is not available for {self.name}: " + (
+                    f"{why}; use nemc.Vern9 or nemc.DOP853" if why else "this build has no"
+                    " Taylor code (compile it with taylor=True, or name nemc.Taylor as the"
+                    " scene's method)"))
+            return model
+        return self
+
+    def _method_id(self, method: str) -> int:
+        """The C enum nemc_method value of a native method ("nemc.Vern9" -> NEMC_VERN9)."""
+        return getattr(self._lib, "NEMC_" + method.removeprefix("nemc.").upper())
+
     def _native(self, method: str, function: str = "integrate") -> Any:
-        """A native entry point of the compiled module; for nemc.Radau, builds the Jacobian."""
-        if method in IMPLICIT_METHODS and not self._has_jacobian():
-            raise ModelError(f"{method} needs the analytic Jacobian, and this build has none:"
-                             " compile it with jacobian=True (or a scene method that is implicit)")
-        if method == "nemc.Taylor" and not self._has("taylor"):
-            why = self.metadata.get("taylor_unavailable")
-            raise ModelError(f"nemc.Taylor is not available for {self.name}: " + (
-                f"its equations use {why}, which has no Taylor recurrence here; use nemc.Vern9"
-                " or nemc.DOP853" if why else "this build has no Taylor code (compile it with"
-                " taylor=True, or name nemc.Taylor as the scene's method)"))
+        """A native entry point of this model's compiled module."""
         entry = getattr(self._lib, self.metadata["c_prefix"] + function, None)
         if entry is None:
             raise ModelError(f"{method}: this build has no native integrators (rebuild it)")
@@ -518,21 +580,27 @@ class Model:
         y_eval = np.empty((max(run.n_eval, 0), n))
         y_fail = np.empty(n)
         run.y_eval, run.y_fail = buffer(y_eval), buffer(y_fail)
-        status = integrate(NATIVE_IDS[method], run, buffer(y0), buffer(p))
+        status = integrate(self._method_id(method), run, buffer(y0), buffer(p))
         if run.n_eval < 0:
             t, y = self._take_steps(run)
         else:
             t, y = keep[0][: run.n_out], y_eval[: run.n_out].T
-        if status == NATIVE_RHS_FAILED:
-            failure = IntegrationFailure(run.t_fail, y_fail, run.rhs_status, self.state_names)
+        lib = self._lib
+        if status == lib.NEMC_RHS_FAILED:
+            failure = IntegrationFailure(run.t_fail, y_fail, run.rhs_status, self.state_names,
+                                         self.loop_failure(run.rhs_status))
             return self._failed(failure, method, run.rtol, run.atol, self.parameters_at(p))
-        if status not in NATIVE_MESSAGES:
+        messages = {  # scipy's messages for the same outcomes
+            lib.NEMC_REACHED_END: SUCCESS_MESSAGE,
+            lib.NEMC_STEP_TOO_SMALL: "Required step size is less than spacing between numbers.",
+        }
+        if status not in messages:
             raise RuntimeError(f"{method}: the native integrator failed (status {status})")
         return SimulationResult(
             t=t, y=y, outputs=self._lazy_outputs(t, y, p), nfev=int(run.nfev),
             njev=int(run.njev), nlu=int(run.nlu), status=status, success=status == 0, method=method,
-            message=NATIVE_MESSAGES[status] if status == 0
-            else self._gave_up(NATIVE_MESSAGES[status], run.t_fail, y_fail),
+            message=messages[status] if status == lib.NEMC_REACHED_END
+            else self._gave_up(messages[status], run.t_fail, y_fail),
             rtol=run.rtol, atol=run.atol, params=self.parameters_at(p),
         )
 
@@ -581,12 +649,16 @@ class Model:
         if method not in NATIVE_METHODS:
             raise ModelError(f"simulate_many: method must be one of {', '.join(NATIVE_METHODS)},"
                              f" got {method!r}")
+        model = self._native_model(method)
+        if model is not self:  # a build with the method's part: it runs the ensemble
+            return model.simulate_many(y0s, params=params, t_span=t_span, t_eval=t_eval,
+                                       method=method, rtol=rtol, atol=atol, threads=threads)
         rtol = float(rtol if rtol is not None else self.scene["rtol"] or DEFAULT_RTOL)
         atol = float(atol if atol is not None else self.scene["atol"] or DEFAULT_ATOL)
         times = self._times(span, t_eval)
         times = np.array(span[:1] + span[1:] if times is None else times, dtype=float)
         ps, y0s = self._ensemble_inputs(y0s, params)
-        integrate_many = self._native(method, "integrate_many")
+        integrate_many, method_id = self._native(method, "integrate_many"), self._method_id(method)
         run, keep = self._native_run(span, times, rtol, atol)
         k, n = len(y0s), self.n_state
         y = np.empty((k, len(times), n))
@@ -597,7 +669,7 @@ class Model:
         def chunk(rows: slice) -> None:
             f = self._ffi.from_buffer
             integrate_many(
-                NATIVE_IDS[method], run, rows.stop - rows.start, f("double[]", y0s[rows]),
+                method_id, run, rows.stop - rows.start, f("double[]", y0s[rows]),
                 f("double[]", ps[rows] if p_stride else ps), p_stride, f("double[]", y[rows]),
                 f("int[]", statuses[rows]), f("long[]", counts[rows]),
             )
@@ -654,12 +726,7 @@ class EnsembleResult:
 
 
 # enum nemc_method and enum nemc_status in templates/integrators.h.tmpl
-NATIVE_IDS = {"nemc.DOP853": 0, "nemc.Radau": 1, "nemc.Vern9": 2, "nemc.Taylor": 3}
-NATIVE_RHS_FAILED = -2
-NATIVE_MESSAGES = {  # scipy's messages for the same outcomes
-    0: "The solver successfully reached the end of the integration interval.",
-    -1: "Required step size is less than spacing between numbers.",
-}
+SUCCESS_MESSAGE = "The solver successfully reached the end of the integration interval."
 EPS = float(np.finfo(float).eps)
 
 

@@ -38,7 +38,6 @@ from .runtime import (
     DEFAULT_ATOL,
     DEFAULT_RTOL,
     DEFAULT_T_SPAN,
-    NATIVE_MESSAGES,
     Model,
     ModelError,
     ensemble_method,
@@ -49,8 +48,8 @@ MAX_CHUNK_RUNS = 10_000
 MIN_CHUNK_RUNS = 1_000
 CHUNK_BYTES = 64 * 2**20  # at most this much of y per chunk (bounded memory on both ends)
 INPUTS_REFUSED = -3
-FAILURE_CAUSES = {
-    -1: NATIVE_MESSAGES[-1],
+FAILURE_CAUSES = {  # simulate_many's failing statuses (EnsembleResult.status), as simulate says
+    -1: "Required step size is less than spacing between numbers.",
     -2: "the equations could not be evaluated (non-finite values or a singular mass matrix)",
 }
 

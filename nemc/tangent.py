@@ -11,23 +11,22 @@ sin(w) was computed), so the tangents call no extra functions.
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Sequence
+from collections.abc import Mapping
 
 import sympy
 
 from .program import Program, ProgramBuilder
 
 
-@functools.cache
 def seed_symbols(n_state: int) -> tuple[sympy.Symbol, ...]:
-    """The tangent of y[k], as symbols no name from the file can equal (printed seed[k])."""
+    """The tangent of y[k], as new symbols no name from the file can equal (printed seed[k])."""
     return tuple(sympy.Dummy(f"seed_{k}", real=True) for k in range(n_state))
 
 
-def tangent_program(primal: Program, state: Sequence[sympy.Symbol]) -> Program:
-    """The directional derivatives of primal's results along seed (one per state entry)."""
-    tangent: dict[sympy.Symbol, sympy.Expr] = dict(zip(state, seed_symbols(len(state))))
+def tangent_program(primal: Program, seeds: Mapping[sympy.Symbol, sympy.Symbol]) -> Program:
+    """The directional derivatives of primal's results along seeds (state symbol -> the symbol
+    of its tangent)."""
+    tangent: dict[sympy.Symbol, sympy.Expr] = dict(seeds)
     known = {expr: name for name, expr in primal.assignments()}
     builder = ProgramBuilder("dw")
 

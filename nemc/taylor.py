@@ -19,7 +19,7 @@ nemc.Taylor.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import sympy
@@ -43,6 +43,7 @@ class SeriesCode:
     constants: tuple[str, ...]  # before the loop: parameter-only values, constant guards
     start: tuple[str, ...]  # before the loop: the time series
     loop: tuple[str, ...]  # inside `for (k = 0; k < order; ++k)`
+    cost: float  # Cauchy sums per order (SERIES_WEIGHTS): what the program costs per order
 
 
 class SeriesWriter:
@@ -58,6 +59,7 @@ class SeriesWriter:
         self.constants: list[str] = []
         self.loop: list[str] = []
         self.uses_time = False
+        self.cost = 0.0  # Cauchy sums per order of the recurrences written (SERIES_WEIGHTS)
         self._rows = 0
         self._scalars: dict[sympy.Expr, str] = {}  # parameter-only factor -> its constant
 
@@ -72,10 +74,15 @@ class SeriesWriter:
             self._scalars[expr] = name
         return self._scalars[expr]
 
+    def recurrence(self, helper: str, line: str) -> None:
+        """A line of the loop that calls a Taylor recurrence of templates/taylor.c.tmpl."""
+        self.loop.append(line)
+        self.cost += SERIES_WEIGHTS[helper]
+
     # -- rows -------------------------------------------------------------------------------
 
     def new_row(self, name: str) -> str:
-        self.declarations.append(f"double *{name} = work + {self._rows} * TAYLOR_STRIDE;")
+        self.declarations.append(f"double *{name} = TAYLOR_ROW(work, {self._rows});")
         self._rows += 1
         return name
 
@@ -163,9 +170,10 @@ class SeriesWriter:
             other = self.row_of(factors[count - 1])
             name = self.temporary()
             if other == row:
-                self.loop.append(f"{name}[k] = series_square({row}, k);")
+                self.recurrence("series_square", f"{name}[k] = series_square({row}, k);")
             else:
-                self.loop.append(f"{name}[k] = series_product({row}, {other}, k);")
+                self.recurrence("series_product",
+                                f"{name}[k] = series_product({row}, {other}, k);")
             self.series[partial] = row = name
         return row
 
@@ -178,9 +186,11 @@ class SeriesWriter:
         bottom = self.cauchy(denominator)
         name = self.temporary()
         if top is None:
-            self.loop.append(f"{name}[k] = series_reciprocal({bottom}, {name}, k);")
+            self.recurrence("series_reciprocal",
+                            f"{name}[k] = series_reciprocal({bottom}, {name}, k);")
         else:
-            self.loop.append(f"{name}[k] = series_quotient({top}, {bottom}, {name}, k);")
+            self.recurrence("series_quotient",
+                            f"{name}[k] = series_quotient({top}, {bottom}, {name}, k);")
         self.series[sympy.Mul(*numerator) / sympy.Mul(*denominator)] = name
         return name
 
@@ -198,7 +208,8 @@ class SeriesWriter:
             return self.quotient([], [base**-exponent])
         row = self.row_of(base)
         name = self.temporary()
-        self.loop.append(
+        self.recurrence(
+            "series_power",
             f"{name}[k] = series_power({row}, {name}, {self.scalar_value(exponent)}, k);")
         self.series[expr] = name
         return name
@@ -210,7 +221,7 @@ class SeriesWriter:
         if expr not in self.series:
             row = self.row_of(argument)
             derivative, a, b = self.temporary(), self.temporary(), self.temporary()
-            self.loop.append(f"{helper}({row}, {derivative}, {a}, {b}, k);")
+            self.recurrence(helper, f"{helper}({row}, {derivative}, {a}, {b}, k);")
             self.series[first], self.series[second] = a, b
         return self.series[expr]
 
@@ -225,7 +236,8 @@ class SeriesWriter:
             row = self.row_of(expr.args[0])
             derivative = [self.temporary()] if helper in DERIVATIVE_ROW else []
             name = self.temporary()
-            self.loop.append(f"{name}[k] = {helper}({', '.join([row, *derivative, name])}, k);")
+            self.recurrence(helper,
+                            f"{name}[k] = {helper}({', '.join([row, *derivative, name])}, k);")
             self.series[expr] = name
         return self.series[expr]
 
@@ -234,15 +246,34 @@ class SeriesWriter:
 DERIVATIVE_ROW = {"series_exp"}
 
 
+SMOOTH_FUNCTIONS = (sympy.sin, sympy.cos, sympy.sinh, sympy.cosh, sympy.exp, sympy.log)
+
+
+def unsupported_operation(expr: sympy.Expr, varying: set[sympy.Symbol]) -> str | None:
+    """What in expr has no Taylor recurrence here when `varying` change with time (None: every
+    operation has one): the operations SeriesWriter.coefficient takes, checked up front."""
+    for node in sympy.preorder_traversal(expr):
+        if not node.free_symbols & varying or node.is_Symbol or node.is_Add or node.is_Mul:
+            continue
+        if node.is_Pow:
+            if node.exp.free_symbols & varying:
+                return "a power with a time-varying exponent"
+            continue
+        if not isinstance(node, SMOOTH_FUNCTIONS):
+            return f"{type(node).__name__.lower()} of a time-varying value"
+    return None
+
+
 def is_reciprocal(expr: sympy.Expr) -> bool:
     return bool(expr.is_Pow and expr.args[1].is_Integer and expr.args[1] < 0)
 
 
-def series_code(program: Program, state: Sequence[sympy.Symbol], state_rows: Sequence[str],
+def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
+                speeds: Sequence[sympy.Symbol], rows: Mapping[sympy.Symbol, str],
                 time: sympy.Symbol, scalar: Callable[[sympy.Expr], str]) -> SeriesCode:
-    """The Taylor-coefficient code of the accelerations' program; state[i]'s row is
-    state_rows[i] (q's then dq's interleaved, as y). Raises TaylorUnsupported."""
-    writer = SeriesWriter(scalar, dict(zip(state, state_rows)), time)
+    """The Taylor-coefficient code of the accelerations' program (one result per coordinate);
+    rows: the name of each coordinate's and speed's row. Raises TaylorUnsupported."""
+    writer = SeriesWriter(scalar, dict(rows), time)
     for step in program.steps:
         if isinstance(step, Guard):
             guard(writer, step)
@@ -259,8 +290,8 @@ def series_code(program: Program, state: Sequence[sympy.Symbol], state_rows: Seq
             writer.series[name] = writer.new_row(name.name)
             writer.loop.append(f"{name.name}[k] = {value};")
         writer.varying.add(name)
-    for i, result in enumerate(program.results):
-        q_row, dq_row = state_rows[2 * i], state_rows[2 * i + 1]
+    for q, dq, result in zip(coordinates, speeds, program.results):
+        q_row, dq_row = rows[q], rows[dq]
         value = (f"(k == 0 ? {writer.scalar_value(result)} : 0.0)" if writer.is_constant(result)
                  else writer.coefficient(result))
         writer.loop.append(f"{q_row}[k + 1] = {dq_row}[k] * (1.0 / (k + 1));")
@@ -268,10 +299,10 @@ def series_code(program: Program, state: Sequence[sympy.Symbol], state_rows: Seq
     start = ("tt[0] = t;", "for (int j = 1; j <= order; ++j)", "    tt[j] = j == 1 ? 1.0 : 0.0;")
     # lines are relative to the block they sit in: "    " marks one more level
     if writer.uses_time:
-        writer.declarations.append(f"double *tt = work + {writer._rows} * TAYLOR_STRIDE;")
+        writer.declarations.append(f"double *tt = TAYLOR_ROW(work, {writer._rows});")
         writer._rows += 1
     return SeriesCode(writer._rows, tuple(writer.declarations), tuple(writer.constants),
-                      start if writer.uses_time else (), tuple(writer.loop))
+                      start if writer.uses_time else (), tuple(writer.loop), writer.cost)
 
 
 # Cauchy sums per order of each recurrence: what a program costs nemc.Taylor (sums and constant
@@ -281,14 +312,15 @@ SERIES_WEIGHTS = {"series_product": 1, "series_square": 0.5, "series_quotient": 
                   "series_exp": 1, "series_log": 1, "series_power": 1}
 
 
-def series_cost(program: Program, state: Sequence[sympy.Symbol], time: sympy.Symbol) -> float:
+def series_cost(program: Program, coordinates: Sequence[sympy.Symbol],
+                speeds: Sequence[sympy.Symbol], time: sympy.Symbol) -> float:
     """The Cauchy sums per order of the program's coefficients (inf: unsupported)."""
+    rows = {s: f"x{i}" for i, s in enumerate((*coordinates, *speeds))}
     try:
-        code = series_code(program, state, [f"x{i}" for i in range(len(state))], time, str)
+        code = series_code(program, coordinates, speeds, rows, time, str)
     except TaylorUnsupported:
         return float("inf")
-    return sum(weight * line.count(f"{name}(") for line in code.loop
-               for name, weight in SERIES_WEIGHTS.items())
+    return code.cost
 
 
 def guard(writer: SeriesWriter, step: Guard) -> None:

@@ -13,52 +13,41 @@ import math
 import os
 import re
 import sys
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import sympy
 
+from nemc.constraints import CONSTRAINT_KINDS, Constraint
 from nemc.errors import InputError, Problem
 from nemc.expr import RESERVED, Budget, ExprError, Scope, parse_expression, suggest
+from nemc.joints import JOINT_KINDS, Joint
+from nemc.loads import LOAD_KINDS, Load
+from nemc.methods import METHODS  # the scene accepts exactly what simulate accepts
 from nemc.model import (
     GROUND,
     Body,
-    Force,
-    Joint,
-    JointSpring,
-    Load,
     Loc,
     Mechanism,
     Outputs,
     Param,
     PointRef,
     Simulation,
-    Spring,
-    Torque,
     Vec2,
     symbol,
 )
 from nemc.parse import Node, parse_text
-from nemc.runtime import METHODS  # the scene accepts exactly what simulate accepts
 
-JOINT_TYPES = ("revolute", "prismatic", "free", "weld")
-LOAD_KINDS = ("torque", "force", "spring", "joint_spring")
+JOINT_TYPES = tuple(JOINT_KINDS)
+JOINT_KEYS = {name: ("type", "parent", "child", *kind.keys, *(("motion",) if kind.drivable else ()))
+              for name, kind in JOINT_KINDS.items()}
+CONSTRAINT_KEYS = {name: ("type", "a", "b", *kind.keys) for name, kind in CONSTRAINT_KINDS.items()}
+LOAD_KEYS = {name: kind.keys for name, kind in LOAD_KINDS.items()}
 IMPLICIT_POINTS = ("origin", "com")
 TOP_KEYS = ("name", "description", "parameters", "constants", "gravity", "bodies", "joints",
-            "loads", "outputs", "simulation")
-JOINT_KEYS = {
-    "revolute": ("type", "parent", "child", "at", "coordinate", "angle", "offset"),
-    "prismatic": ("type", "parent", "child", "at", "coordinate", "axis", "offset"),
-    "free": ("type", "parent", "child", "coordinates"),
-    "weld": ("type", "parent", "child", "at", "offset"),
-}
-LOAD_KEYS = {
-    "torque": ("torque", "body", "reaction"),
-    "force": ("force", "body", "at", "frame"),
-    "spring": ("spring",),
-    "joint_spring": ("joint_spring",),
-}
+            "constraints", "loads", "outputs", "simulation")
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 ZERO2: Vec2 = (sympy.S.Zero, sympy.S.Zero)
 # An exported package is imported by its name: it must not hide a module it or its runtime
@@ -66,6 +55,7 @@ ZERO2: Vec2 = (sympy.S.Zero, sympy.S.Zero)
 SHADOWED_MODULES = frozenset({*sys.stdlib_module_names, "numpy", "scipy", "cffi",
                               "_cffi_backend", "nemc"})
 FIXED_WHERE = "in body, joint, gravity and initial-condition fields (parameters and constants only)"
+MOTION_WHERE = "in a joint's motion (parameters, constants and t only)"
 
 
 def load_mechanism(path: str | os.PathLike[str]) -> Mechanism:
@@ -108,6 +98,7 @@ class _Ctx:
     body_names: list[str] = field(default_factory=list)  # valid names, in file order
     body_keys: list[str] = field(default_factory=list)  # every key under bodies
     joint_keys: list[str] = field(default_factory=list)  # every key under joints
+    constraint_keys: list[str] = field(default_factory=list)  # every key under constraints
     joints: dict[str, Joint] = field(default_factory=dict)
     joint_coordinates: dict[str, tuple[str, ...]] = field(default_factory=dict)
     budget: Budget = field(default_factory=Budget)  # tokens left for the file's expressions
@@ -119,13 +110,15 @@ class _Ctx:
         return Loc(self.file, node.line, node.column, key)
 
     def scope(self, kind: str) -> Scope:
-        """``constants``, ``parameters``, ``fixed`` (body, joint, ...) or ``load`` fields."""
+        """``constants``, ``parameters``, ``fixed`` (body, joint, ...), ``motion`` (a driven
+        joint's: fixed and t) or ``load`` fields."""
         allowed = list(self.constants)
         if kind != "constants":
             allowed += self.parameters
         where = {"constants": "in constants (other constants only)",
                  "parameters": "in parameters (parameters and constants only)",
                  "fixed": FIXED_WHERE,
+                 "motion": MOTION_WHERE,
                  "load": "in loads and outputs"}[kind]
         if kind == "load":
             allowed += self.coordinates
@@ -133,7 +126,7 @@ class _Ctx:
         refused = {name: f"{name!r} is {_article(kind_)} {kind_}, not allowed {where}"
                    for name, (kind_, _) in self.names.items() if name not in names}
         rates = frozenset(self.coordinates) if kind == "load" else frozenset()
-        return Scope(names, rates, kind == "load", refused, where, self.budget)
+        return Scope(names, rates, kind in ("load", "motion"), refused, where, self.budget)
 
 
 def _article(word: str) -> str:
@@ -342,11 +335,13 @@ def _collect_names(ctx: _Ctx, root: Mapping[str, Node]) -> None:
     for section, kind, target in (("parameters", "parameter", ctx.parameters),
                                   ("constants", "constant", ctx.constants),
                                   ("bodies", "body", ctx.body_names),
-                                  ("joints", "joint", None)):
+                                  ("joints", "joint", None),
+                                  ("constraints", "constraint", None)):
         node = root.get(section)
         for name in _entries(node) if node is not None else {}:
-            if section in ("bodies", "joints"):
-                (ctx.body_keys if section == "bodies" else ctx.joint_keys).append(name)
+            if section in ("bodies", "joints", "constraints"):
+                {"bodies": ctx.body_keys, "joints": ctx.joint_keys,
+                 "constraints": ctx.constraint_keys}[section].append(name)
             path = _join(section, name)
             if _register(ctx, name, node.key_lines[name], path, kind) and target is not None:
                 target.append(name)
@@ -363,14 +358,20 @@ def _collect_names(ctx: _Ctx, root: Mapping[str, Node]) -> None:
 def _collect_coordinates(ctx: _Ctx, joint: Node, path: str) -> tuple[str, ...]:
     """The valid coordinate names a joint declares (its shape is checked with the joint)."""
     entries = _entries(joint)
-    kind = entries["type"].value if "type" in entries else None
+    type_node = entries.get("type")
+    kind = JOINT_KINDS.get(type_node.value) if type_node is not None and isinstance(
+        type_node.value, str) else None
+    kinds = [kind] if kind is not None else list(JOINT_KINDS.values())  # unknown: any shape
+    shapes = {k.coordinate_key: len(k.coordinate_kinds) for k in kinds if k.coordinate_key}
     names: list[tuple[Node, str]] = []
-    unknown = kind not in JOINT_TYPES
-    if "coordinate" in entries and (kind in ("revolute", "prismatic") or unknown):
-        names.append((entries["coordinate"], _join(path, "coordinate")))
-    if "coordinates" in entries and (kind == "free" or unknown):
-        items = _items(entries["coordinates"])
-        names += [(item, _join(_join(path, "coordinates"), i)) for i, item in enumerate(items)]
+    for key, count in shapes.items():
+        if key not in entries:
+            continue
+        if count == 1:
+            names.append((entries[key], _join(path, key)))
+        else:
+            items = _items(entries[key])
+            names += [(item, _join(_join(path, key), i)) for i, item in enumerate(items)]
     found = []
     for node, item_path in names:
         if _register(ctx, node.value, node.line, item_path, "coordinate"):
@@ -396,6 +397,7 @@ def _build(ctx: _Ctx, tree: Node, source_hash: str) -> Mechanism | None:
     gravity = _vec2(ctx, root["gravity"], "gravity") if "gravity" in root else ZERO2
     bodies = _bodies(ctx, root.get("bodies"))
     joints = _joints(ctx, root.get("joints"))
+    constraints = _constraints(ctx, root["constraints"]) if "constraints" in root else ()
     loads = _loads(ctx, root["loads"]) if "loads" in root else ()
     outputs = _outputs(ctx, root["outputs"]) if "outputs" in root else Outputs()
     simulation = _simulation(ctx, root["simulation"]) if "simulation" in root else Simulation()
@@ -404,7 +406,7 @@ def _build(ctx: _Ctx, tree: Node, source_hash: str) -> Mechanism | None:
     return Mechanism(name=name, description=description, source=ctx.file,
                      source_hash=source_hash, parameters=parameters, constants=constants,
                      gravity=gravity, bodies=bodies, joints=joints, loads=loads,
-                     outputs=outputs, simulation=simulation)
+                     outputs=outputs, simulation=simulation, constraints=constraints)
 
 
 def _module_name(ctx: _Ctx, node: Node | None) -> str | None:
@@ -634,67 +636,48 @@ def _joint(ctx: _Ctx, name: str, node: Node, path: str, edge: _Edge | None) -> J
     entries = _entries(node)
     kind = None
     if "type" in entries:
-        kind = _choice(ctx, entries["type"], _join(path, "type"), JOINT_TYPES, "joint type")
+        type_name = _choice(ctx, entries["type"], _join(path, "type"), JOINT_TYPES, "joint type")
+        kind = JOINT_KINDS.get(type_name) if type_name is not None else None
     every_key = sorted({key for keys in JOINT_KEYS.values() for key in keys})
-    required = ["type", "parent", "child"]
-    if kind in ("revolute", "prismatic"):
-        required.append("coordinate")
-    elif kind == "free":
-        required.append("coordinates")
-    allowed = JOINT_KEYS[kind] if kind is not None else every_key
-    _keys(ctx, node, path, allowed, required, owner=(f"a {kind} joint", every_key))
     if kind is None:
+        _keys(ctx, node, path, every_key, ("type", "parent", "child"))
         return None
-    return _joint_fields(ctx, Joint(name, kind, "", "", ZERO2, (), loc=ctx.loc(node, path)),
-                         entries, path, edge)
-
-
-def _joint_fields(ctx: _Ctx, joint: Joint, entries: Mapping[str, Node], path: str,
-                  edge: _Edge | None) -> Joint | None:
-    """Fill in a joint of known type from its entries; ``None`` if anything is wrong."""
+    required = ["type", "parent", "child", *([kind.coordinate_key] if kind.coordinate_key else [])]
+    _keys(ctx, node, path, JOINT_KEYS[kind.type], required,
+          owner=(f"a {kind.type} joint", every_key))
     count = len(ctx.problems)
-    coordinates = _joint_coordinates(ctx, joint, entries, path)
-    at = ZERO2
-    if "at" in entries and joint.type in JOINT_KEYS and "at" in JOINT_KEYS[joint.type]:
-        parent = edge.parent if edge is not None else None
-        at = _point_of(ctx, entries["at"], _join(path, "at"), parent)
-    if joint.type == "free" and edge is not None and edge.parent != GROUND:
-        ctx.problem(edge.parent_line, _join(path, "parent"), "a free joint's parent must be "
-                                                             f"ground, got {edge.parent!r}")
-    angle = "relative"
-    if "angle" in entries and joint.type == "revolute":
-        angle = _choice(ctx, entries["angle"], _join(path, "angle"), ("relative", "absolute"),
-                        "angle") or angle
-    offset = sympy.S.Zero
-    if "offset" in entries and joint.type != "free":
-        offset = _fixed(ctx, entries["offset"], _join(path, "offset"))
-    axis = (sympy.S.One, sympy.S.Zero)
-    if "axis" in entries and joint.type == "prismatic":
-        axis = _axis(ctx, entries["axis"], _join(path, "axis"))
-    if len(ctx.problems) > count or edge is None or None in (at, offset, axis, coordinates):
+    coordinates = _joint_coordinates(ctx, kind, name, entries, path)
+    if edge is not None and (why := kind.parent_problem(edge.parent)) is not None:
+        ctx.problem(edge.parent_line, _join(path, "parent"), why)
+    fields = kind.read(Reader(ctx, node, path, parent=edge.parent if edge else None))
+    motion = None
+    if "motion" in entries and kind.drivable:
+        motion = _expr(ctx, entries["motion"], _join(path, "motion"), ctx.scope("motion"))
+    if len(ctx.problems) > count or edge is None or fields is None or coordinates is None:
         return None
-    return Joint(joint.name, joint.type, edge.parent, edge.child, at, coordinates,
-                 angle, offset, axis, joint.loc)  # type: ignore[arg-type]
+    joint = kind(name=name, parent=edge.parent, child=edge.child, coordinates=coordinates,
+                 loc=ctx.loc(node, path), motion=motion, **fields)
+    if joint.driven and (why := joint.drive_problem()) is not None:
+        ctx.problem(entries["motion"].line, _join(path, "motion"), why)
+        return None
+    return joint
 
 
-def _joint_coordinates(ctx: _Ctx, joint: Joint, entries: Mapping[str, Node],
+def _joint_coordinates(ctx: _Ctx, kind: type[Joint], name: str, entries: Mapping[str, Node],
                        path: str) -> tuple[str, ...] | None:
     """The joint's coordinates; their names were checked when they were collected."""
-    found = ctx.joint_coordinates.get(joint.name, ())
-    if joint.type == "weld":
+    count = len(kind.coordinate_kinds)
+    if count == 0 or kind.coordinate_key is None:
         return ()
-    if joint.type == "free":
-        node = entries.get("coordinates")
-        if node is None:
-            return None
-        if not node.is_list or len(_items(node)) != 3:
-            ctx.problem(node.line, _join(path, "coordinates"), "expected a list of 3 coordinate "
-                                                               f"names [x, y, th], {_got(node)}")
-            return None
-        return found if len(found) == 3 else None
-    if "coordinate" not in entries:
+    node = entries.get(kind.coordinate_key)
+    if node is None:
         return None
-    return found if len(found) == 1 else None
+    if count > 1 and (not node.is_list or len(_items(node)) != count):
+        ctx.problem(node.line, _join(path, kind.coordinate_key),
+                    f"expected a list of {count} coordinate names, {_got(node)}")
+        return None
+    found = ctx.joint_coordinates.get(name, ())
+    return found if len(found) == count else None
 
 
 def _axis(ctx: _Ctx, node: Node, path: str) -> Vec2 | None:
@@ -785,6 +768,58 @@ def _check_cycles_in_tree(ctx: _Ctx, parent_of: Mapping[str, _Edge]) -> None:
                     "reaches ground; the joints must form a tree rooted at ground")
 
 
+# ----------------------------------------------------------------------------- constraints
+
+
+def _constraints(ctx: _Ctx, node: Node) -> tuple[Constraint, ...]:
+    """The loop-closing constraints; with them, no more equations than free coordinates."""
+    if not _nonempty_mapping(ctx, node, "constraints", "constraint"):
+        return ()
+    found = []
+    for name, item in _entries(node).items():
+        path = _join("constraints", name)
+        if ctx.names.get(name) != ("constraint", path):
+            continue  # a bad or colliding name, already reported
+        constraint = _constraint(ctx, name, item, path)
+        if constraint is not None:
+            found.append(constraint)
+    equations = sum(c.equations_count for c in found)
+    free = len([q for joint in ctx.joints.values() if not joint.driven
+                for q in joint.coordinates])
+    if found and equations > free:
+        ctx.problem(node.line, "constraints", f"the constraints add {equations} equations but "
+                    f"the joints leave only {free} free coordinates: the mechanism is "
+                    "over-constrained (remove a constraint, or free a joint)")
+    return tuple(found)
+
+
+def _constraint(ctx: _Ctx, name: str, node: Node, path: str) -> Constraint | None:
+    if not node.is_map:
+        ctx.problem(node.line, path, f"expected a constraint mapping {{type, a, b, ...}}, "
+                                     f"{_got(node)}")
+        return None
+    entries = _entries(node)
+    type_node = entries.get("type")
+    type_name = None if type_node is None else _choice(
+        ctx, type_node, _join(path, "type"), tuple(CONSTRAINT_KINDS), "constraint type")
+    kind = CONSTRAINT_KINDS.get(type_name) if type_name is not None else None
+    every_key = sorted({key for keys in CONSTRAINT_KEYS.values() for key in keys})
+    allowed = CONSTRAINT_KEYS[kind.type] if kind is not None else every_key
+    owner = (f"a {kind.type} constraint" if kind is not None else "", every_key)
+    count = len(ctx.problems)
+    _keys(ctx, node, path, allowed, ("type", "a", "b"), owner=owner)
+    reader = Reader(ctx, node, path)
+    ends = {key: reader.point_ref(key) for key in ("a", "b")}
+    fields = kind.read(reader) if kind is not None else None
+    a, b = ends["a"], ends["b"]
+    if a is not None and b is not None and a.body == b.body:
+        ctx.problem(entries["b"].line, _join(path, "b"), f"a constraint joins two bodies, but "
+                    f"a and b are both on {a.body!r}")
+    if kind is None or fields is None or a is None or b is None or len(ctx.problems) > count:
+        return None
+    return kind(name=name, a=a, b=b, loc=ctx.loc(node, path), **fields)
+
+
 # ----------------------------------------------------------------------------- loads
 
 
@@ -802,105 +837,21 @@ def _load(ctx: _Ctx, node: Node, path: str) -> Load | None:
                                      f"{', '.join(LOAD_KINDS)}, {_got(node)}")
         return None
     entries = _entries(node)
-    kinds = [kind for kind in LOAD_KINDS if kind in entries]
+    kinds = [name for name in LOAD_KINDS if name in entries]
     if len(kinds) != 1:
         found = f"got {' and '.join(kinds)}" if kinds else f"got keys {', '.join(entries)}"
         hint = "" if kinds else "".join(_suggest(key, LOAD_KINDS) for key in entries)
         ctx.problem(node.line, path, f"a load has exactly one of {', '.join(LOAD_KINDS)}; "
                                      f"{found}{hint}")
         return None
-    kind = kinds[0]
-    required = ("body",) if kind in ("torque", "force") else ()
+    kind = LOAD_KINDS[kinds[0]]
     count = len(ctx.problems)
     every_key = {key for keys in LOAD_KEYS.values() for key in keys}
-    _keys(ctx, node, path, LOAD_KEYS[kind], required, owner=(f"a {kind} load", every_key))
-    maker = {"torque": _torque, "force": _force, "spring": _spring,
-             "joint_spring": _joint_spring}[kind]
-    load = maker(ctx, node, path)
-    return load if len(ctx.problems) == count else None
-
-
-def _torque(ctx: _Ctx, node: Node, path: str) -> Torque | None:
-    entries = _entries(node)
-    expr = _expr(ctx, entries["torque"], _join(path, "torque"), ctx.scope("load"))
-    body = _load_body(ctx, entries, path)
-    reaction: str | None = GROUND
-    if "reaction" in entries:
-        reaction_node = entries["reaction"]
-        reaction = _body_name(ctx, reaction_node, _join(path, "reaction"), ground=True)
-        if reaction is not None and reaction == body:
-            ctx.problem(reaction_node.line, _join(path, "reaction"),
-                        f"reaction must differ from body, got {body!r} for both")
-    if expr is None or body is None or reaction is None:
+    _keys(ctx, node, path, kind.keys, kind.required, owner=(f"a {kind.kind} load", every_key))
+    fields = kind.read(Reader(ctx, node, path))
+    if fields is None or len(ctx.problems) != count:
         return None
-    return Torque(expr, body, reaction, ctx.loc(node, path))
-
-
-def _load_body(ctx: _Ctx, entries: Mapping[str, Node], path: str) -> str | None:
-    if "body" not in entries:
-        return None
-    return _body_name(ctx, entries["body"], _join(path, "body"), ground=False)
-
-
-def _force(ctx: _Ctx, node: Node, path: str) -> Force | None:
-    entries = _entries(node)
-    components = _vec2(ctx, entries["force"], _join(path, "force"), ctx.scope("load"))
-    body = _load_body(ctx, entries, path)
-    at: Vec2 | None = None
-    if "at" in entries:
-        at = _point_of(ctx, entries["at"], _join(path, "at"), body)
-    elif body is not None and body in ctx.bodies:
-        at = ctx.bodies[body].com
-    frame = "ground"
-    if "frame" in entries:
-        frame = _choice(ctx, entries["frame"], _join(path, "frame"), ("ground", "body"),
-                        "frame") or frame
-    if components is None or body is None or at is None:
-        return None
-    return Force(components, body, at, frame, ctx.loc(node, path))  # type: ignore[arg-type]
-
-
-def _spring(ctx: _Ctx, node: Node, path: str) -> Spring | None:
-    spring = _entries(node)["spring"]
-    path = _join(path, "spring")
-    keys = ("a", "b", "k", "length", "damping")
-    if not _keys(ctx, spring, path, keys, keys[:4], what="a mapping {a, b, k, length, damping}"):
-        return None
-    entries = _entries(spring)
-    ends = [_point_ref(ctx, entries[key], _join(path, key), ground=True)
-            for key in ("a", "b") if key in entries]
-    scope = ctx.scope("load")
-    values = [_expr(ctx, entries[key], _join(path, key), scope) if key in entries else None
-              for key in ("k", "length")]
-    damping = sympy.S.Zero
-    if "damping" in entries:
-        damping = _expr(ctx, entries["damping"], _join(path, "damping"), scope)
-    if len(ends) != 2 or None in (*ends, *values, damping):
-        return None
-    return Spring(ends[0], ends[1], values[0], values[1], damping,  # type: ignore[arg-type]
-                  ctx.loc(spring, path))
-
-
-def _joint_spring(ctx: _Ctx, node: Node, path: str) -> JointSpring | None:
-    spring = _entries(node)["joint_spring"]
-    path = _join(path, "joint_spring")
-    keys = ("joint", "k", "rest", "damping")
-    if not _keys(ctx, spring, path, keys, keys[:2], what="a mapping {joint, k, rest, damping}"):
-        return None
-    entries = _entries(spring)
-    joint = _joint_name(ctx, entries["joint"], _join(path, "joint")) if "joint" in entries else None
-    if joint is not None and joint in ctx.joints:
-        kind = ctx.joints[joint].type
-        if kind not in ("revolute", "prismatic"):
-            ctx.problem(entries["joint"].line, _join(path, "joint"), "a joint_spring needs a "
-                        f"revolute or prismatic joint; {joint!r} is a {kind} joint")
-    scope = ctx.scope("load")
-    values = {key: _expr(ctx, entries[key], _join(path, key), scope) if key in entries
-              else sympy.S.Zero for key in ("k", "rest", "damping")}
-    if joint is None or None in values.values():
-        return None
-    return JointSpring(joint, values["k"], values["rest"], values["damping"],  # type: ignore
-                       ctx.loc(spring, path))
+    return kind(**{"loc": ctx.loc(node, path), **fields})
 
 
 def _joint_name(ctx: _Ctx, node: Node, path: str) -> str | None:
@@ -940,21 +891,122 @@ def _point_ref(ctx: _Ctx, node: Node, path: str, ground: bool) -> PointRef | Non
     return PointRef(body, xy, f"{body}.{parts[1]}") if xy is not None else None
 
 
+# ----------------------------------------------------------------------------- kinds' keys
+
+
+class Reader:
+    """One YAML mapping of a joint or a load, as its kind reads it (nemc/joints/, nemc/loads/):
+    a typed value per key, checked with its location. A wrong value records a problem and
+    reads as None; a missing key reads as its default."""
+
+    def __init__(self, ctx: _Ctx, node: Node, path: str, parent: str | None = None):
+        self.ctx, self.node, self.path = ctx, node, path
+        self.parent = parent  # the joint's parent body, where its points are read
+        self.entries = _entries(node)
+        self._problems_before = len(ctx.problems)
+
+    @property
+    def location(self) -> Loc:
+        return self.ctx.loc(self.node, self.path)
+
+    def fields(self, **values: Any) -> dict[str, Any] | None:
+        """The values read, or None when one is None or a problem was recorded meanwhile."""
+        if len(self.ctx.problems) > self._problems_before or None in values.values():
+            return None
+        return values
+
+    def problem(self, key: str, message: str) -> None:
+        self.ctx.problem(self.entries.get(key, self.node).line, _join(self.path, key), message)
+
+    def _at(self, key: str) -> tuple[Node, str] | None:
+        return (self.entries[key], _join(self.path, key)) if key in self.entries else None
+
+    def expr(self, key: str, default: sympy.Expr | None = None) -> sympy.Expr | None:
+        """An expression of t, coordinates, rates, parameters and constants (as loads take)."""
+        found = self._at(key)
+        return default if found is None else _expr(self.ctx, *found, self.ctx.scope("load"))
+
+    def fixed(self, key: str, default: sympy.Expr) -> sympy.Expr | None:
+        """An expression of parameters and constants, finite at their defaults."""
+        found = self._at(key)
+        return default if found is None else _fixed(self.ctx, *found)
+
+    def vec2(self, key: str) -> Vec2 | None:
+        """[x, y], each as `expr` reads it."""
+        found = self._at(key)
+        return None if found is None else _vec2(self.ctx, *found, self.ctx.scope("load"))
+
+    def axis(self, key: str) -> Vec2 | None:
+        """A fixed direction [x, y], not zero; default [1, 0]."""
+        found = self._at(key)
+        return (sympy.S.One, sympy.S.Zero) if found is None else _axis(self.ctx, *found)
+
+    def choice(self, key: str, choices: tuple[str, ...], default: str) -> str | None:
+        found = self._at(key)
+        return default if found is None else _choice(self.ctx, *found, choices, key)
+
+    def parent_point(self, key: str) -> Vec2 | None:
+        """A point of the joint's parent: a point name or [x, y]; default its origin."""
+        found = self._at(key)
+        return ZERO2 if found is None else _point_of(self.ctx, *found, self.parent)
+
+    def body_point(self, key: str, body: str | None) -> Vec2 | None:
+        """A point of `body`: a point name or [x, y]; default its mass center."""
+        found = self._at(key)
+        if found is not None:
+            return _point_of(self.ctx, *found, body)
+        return self.ctx.bodies[body].com if body in self.ctx.bodies else None
+
+    def body(self, key: str, ground: bool, default: str | None = None) -> str | None:
+        found = self._at(key)
+        return default if found is None else _body_name(self.ctx, *found, ground=ground)
+
+    def point_ref(self, key: str) -> PointRef | None:
+        """BODY.POINT or {body: BODY, at: [x, y]} (ground allowed)."""
+        found = self._at(key)
+        return None if found is None else _point_ref(self.ctx, *found, ground=True)
+
+    def joint(self, key: str, accepts: Callable[[type[Joint]], bool], needs: str) -> str | None:
+        """A joint's name; `needs` says what a joint of a kind that `accepts` refuses lacks."""
+        found = self._at(key)
+        name = None if found is None else _joint_name(self.ctx, *found)
+        joint = self.ctx.joints.get(name) if name is not None else None
+        if joint is not None and not accepts(type(joint)):
+            self.problem(key, f"{needs}; {name!r} is a {joint.type} joint")
+        return name
+
+    def mapping(self, key: str, allowed: tuple[str, ...], required: tuple[str, ...]
+                ) -> Reader | None:
+        """The mapping under `key`, to read in turn (None: not a mapping of these keys)."""
+        found = self._at(key)
+        if found is None or not _keys(self.ctx, *found, allowed, required,
+                                      what=f"a mapping {{{', '.join(allowed)}}}"):
+            return None
+        return Reader(self.ctx, *found)
+
+
 # ----------------------------------------------------------------------------- outputs
 
 
 def _outputs(ctx: _Ctx, node: Node) -> Outputs:
-    keys = ("reactions", "energy", "points", "accelerations", "expressions")
+    keys = ("reactions", "energy", "points", "accelerations", "expressions", "drives")
     if not _keys(ctx, node, "outputs", keys):
         return Outputs()
     entries = _entries(node)
     reactions: list[str] = []
     for i, item in enumerate(_list(ctx, entries.get("reactions"), "outputs.reactions")):
-        name = _joint_name(ctx, item, f"outputs.reactions[{i}]")
+        name = _reaction_name(ctx, item, f"outputs.reactions[{i}]")
         if name in reactions:
-            ctx.problem(item.line, f"outputs.reactions[{i}]", f"joint {name!r} is listed twice")
+            ctx.problem(item.line, f"outputs.reactions[{i}]", f"{name!r} is listed twice")
         elif name is not None:
             reactions.append(name)
+    drives: list[str] = []
+    for i, item in enumerate(_list(ctx, entries.get("drives"), "outputs.drives")):
+        name = _driven_joint(ctx, item, f"outputs.drives[{i}]")
+        if name in drives:
+            ctx.problem(item.line, f"outputs.drives[{i}]", f"{name!r} is listed twice")
+        elif name is not None:
+            drives.append(name)
     points: list[PointRef] = []
     for i, item in enumerate(_list(ctx, entries.get("points"), "outputs.points")):
         point = _point_ref(ctx, item, f"outputs.points[{i}]", ground=False)
@@ -966,7 +1018,32 @@ def _outputs(ctx: _Ctx, node: Node) -> Outputs:
              for key in ("energy", "accelerations")}
     expressions = _output_expressions(ctx, entries.get("expressions"))
     return Outputs(tuple(reactions), flags["energy"], tuple(points), flags["accelerations"],
-                   expressions)
+                   expressions, tuple(drives))
+
+
+def _reaction_name(ctx: _Ctx, node: Node, path: str) -> str | None:
+    """A joint's or a constraint's name."""
+    name = _string(ctx, node, path, "a joint or constraint name")
+    if name is None:
+        return None
+    if name not in ctx.joint_keys and name not in ctx.constraint_keys:
+        known = [*ctx.joint_keys, *ctx.constraint_keys]
+        ctx.problem(node.line, path, f"unknown joint or constraint {name!r}"
+                                     f"{_suggest(name, known)}")
+        return None
+    return name
+
+
+def _driven_joint(ctx: _Ctx, node: Node, path: str) -> str | None:
+    """A driven joint's name (one with `motion:`)."""
+    name = _joint_name(ctx, node, path)
+    joint = ctx.joints.get(name) if name is not None else None
+    if joint is not None and not joint.driven:
+        driven = [j.name for j in ctx.joints.values() if j.driven]
+        ctx.problem(node.line, path, f"joint {name!r} is not driven (it has no motion:); "
+                                     f"driven joints: {', '.join(driven) or 'none'}")
+        return None
+    return name
 
 
 def _list(ctx: _Ctx, node: Node | None, path: str) -> list[Node]:
@@ -999,7 +1076,7 @@ def _output_expressions(ctx: _Ctx, node: Node | None) -> tuple[tuple[str, sympy.
 
 
 def _simulation(ctx: _Ctx, node: Node) -> Simulation:
-    keys = ("t_span", "initial", "t_eval", "method", "rtol", "atol")
+    keys = ("t_span", "initial", "t_eval", "method", "rtol", "atol", "guess")
     if not _keys(ctx, node, "simulation", keys):
         return Simulation()
     entries = _entries(node)
@@ -1013,8 +1090,11 @@ def _simulation(ctx: _Ctx, node: Node) -> Simulation:
         method = _choice(ctx, entries["method"], "simulation.method", METHODS, "method")
     tolerances = {key: _positive(ctx, entries[key], _join("simulation", key))
                   if key in entries else None for key in ("rtol", "atol")}
+    guess = {}
+    if "guess" in entries:
+        guess = _initial(ctx, entries["guess"], "simulation.guess", rates=False)
     return Simulation(t_span, initial, t_eval, step, method, tolerances["rtol"],
-                      tolerances["atol"])
+                      tolerances["atol"], guess)
 
 
 def _positive(ctx: _Ctx, node: Node, path: str) -> float | None:
@@ -1039,19 +1119,31 @@ def _t_span(ctx: _Ctx, node: Node) -> tuple[float, float] | None:
     return (t0, t1)
 
 
-def _initial(ctx: _Ctx, node: Node) -> dict[str, sympy.Expr]:
-    path = "simulation.initial"
+def _initial(ctx: _Ctx, node: Node, path: str = "simulation.initial",
+             rates: bool = True) -> dict[str, sympy.Expr]:
+    """Values of the state's coordinates (and, where `rates`, of their rates): `initial`, or
+    the assembly's `guess`."""
+    what = "q or dot(q)" if rates else "q"
     if not node.is_map:
-        ctx.problem(node.line, path, f"expected a mapping q or dot(q) -> value, {_got(node)}")
+        ctx.problem(node.line, path, f"expected a mapping {what} -> value, {_got(node)}")
         return {}
-    states = [name for q in ctx.coordinates for name in (q, f"dot({q})")]
+    driven = {q: joint.name for joint in ctx.joints.values() if joint.driven
+              for q in joint.coordinates}
+    free = [q for q in ctx.coordinates if q not in driven]
+    states = [name for q in free for name in ((q, f"dot({q})") if rates else (q,))]
     initial: dict[str, sympy.Expr] = {}
     for key, value in _entries(node).items():
         match = re.fullmatch(r"dot\(\s*(\w+)\s*\)", key)
         name = f"dot({match.group(1)})" if match else key
+        coordinate = match.group(1) if match else key
+        if coordinate in driven:
+            ctx.problem(node.key_lines[key], _join(path, key), f"{coordinate} is driven (joints."
+                        f"{driven[coordinate]}.motion): its value is prescribed, not given here")
+            continue
         if name not in states:
-            ctx.problem(node.key_lines[key], _join(path, key), f"unknown coordinate or rate "
-                        f"{key!r}{_suggest(key, states)}; expected a coordinate q or dot(q)")
+            ctx.problem(node.key_lines[key], _join(path, key), f"unknown coordinate"
+                        f"{' or rate' if rates else ''} {key!r}{_suggest(key, states)}; "
+                        f"expected a coordinate {what}")
             continue
         if name in initial:
             ctx.problem(node.key_lines[key], _join(path, key), f"{name} is given twice")

@@ -21,16 +21,13 @@ import numpy as np
 import sympy as sp
 import yaml
 
+from nemc.joints import Joint
+from nemc.loads import Force, JointSpring, Spring, Torque
 from nemc.model import (
     GROUND,
     TIME,
-    Force,
-    Joint,
-    JointSpring,
     Mechanism,
     PointRef,
-    Spring,
-    Torque,
     Vec2,
     rate_symbol,
     symbol,
@@ -76,7 +73,7 @@ def _child_frame(joint: Joint, parent: Frame) -> Frame:
         unit = axis / sp.sqrt(axis[0] ** 2 + axis[1] ** 2)
         return Frame(parent.angle + joint.offset, at + _rot(parent.angle) * unit * s)
     if joint.type == "free":
-        if joint.parent != GROUND or sp.sympify(joint.offset) != 0:
+        if joint.parent != GROUND or sp.sympify(getattr(joint, "offset", 0)) != 0:
             raise ValueError(f"free joint {joint.name}: ground parent and no offset expected")
         x, y, th = (symbol(c) for c in joint.coordinates)
         return Frame(th, sp.Matrix([x, y]))

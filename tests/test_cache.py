@@ -162,7 +162,7 @@ CORRUPTIONS: dict[str, Callable[[Path], None]] = {
     "edited metadata": lambda entry: (entry / "model.json").write_text(
         (entry / "model.json").read_text().replace('"W"', '"X"')),
     "missing metadata": delete("model.json"),
-    "missing runtime": delete("_runtime.py"),
+    "missing package init": delete("__init__.py"),
     "garbage manifest": rewrite(COMPLETE, b"\xff\xfe garbage"),
     "empty manifest": rewrite(COMPLETE, b"{}"),
     "old-style manifest": lambda entry: (entry / COMPLETE).write_text(entry.name + "\n"),
@@ -220,7 +220,7 @@ def test_a_truncated_extension_is_never_loaded(cache: Path) -> None:
 
 def test_missing_compiler_is_a_clear_build_error(cache: Path, tmp_path: Path,
                                                  monkeypatch: pytest.MonkeyPatch, capsys) -> None:
-    monkeypatch.setattr(build, "CC", str(tmp_path / "no-such-cc"))
+    monkeypatch.setenv("CC", str(tmp_path / "no-such-cc"))  # read when a build starts
     out = tmp_path / "out"
     assert main(["compile", str(COMPOUND), "-o", str(out)]) == 1
     err = capsys.readouterr().err
@@ -233,7 +233,7 @@ def test_a_failing_compiler_is_a_build_error(cache: Path, tmp_path: Path,
     script = tmp_path / "badcc"
     script.write_text("#!/bin/sh\necho 'badcc: internal error' >&2\nexit 3\n")
     script.chmod(0o755)
-    monkeypatch.setattr(build, "CC", str(script))
+    monkeypatch.setenv("CC", str(script))
     assert main(["compile", str(COMPOUND), "-o", str(tmp_path / "out")]) == 1
     err = capsys.readouterr().err
     assert "the C compiler failed on" in err and "badcc: internal error" in err

@@ -411,7 +411,7 @@ BAD = [
     ("outputs-unknown-key", extra("outputs:\n  energie: true\n"), "10: outputs.energie:",
      "did you mean 'energy'?"),
     ("reaction-unknown", extra("outputs:\n  reactions: [A, C]\n"), "10: outputs.reactions[1]:",
-     "unknown joint 'C'"),
+     "unknown joint or constraint 'C'"),
     ("reaction-twice", extra("outputs:\n  reactions: [A, A]\n"), "10: outputs.reactions[1]:",
      "listed twice"),
     ("reactions-scalar", extra("outputs:\n  reactions: A\n"), "10: outputs.reactions:",

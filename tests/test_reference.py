@@ -21,21 +21,18 @@ from reference import (
     resolve_parameters,
 )
 
+from nemc.joints import JOINT_KINDS, Joint
+from nemc.loads import Force, JointSpring, Spring, Torque
 from nemc.model import (
     GROUND,
     TIME,
     Body,
-    Force,
-    Joint,
-    JointSpring,
     Loc,
     Mechanism,
     Outputs,
     Param,
     PointRef,
     Simulation,
-    Spring,
-    Torque,
     rate_symbol,
     symbol,
 )
@@ -69,7 +66,8 @@ def joint(name: str, kind: str, parent: str, child: str, coords=(), at=(0, 0), *
         k: (tuple(S(a) for a in v) if k == "axis" else S(v) if k == "offset" else v)
         for k, v in kw.items()
     }
-    return Joint(name, kind, parent, child, (S(at[0]), S(at[1])), tuple(coords), loc=LOC, **kw)
+    return JOINT_KINDS[kind](name=name, parent=parent, child=child, at=(S(at[0]), S(at[1])),
+                             coordinates=tuple(coords), loc=LOC, **kw)
 
 
 def mechanism(

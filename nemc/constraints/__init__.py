@@ -1,0 +1,17 @@
+"""The loop-closing constraint kinds, one module each, found through one table.
+
+To add a kind: write its module (a subclass of constraints.base.Constraint: its equations and
+the meaning of its multipliers), add it to CONSTRAINT_KINDS, and test it.
+"""
+
+from __future__ import annotations
+
+from .base import Constraint
+from .prismatic import PrismaticConstraint
+from .revolute import RevoluteConstraint
+from .slot import Slot
+
+CONSTRAINT_KINDS: dict[str, type[Constraint]] = {
+    kind.type: kind for kind in (RevoluteConstraint, Slot, PrismaticConstraint)}
+
+__all__ = ["CONSTRAINT_KINDS", "Constraint", "PrismaticConstraint", "RevoluteConstraint", "Slot"]

@@ -1,0 +1,123 @@
+"""What every load kind is and answers: the base class of the kinds in this package.
+
+A load kind is a frozen dataclass (what its YAML mapping holds, ending with its location) whose
+methods answer every question the pipeline asks about a load of that kind: its YAML keys and
+how they are read (validate), the expressions it holds, how it acts in the articulated-body
+algorithm (spatial forces on bodies) and in the Newton-Euler balances of the kinematics (point
+forces, couples and generalized forces: the mass-matrix form and the reaction outputs), and its
+potential energy. Nothing outside nemc/loads/ tests a load's kind; it asks the load.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+
+import sympy
+
+from ..model import Loc, Vec2
+from ..spatial import V2, V3
+
+if TYPE_CHECKING:
+    from ..joints import Frame, Joint
+    from ..kinematics import Kinematics
+    from ..validate import Reader
+
+Expr = sympy.Expr
+
+
+class ArticulatedLoads(Protocol):
+    """What the articulated-body algorithm offers a load that acts in it."""
+
+    def frame(self, body: str) -> Frame: ...
+
+    def velocity(self, body: str) -> V3: ...
+
+    def coordinate(self, name: str) -> Expr: ...
+
+    def speed(self, coordinate: str) -> Expr: ...
+
+    def joint(self, name: str) -> Joint: ...
+
+    def apply(self, body: str, force: V3) -> None: ...
+
+    def apply_at(self, body: str, at: V2, force: V2) -> None: ...
+
+
+@dataclass(frozen=True)
+class PointForce:
+    """A force (ground frame) applied at a point fixed in a body."""
+
+    body: str
+    xy: Vec2
+    force: sympy.Matrix  # 2 x 1
+
+
+@dataclass
+class Applied:
+    """Loads as the Newton-Euler balances take them: point forces, couples (body, torque), and
+    generalized forces (relative displacement, tension) doing tension * d(displacement)/dq."""
+
+    forces: list[PointForce] = field(default_factory=list)
+    couples: list[tuple[str, Expr]] = field(default_factory=list)
+    generalized: list[tuple[Expr, Expr]] = field(default_factory=list)
+
+    def add(self, other: Applied) -> None:
+        self.forces += other.forces
+        self.couples += other.couples
+        self.generalized += other.generalized
+
+
+@dataclass(frozen=True)
+class Load:
+    """A load of the mechanism. Subclasses: one per kind, in this package."""
+
+    kind: ClassVar[str]  # the key that marks a load of this kind in the YAML's `loads` list
+    keys: ClassVar[tuple[str, ...]]  # every key of its mapping (the kind's key first)
+    required: ClassVar[tuple[str, ...]] = ()  # keys besides the kind's own that must be there
+
+    @classmethod
+    def read(cls, read: Reader) -> dict[str, Any] | None:
+        """The load's fields from its YAML entries (None: a problem was recorded)."""
+        raise NotImplementedError
+
+    @property
+    def location(self) -> Loc:
+        return self.loc  # type: ignore[attr-defined]  (every kind's last field)
+
+    def expressions(self) -> list[tuple[str, Expr]]:
+        """(key path under its location, expression) of every expression of t, q, dq it
+        holds."""
+        return []
+
+    def map_expressions(self, f: Callable[[Expr], Expr]) -> Load:
+        """The load with f applied to every expression it holds (e.g. constants folded)."""
+        changes = {}
+        for item in dataclasses.fields(self):
+            value = getattr(self, item.name)
+            if isinstance(value, sympy.Basic):
+                changes[item.name] = f(value)
+            elif isinstance(value, tuple) and value and all(
+                    isinstance(v, sympy.Basic) for v in value):
+                changes[item.name] = tuple(f(v) for v in value)
+        return dataclasses.replace(self, **changes)
+
+    def act(self, aba: ArticulatedLoads) -> None:
+        """Apply the load in the articulated-body algorithm (its expressions already in
+        runtime symbols)."""
+        raise NotImplementedError
+
+    def applied(self, kin: Kinematics) -> Applied:
+        """The load as point forces, couples and generalized forces."""
+        raise NotImplementedError
+
+    def potential(self, kin: Kinematics) -> Expr | None:
+        """Its potential energy, for the kinds that have one."""
+        return None
+
+    def force_through_joint(self, kin: Kinematics, joint: Joint) -> V2 | None:
+        """The force this load puts on the joint's child through the joint itself (the joint's
+        reaction output leaves it out); None when it puts none."""
+        return None

@@ -1,0 +1,151 @@
+"""Closed loops at run time: a consistent initial state from the scene's (or the caller's)
+partial one, the states a run returns brought onto the constraints, their residuals, and the
+kinematic analysis of a mechanism its drives leave without a degree of freedom.
+
+The model's C does the numerical work (templates/loops.c.tmpl: `assemble`, `project`,
+`constraint_residual`); this mixin of runtime.Model calls it and says, by name, which
+constraint cannot hold. Like runtime.py it needs only numpy: nemc/build.py copies it into every
+standalone package.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+ASSEMBLY_TOLERANCE = 1e-10  # what an assembled or given state may leave of a constraint
+
+
+class LoopsMixin:
+    """Closed loops for runtime.Model (which provides _lib, _ffi, metadata, state names...)."""
+
+    metadata: dict
+    state_names: tuple[str, ...]
+    n_state: int
+
+    @property
+    def constraint_equations(self) -> tuple[str, ...]:
+        """The constraint owning each constraint equation (empty for a tree)."""
+        return tuple(self.metadata.get("constraint_equations", ()))
+
+    @property
+    def has_loops(self) -> bool:
+        return bool(self.constraint_equations)
+
+    def _loop_c(self, name: str) -> Any:
+        return getattr(self._lib, self.metadata["c_prefix"] + name)  # type: ignore[attr-defined]
+
+    def _equation(self, status: int) -> str:
+        """The constraint of the equation a NEMC_PROJECTION_FAILED / NEMC_LOOP_SINGULAR status
+        names."""
+        index = (-status) % 1000
+        equations = self.constraint_equations
+        return equations[index] if index < len(equations) else f"equation {index}"
+
+    def loop_failure(self, status: int) -> str | None:
+        """What a loop status of the model's C means, or None for other statuses."""
+        if -2000 < status <= -1000:
+            return (f"the state cannot be brought onto constraint {self._equation(status)!r} "
+                    "(the loop cannot close here: a configuration the mechanism cannot reach, "
+                    "or the motion left the branch it was on)")
+        if -3000 < status <= -2000:
+            return (f"constraint {self._equation(status)!r} cannot hold its acceleration here: "
+                    "a singular (locked) configuration of the loop")
+        return None
+
+    # -- residuals and projection -------------------------------------------------------------
+
+    def constraint_residual(self, y: Any, t: Any = 0.0,
+                            params: Mapping[str, float] | None = None) -> np.ndarray:
+        """|Phi(q, t)| and |Phi_q q' + Phi_t| (the largest entry of each) at a state, or for y of
+        shape (n_state, n_t) at each state (shape (2, n_t)). Zeros for a mechanism without
+        loops."""
+        array = np.asarray(y, dtype=float)
+        single = array.ndim == 1
+        ys = self._states(array.reshape(-1, 1) if single else array)  # type: ignore[attr-defined]
+        if not self.has_loops:
+            return np.zeros(2) if single else np.zeros((2, len(ys)))
+        ts = self._times_for(t, len(ys))  # type: ignore[attr-defined]
+        out = np.empty((len(ys), 2))
+        buffer = self._buffer  # type: ignore[attr-defined]
+        self._loop_c("constraint_residual")(len(ys), buffer(ts), buffer(ys),
+                                            buffer(self.parameter_vector(params)),  # type: ignore
+                                            buffer(out))
+        return out[0] if single else out.T
+
+    def projected(self, t: np.ndarray, y: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """The states y (n_state, n_t) at times t brought onto the constraints (y itself for a
+        tree). A state that cannot be is left as it is (its run reports why)."""
+        if not self.has_loops or not y.size:
+            return y
+        ys = np.ascontiguousarray(y.T, dtype=float)
+        ts = np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=float), (len(ys),)))
+        out = ys.copy()
+        buffer, project = self._buffer, self._loop_c("project")  # type: ignore[attr-defined]
+        for k in range(len(ys)):  # one by one: a state that fails keeps its value
+            project(1, buffer(ts[k:k + 1]), buffer(ys[k]), buffer(p), buffer(out[k]))
+        return out.T
+
+    # -- assembly -------------------------------------------------------------------------
+
+    def assembled(self, t0: float, y0: np.ndarray, given: np.ndarray, p: np.ndarray
+                  ) -> tuple[np.ndarray, int]:
+        """y0 made consistent at t0: the entries marked given kept, the others solved from the
+        constraints starting from their values in y0 (the guess); and the number of degrees of
+        freedom left (coordinates less the rank of Phi_q). Raises the model's error naming the
+        constraint that cannot hold."""
+        if not self.has_loops:
+            return y0, len(self.state_names) // 2
+        state = np.ascontiguousarray(y0, dtype=float).copy()
+        mask = np.ascontiguousarray(given, dtype=np.intc)
+        info = np.zeros(5)
+        buffer = self._buffer  # type: ignore[attr-defined]
+        status = self._loop_c("assemble")(float(t0), buffer(state),
+                                          self._ffi.from_buffer("int[]", mask),  # type: ignore
+                                          buffer(p), buffer(info))
+        if status:
+            raise self._model_error(self._assembly_failure(status, info, given))  # type: ignore
+        return state, len(self.state_names) // 2 - int(info[4])
+
+    def _assembly_failure(self, status: int, info: np.ndarray, given: np.ndarray) -> str:
+        named = [name for name, kept in zip(self.state_names, given) if kept]
+        values = f" with {', '.join(named)} given" if named else ""
+        if -2000 < status <= -1000:
+            return (f"the mechanism cannot be assembled{values}: constraint "
+                    f"{self._equation(status)!r} is left {info[0]:.3g} from closing "
+                    f"(more than {ASSEMBLY_TOLERANCE:g}); change the initial values, the guess "
+                    "(which picks the assembly's branch) or the geometry")
+        return (f"the given rates cannot satisfy constraint {self._equation(status)!r} "
+                f"(residual {info[2]:.3g}){values}; give fewer rates, or consistent ones")
+
+    # -- no degree of freedom: a kinematic analysis -----------------------------------------
+
+    def kinematic_states(self, times: np.ndarray, y0: np.ndarray, p: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray, str | None]:
+        """The states of a mechanism its drives leave without a degree of freedom, at each time:
+        assembled from the previous one (the first from y0, assembled already), so the branch
+        carries over. Returns the times reached, their states (n_state, n_t), and why it
+        stopped early (or None)."""
+        nothing = np.zeros(self.n_state, dtype=bool)
+        states, state = [], y0
+        for t in times:
+            try:
+                state, _ = self.assembled(float(t), state, nothing, p)
+            except ValueError as error:
+                return (times[:len(states)], np.array(states).T.reshape(self.n_state, -1),
+                        f"at t={float(t):.9g}: {error}")
+            states.append(state)
+        return times, np.array(states).T.reshape(self.n_state, -1), None
+
+    def given_mask(self, y0: Any) -> np.ndarray:
+        """Which entries of the initial state the caller (or the scene) gives: the scene's
+        `initial` for y0 None, a dict's keys, every entry of an array."""
+        if y0 is None:
+            given = set(self.metadata.get("initial_given", ()))
+        elif isinstance(y0, Mapping):
+            given = set(y0)
+        else:
+            given = set(self.state_names)
+        return np.array([name in given for name in self.state_names])

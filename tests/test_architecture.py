@@ -1,0 +1,167 @@
+"""The code's shape, as docs/architecture.md describes it: a joint or load kind lives in one
+module of its registry and nothing else tests a kind by its name; the C interface is one header
+whose declarations are the cffi cdef; the printer names arrays only through its layout macros;
+the build key covers the modules that make builds and nothing else."""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import re
+from pathlib import Path
+
+import pytest
+import sympy
+
+from nemc import build
+from nemc.derive import derive, with_diagnostics, with_taylor
+from nemc.emit import emit, symbol_table
+from nemc.joints import JOINT_KINDS, Joint, Revolute, joint_kind
+from nemc.loads import LOAD_KINDS, Load
+from nemc.optimize import optimize_equations
+from nemc.validate import validate_text
+
+NEMC = Path(build.__file__).resolve().parent
+EXAMPLES = NEMC.parent / "examples"
+REGISTRIES = ("joints", "loads")
+KIND_NAMES = set(JOINT_KINDS) | set(LOAD_KINDS)
+KIND_CLASSES = {kind.__name__ for kind in (*JOINT_KINDS.values(), *LOAD_KINDS.values())}
+
+
+def modules_outside_registries() -> list[Path]:
+    return [path for path in sorted(NEMC.rglob("*.py"))
+            if path.relative_to(NEMC).parts[0] not in REGISTRIES]
+
+
+def names_a_kind(node: ast.AST) -> bool:
+    """A string constant that is a kind's name, or a tuple/list/set of them."""
+    if isinstance(node, ast.Constant):
+        return node.value in KIND_NAMES
+    if isinstance(node, (ast.Tuple, ast.List, ast.Set)):
+        return any(names_a_kind(item) for item in node.elts)
+    return False
+
+
+def is_kind_attribute(node: ast.AST) -> bool:
+    """`x.type`: a joint's kind name (other objects' `.kind`, as a token's, are not kinds)."""
+    return isinstance(node, ast.Attribute) and node.attr == "type"
+
+
+def kind_tests(tree: ast.AST) -> list[int]:
+    """Lines that test a joint's or a load's kind: `x.type == "revolute"`, `"free" in ...`,
+    `isinstance(load, Torque)`, a dict keyed by kind names, a match on a kind."""
+    lines = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Compare):
+            operands = [node.left, *node.comparators]
+            if any(names_a_kind(o) for o in operands) or any(is_kind_attribute(o)
+                                                             for o in operands):
+                lines.append(node.lineno)
+        elif isinstance(node, ast.Call) and getattr(node.func, "id", "") == "isinstance":
+            if any(name.id in KIND_CLASSES for name in ast.walk(node.args[1])
+                   if isinstance(name, ast.Name)):
+                lines.append(node.lineno)
+        elif isinstance(node, ast.Dict) and any(k is not None and names_a_kind(k)
+                                                for k in node.keys):
+            lines.append(node.lineno)
+        elif isinstance(node, ast.Match) and is_kind_attribute(node.subject):
+            lines.append(node.lineno)
+    return lines
+
+
+def test_no_module_outside_the_registries_tests_a_kind_by_its_name() -> None:
+    found = {str(path.relative_to(NEMC)): kind_tests(ast.parse(path.read_text()))
+             for path in modules_outside_registries()}
+    assert {name: lines for name, lines in found.items() if lines} == {}
+
+
+def test_the_kind_test_finds_kind_tests() -> None:
+    """The check above can fail: it finds each form of a kind test."""
+    samples = ['joint.type == "revolute"', 'kind in ("free", "weld")',
+               "isinstance(load, Torque)", '{"spring": 1}', 'load.kind != "force"',
+               "match joint.type:\n    case _: pass"]
+    assert all(kind_tests(ast.parse(sample)) for sample in samples)
+    assert not kind_tests(ast.parse('name == "forces" or token.kind == "op"'))
+
+
+@pytest.mark.parametrize("registry, table, base", [("joints", JOINT_KINDS, Joint),
+                                                   ("loads", LOAD_KINDS, Load)])
+def test_every_kind_module_is_in_its_table(registry: str, table: dict, base: type) -> None:
+    """One module per kind, each kind in the table under the name the YAML uses."""
+    modules = {path.stem for path in (NEMC / registry).glob("*.py")} - {"__init__", "base"}
+    owners = {kind.__module__.rsplit(".", 1)[1]: kind for kind in table.values()}
+    assert set(owners) == modules
+    assert all(issubclass(kind, base) for kind in table.values())
+
+
+def test_an_unknown_kind_fails_loudly() -> None:
+    assert joint_kind("revolute") is Revolute
+    with pytest.raises(ValueError, match="unknown joint kind 'helical'"):
+        joint_kind("helical")
+
+
+def test_a_kind_that_answers_nothing_fails_loudly() -> None:
+    """A new kind that does not say where it puts its child is an error, not a silent weld."""
+
+    @dataclasses.dataclass(frozen=True)
+    class Mute(Joint):
+        type = "mute"
+        keys = ("at", "coordinate")
+        coordinate_key = "coordinate"
+        coordinate_kinds = ("angle",)
+
+    mech = validate_text((EXAMPLES / "compound_pendulum.yaml").read_bytes(), "compound.yaml")
+    joint = mech.joints[0]
+    mute = Mute(joint.name, joint.parent, joint.child, joint.coordinates, joint.loc, joint.at)
+    with pytest.raises(NotImplementedError):
+        derive(dataclasses.replace(mech, joints=(mute,)))
+
+
+def equations(name: str):
+    mech = validate_text((EXAMPLES / f"{name}.yaml").read_bytes(), f"{name}.yaml")
+    eqs = with_taylor(with_diagnostics(derive(mech)))
+    return eqs, optimize_equations(eqs)
+
+
+@pytest.mark.parametrize("name", ["double_pendulum", "free_body_on_spring"])
+def test_the_printer_names_arrays_only_through_layout_macros(name: str) -> None:
+    eqs, block = equations(name)
+    names = symbol_table(eqs, block)
+    arrays = {symbol: c for symbol, c in names.items() if not re.fullmatch(r"[a-z]\w*", c)}
+    assert arrays and all(re.fullmatch(r"[A-Z_]+\(\d+\)", c) for c in arrays.values())
+    code = emit(eqs, block)
+    defined = set(re.findall(r"#define (\w+)\(", code.header))
+    used = set(re.findall(r"\b([A-Z_]+)\(\d+\)", code.c_source))
+    assert {"Q", "DQ", "P", "QDD"} <= used <= defined | {"TAYLOR_ROW"}
+    # the state's layout is spelled in the header alone
+    assert "2 * (i)" in code.header and "2 * i" not in code.c_source
+
+
+def test_the_cdef_is_the_headers_text() -> None:
+    eqs, block = equations("double_pendulum")
+    code = emit(eqs, block)
+    assert code.cdef in code.header and "double_pendulum_integrate(" in code.cdef
+    assert "#define" not in code.cdef  # cffi's part: declarations only
+    for function in re.findall(r"\b(double_pendulum_\w+)\(", code.cdef):
+        assert re.search(rf"\n\w+ {function}\(", code.c_source), function  # each one defined
+
+
+def test_the_build_key_covers_what_makes_builds() -> None:
+    modules = {path.relative_to(NEMC).as_posix() for path in build.build_modules()}
+    assert {"derive.py", "emit.py", "articulated.py", "joints/revolute.py",
+            "loads/spring.py", "validate.py"} <= modules
+    assert not modules & {"cli.py", "report.py", "stress.py", "stress_report.py", "runtime.py"}
+    assert {t.name for t in build.template_files()} >= {"model.h.tmpl", "model.c.tmpl"}
+
+
+def test_a_kind_holds_its_expressions_in_one_place() -> None:
+    """map_expressions reaches every expression of every kind (the articulated-body algorithm
+    folds constants through it)."""
+    mech = validate_text((EXAMPLES / "joint_spring_telescope.yaml").read_bytes(), "t.yaml")
+    marker = sympy.Symbol("marker")
+    for item in (*mech.joints, *mech.loads):
+        mapped = item.map_expressions(lambda e: marker)
+        for f in dataclasses.fields(mapped):
+            value = getattr(mapped, f.name)
+            if isinstance(value, sympy.Basic):
+                assert value == marker, (item, f.name)
