@@ -49,6 +49,7 @@ NEMC_DIR = Path(__file__).resolve().parent
 NOT_IN_BUILD_KEY = frozenset({
     "cli.py", "report.py", "show.py", "stress.py", "stress_report.py", "load.py", "errors.py",
     "runtime.py", "loops_runtime.py",  # copied into the exported package by `export`
+    "sweep.py", "sweep_store.py",  # run builds, never make them
 })
 # The runtime of a standalone package: copied from nemc when a package is exported, under these
 # names (the package's __init__ imports ._runtime, which imports .methods).
