@@ -1,14 +1,19 @@
 # nemc: `make run` compiles and simulates the book's double pendulum; `make test` runs the tests;
-# `make stress` regenerates the stress report of the book's four systems (docs/stress/).
+# `make stress` regenerates the stress report of the book's four systems (docs/stress/);
+# `make docs` builds the documentation site from docs/ into site/ (no network needed);
+# `make figures` redraws its figures of the book's systems.
 # Each sets up everything on a fresh machine (a virtual environment in .venv).
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 PEERS_STAMP := $(VENV)/.peers-installed
+DOCS_STAMP := $(VENV)/.docs-installed
+OTHER_VENV := .venv-abi3
+OTHER_STAMP := $(OTHER_VENV)/.installed
 export NEMC_CACHE ?= $(CURDIR)/.nemc-cache
 
-.PHONY: run test wheel-check bench bench-quick stress lint clean
+.PHONY: run figures test wheel-check bench bench-quick stress lint docs other-python clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -16,12 +21,29 @@ $(STAMP): pyproject.toml
 	$(BIN)/pip install --quiet -e '.[dev,sweep]'
 	touch $(STAMP)
 
+# The README's figures (docs/figures/double_pendulum.{png,gif}) come from here.
 run: $(STAMP)
 	$(BIN)/nemc compile examples/double_pendulum.yaml
-	$(BIN)/nemc simulate examples/double_pendulum.yaml --plot generated/double_pendulum.png
+	$(BIN)/nemc simulate examples/double_pendulum.yaml --plot docs/figures/double_pendulum.png
+	$(BIN)/nemc animate examples/double_pendulum.yaml --out docs/figures/double_pendulum.gif
 
-test: $(STAMP)
+# The figures of the docs' tutorials: the book's four systems (docs/figures/).
+BOOK := compound_pendulum double_pendulum robot_arm two_link_robot_arm
+figures: $(STAMP)
+	for name in $(BOOK); do \
+	  $(BIN)/nemc simulate examples/$$name.yaml --plot docs/figures/$$name.png > /dev/null && \
+	  $(BIN)/nemc animate examples/$$name.yaml --out docs/figures/$$name.gif || exit 1; done
+
+test: $(STAMP) other-python
 	$(BIN)/python -m pytest -q
+
+# Another CPython (the newest >= 3.10 found that is not the .venv's) with cffi and numpy, for the
+# test that loads a standalone package's stable-ABI extension in it; without one it is skipped.
+other-python: $(STAMP)
+	@[ -f $(OTHER_STAMP) ] || { other=$$($(BIN)/python tests/other_python.py); \
+	  if [ -n "$$other" ] && "$$other" -m venv $(OTHER_VENV) && \
+	     $(OTHER_VENV)/bin/pip install --quiet cffi numpy; then touch $(OTHER_STAMP); \
+	  else echo "no other CPython >= 3.10 set up: the stable-ABI test will be skipped"; fi; }
 
 # The built wheel, installed alone into a fresh virtual environment (no source tree on the path),
 # compiles and simulates an example, and its exported package runs on its own (CI runs this).
@@ -56,8 +78,16 @@ bench-quick: $(STAMP)
 stress: $(STAMP)
 	$(BIN)/nemc stress --suite book --out docs/stress
 
+# The docs site (mkdocs-material, its search index built locally: no network at build time).
+$(DOCS_STAMP): $(STAMP)
+	$(BIN)/pip install --quiet -e '.[dev,docs]'
+	touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
+
 lint: $(STAMP)
 	$(BIN)/ruff check nemc tests benchmarks
 
 clean:
-	rm -rf generated/* .nemc-cache
+	rm -rf generated/* .nemc-cache site

@@ -11,26 +11,46 @@ loads in milliseconds.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:
     from .runtime import Model
+    from .sweeps import SweepResult
 
 
 def compile(  # noqa: A001
-    path: str | Path, *, jacobian: bool | None = None, taylor: bool | None = None
+    path: str | Path | None = None, *, text: str | None = None, name: str = "<text>",
+    jacobian: bool | None = None, taylor: bool | None = None,
 ) -> Model:
-    """Build the mechanism in PATH, or load its cached build, and return the Model.
+    """Build the mechanism in PATH, or given as YAML `text` (messages then name `name`), or
+    load its cached build, and return the Model.
 
     The analytic Jacobian is generated when `jacobian` is True, or (None) when the scene's
     method is implicit; otherwise it is built on the model's first call that needs it.
     nemc.Taylor's code likewise: `taylor` True, or the scene's method nemc.Taylor, or the first
     simulate(method="nemc.Taylor")."""
-    from .pipeline import compile_mechanism
+    from .build import Source
+    from .pipeline import compile_mechanism, compile_source
 
+    if (path is None) == (text is None):
+        raise TypeError("nemc.compile: give a file path or text=, not both")
+    if text is not None:
+        if not isinstance(text, str):
+            raise TypeError(f"nemc.compile: text= is the YAML as a str, got {type(text).__name__}")
+        source = Source(name, text.encode("utf-8", "surrogatepass"))
+        return compile_source(source, jacobian, taylor=taylor).model
     return compile_mechanism(path, jacobian, taylor=taylor).model
 
 
-__all__ = ["compile", "__version__"]
+def sweep(model: Model, y0s: Any = None, **options: Any) -> SweepResult:
+    """Run MODEL over many initial states and parameter sets, on this machine's cores or a Dask
+    cluster (client=...), into one xarray dataset (out=None, or a .zarr, .nc or .npz file).
+    The options and the result: nemc.sweeps.sweep. Needs the extra nemc[sweep]."""
+    from .sweeps import sweep as run_sweep
+
+    return run_sweep(model, y0s, **options)
+
+
+__all__ = ["compile", "sweep", "__version__"]

@@ -376,11 +376,13 @@ class ArticulatedBody:
 
     # -- the whole algorithm --------------------------------------------------------------
 
-    def run(self, extra_forces: Sequence[Expr] = ()) -> Program:
+    def run(self, extra_forces: Sequence[Expr] = (), extra_results: Sequence[Expr] = ()
+            ) -> Program:
         """The program of the accelerations of the undriven coordinates (file order), then the
         drives of the driven joints, then for each loop constraint equation its unit pass:
-        accelerations and drives. extra_forces: generalized forces applied instead of the loads
-        (M^-1 Q, with at_rest)."""
+        accelerations and drives, then extra_results (expressions of the state, computed with
+        the names the program has). extra_forces: generalized forces applied instead of the
+        loads (M^-1 Q, with at_rest)."""
         order = list(self.nodes.values())
         for node in order:
             self._motion(node)
@@ -409,7 +411,7 @@ class ArticulatedBody:
             for equation in range(constraint.equations_count):
                 unit_qdd, unit_drives = self.unit_pass(constraint, equation)
                 results += unit_qdd + unit_drives
-        return self.prog.finish(results)
+        return self.prog.finish([*results, *self.prog.reduce(extra_results)])
 
 
 class PassLoads:
@@ -455,11 +457,12 @@ def solve_symmetric(prog: ProgramBuilder, a: M3, b: V3, status: int) -> V3:
     return tuple(x)  # type: ignore[return-value]
 
 
-def dynamics_program(mech: m.Mechanism, value: Callable) -> Program:
+def dynamics_program(mech: m.Mechanism, value: Callable,
+                     extra_results: Sequence[Expr] = ()) -> Program:
     """qdd(t, q, dq) for the mechanism's loads (the right-hand side's accelerations), then the
-    drives of its driven joints, then the unit passes of its loop constraints
-    (ArticulatedBody.run)."""
-    return ArticulatedBody(mech, value).run()
+    drives of its driven joints, then the unit passes of its loop constraints, then
+    extra_results (ArticulatedBody.run)."""
+    return ArticulatedBody(mech, value).run(extra_results=extra_results)
 
 
 def generalized_force_symbols(n: int) -> tuple[sympy.Symbol, ...]:

@@ -48,8 +48,9 @@ NEMC_DIR = Path(__file__).resolve().parent
 # Every other module under nemc/ (and every template) is part of the build key.
 NOT_IN_BUILD_KEY = frozenset({
     "cli.py", "report.py", "show.py", "stress.py", "stress_report.py", "load.py", "errors.py",
+    "figures.py", "animate.py", "typeset.py",
     "runtime.py", "loops_runtime.py",  # copied into the exported package by `export`
-    "sweep.py", "sweep_store.py",  # run builds, never make them
+    "sweeps.py", "sweep_store.py",  # run builds, never make them
 })
 # The runtime of a standalone package: copied from nemc when a package is exported, under these
 # names (the package's __init__ imports ._runtime, which imports .methods).
@@ -57,6 +58,9 @@ RUNTIME_FILES = {"runtime.py": "_runtime.py", "methods.py": "methods.py",
                  "loops_runtime.py": "loops_runtime.py"}
 CFLAGS = ["-O2", "-fPIC", "-Wall", "-Wextra", "-std=c99"]  # never -ffast-math: it changes answers
 COMPLETE = "BUILD_OK"
+# The cffi wrapper uses only CPython's stable ABI (3.10 on): the extension, named .abi3.so,
+# loads in any later CPython too. A free-threaded CPython has no stable ABI: its own suffix.
+LIMITED_API = "0x030A0000"
 STALE_SCRATCH_S = 24 * 3600  # a temporary build folder this old was left by a killed build
 
 
@@ -183,7 +187,7 @@ def compile_c(c_file: Path, wrapper_file: Path, out_file: Path) -> None:
     cc = compiler()
     jobs = [
         [*cc, *CFLAGS, "-c", str(c_file), "-o", str(c_file.with_suffix(".o"))],
-        [*cc, "-O2", "-fPIC", "-I", include, "-c", str(wrapper_file),
+        [*cc, "-O2", "-fPIC", *limited_api_flags(), "-I", include, "-c", str(wrapper_file),
          "-o", str(wrapper_file.with_suffix(".o"))],
     ]
     running = [start(job) for job in jobs]
@@ -197,6 +201,20 @@ def compile_c(c_file: Path, wrapper_file: Path, out_file: Path) -> None:
     output = process.communicate()[0].decode(errors="replace")
     if process.returncode:
         raise BuildError(f"linking failed:\n$ {' '.join(link)}\n{output}")
+
+
+def stable_abi() -> bool:
+    return not sysconfig.get_config_var("Py_GIL_DISABLED")
+
+
+def limited_api_flags() -> list[str]:
+    return [f"-DPy_LIMITED_API={LIMITED_API}"] if stable_abi() else []
+
+
+def extension_suffix() -> str:
+    """.abi3.so (the stable ABI: any CPython >= 3.10), or this interpreter's own suffix."""
+    return ".abi3.so" if stable_abi() and os.name == "posix" else sysconfig.get_config_var(
+        "EXT_SUFFIX")
 
 
 def write_package(code: Emitted, folder: Path) -> None:
@@ -242,7 +260,7 @@ def build(code: Emitted, key: str) -> Path:
         wrapper = scratch / "_native.c"
         with contextlib.redirect_stdout(io.StringIO()):  # cffi announces what it writes
             ffi.emit_c_code(str(wrapper))
-        extension = package / ("_native" + sysconfig.get_config_var("EXT_SUFFIX"))
+        extension = package / ("_native" + extension_suffix())
         compile_c(package / f"{code.name}.c", wrapper, extension)
         (package / f"{code.name}.o").unlink()
         write_manifest(package, key)

@@ -7,7 +7,10 @@ Exit status: 0 success; 2 bad input (`FILE:LINE: key.path: what is wrong`, no tr
 from __future__ import annotations
 
 import argparse
+import difflib
+import fnmatch
 import math
+import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -50,18 +53,26 @@ def make_parser() -> argparse.ArgumentParser:
     comp = commands.add_parser("compile", help="derive, emit C, compile; write DIR/<name>/")
     comp.add_argument("mechanism")
     comp.add_argument("-o", "--output", default="generated", help="output folder (generated)")
+    comp.add_argument("--jacobian", action="store_true", default=None,
+                      help="also build the analytic Jacobian (for nemc.Radau, model.jacobian)")
+    comp.add_argument("--taylor", action="store_true", default=None,
+                      help="also build nemc.Taylor's coefficient code")
     sim = commands.add_parser("simulate", help="run the scene and print the table")
     sim.add_argument("mechanism")
-    sim.add_argument("--t-end", type=finite_number,
-                     help="end time (the scene's t_span end by default)")
-    sim.add_argument("--method", help="nemc.DOP853 nemc.Radau nemc.Vern9 (native), or scipy's"
-                     " RK45 RK23 DOP853 Radau BDF LSODA (default: the scene's, else nemc.DOP853)")
-    sim.add_argument("--rtol", type=positive_number)
-    sim.add_argument("--atol", type=positive_number)
-    sim.add_argument("--set", dest="params", type=parse_assignment, action="append", default=[],
-                     metavar="NAME=VALUE", help="override a parameter (repeatable)")
-    sim.add_argument("--csv", help="also write the table to this CSV file")
-    sim.add_argument("--plot", help="write the book-style figure to this file (PNG, PDF, SVG)")
+    add_run_options(sim)
+    sim.add_argument("--t-eval", type=t_eval_spec, metavar="STEP|T1,T2,...",
+                     help="the table's times: a step (0.5) or a list (0,0.5,2; one time: 2,)"
+                     " (default: the scene's t_eval, else the solver's steps)")
+    sim.add_argument("--outputs", type=name_list, metavar="NAMES",
+                     help="the outputs to print, write and plot: names or patterns, comma-"
+                     "separated (A.*,energy.total), or none (default: every output)")
+    sim.add_argument("--csv", help="also write the table to this CSV file (units in headers)")
+    sim.add_argument("--mat", help="also write the table to this MATLAB file (ts, xs, each"
+                     " column, names, units)")
+    sim.add_argument("--plot", help="write the report figure to this file (PNG, PDF, SVG)")
+    sim.add_argument("--panels", type=panel_list, metavar="KINDS",
+                     help="what --plot draws, comma-separated: state, reactions, drives, energy,"
+                     " points, accelerations, expressions (default: all)")
     sim.add_argument("--error-estimate", action="store_true",
                      help="also print the run's error against DOP853 at rtol/1000, atol/1000")
     show = commands.add_parser("show", help="print the derived equations of motion")
@@ -75,6 +86,7 @@ def make_parser() -> argparse.ArgumentParser:
     bench.add_argument("--scaling", action="store_true",
                        help="the scaling benchmark (benchmarks/scaling.py) instead of the suite")
     add_stress_parser(commands)
+    add_animate_parser(commands)
     add_sweep_parser(commands)
     return parser
 
@@ -92,10 +104,53 @@ def add_stress_parser(commands: argparse._SubParsersAction) -> None:
                         default=[], metavar="NAME=VALUE", help="override a parameter")
 
 
+def add_animate_parser(commands: argparse._SubParsersAction) -> None:
+    animate = commands.add_parser("animate", help="run the scene and draw the mechanism moving")
+    animate.add_argument("mechanism")
+    animate.add_argument("--out", help="the file: .gif, .mp4 (needs ffmpeg) or .html "
+                         "(default: generated/<name>.gif)")
+    add_run_options(animate)
+    animate.add_argument("--fps", type=positive_number, default=25.0,
+                         help="frames per second (25)")
+    animate.add_argument("--speed", type=positive_number, default=1.0,
+                         help="model time per second of animation (1: real time)")
+    animate.add_argument("--trace", type=name_list, metavar="POINTS",
+                         help="points whose path is drawn, comma-separated (link2.D); default:"
+                         " the scene's output points")
+
+
+def cmd_animate(args: argparse.Namespace) -> int:
+    from .animate import animate_result
+    from .pipeline import compile_mechanism
+    from .runtime import ModelError
+
+    model = compile_mechanism(args.mechanism).model
+    out = Path(args.out) if args.out else Path("generated") / f"{model.name}.gif"
+    if out.suffix.lower() not in (".gif", ".mp4", ".html", ".htm"):
+        print(f"{args.mechanism}: --out: choose a .gif, .mp4 or .html file, got {out}",
+              file=sys.stderr)
+        return 2
+    try:
+        run = run_settings(model, args)
+        result = model.simulate(run["t_span"], run["y0"], method=args.method, rtol=args.rtol,
+                                atol=args.atol, params=dict(args.params))
+        out.parent.mkdir(parents=True, exist_ok=True)
+        animate_result(result, out, fps=args.fps, speed=args.speed, traces=args.trace)
+    except (ModelError, ValueError) as error:
+        print(f"{args.mechanism}: --set/options: {error}", file=sys.stderr)
+        return 2
+    print(f"animation written to {out} ({result.method}, t = {result.t[0]:g} .. "
+          f"{result.t[-1]:g})")
+    if not result.success:
+        print(f"integration failed: {result.message}", file=sys.stderr)
+        return 1
+    return 0
+
+
 def sweep_axis(grid: bool):
     """argparse type of --grid / --random (a bad value: argparse's message, exit status 2)."""
     def parse(text: str):
-        from .sweep import parse_axis
+        from .sweeps import parse_axis
 
         try:
             return parse_axis(text, grid)
@@ -147,7 +202,7 @@ def add_sweep_parser(commands: argparse._SubParsersAction) -> None:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from . import sweep as sweeps
+    from . import sweeps
     from .pipeline import compile_mechanism
     from .runtime import ModelError
 
@@ -209,7 +264,7 @@ def cmd_compile(args: argparse.Namespace) -> int:
     from .build import export
     from .pipeline import compile_mechanism
 
-    compiled = compile_mechanism(args.mechanism)
+    compiled = compile_mechanism(args.mechanism, args.jacobian, taylor=args.taylor)
     target = export(compiled.package, Path(args.output), compiled.model.name)
     print(target)
     state = "cached build loaded" if compiled.cached else "built"
@@ -229,32 +284,144 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     model = compile_mechanism(args.mechanism).model
     params = dict(args.params)
-    span = model.scene["t_span"] or [0.0, 10.0]
-    t_span = (span[0], args.t_end) if args.t_end is not None else None
-    if t_span is not None and not t_span[1] > t_span[0]:
-        print(f"{args.mechanism}: --t-end: must be after the start time {span[0]:g}, got "
-              f"{args.t_end:g}", file=sys.stderr)
-        return 2
     try:
-        result = model.simulate(t_span, method=args.method, rtol=args.rtol, atol=args.atol,
-                                params=params)
-    except ModelError as error:
+        run = run_settings(model, args)
+        outputs = chosen_outputs(model, args.outputs)
+        result = model.simulate(run["t_span"], run["y0"], method=args.method, rtol=args.rtol,
+                                atol=args.atol, params=params, t_eval=run["t_eval"])
+    except (ModelError, ValueError) as error:
         print(f"{args.mechanism}: --set/options: {error}", file=sys.stderr)
         return 2
-    print(report.table(model, result))
+    print(report.table(model, result, outputs))
     if args.error_estimate and result.success:
         print_error_estimate(model, result, params)
     if args.csv:
-        report.write_csv(model, result, Path(args.csv))
-    if args.plot:  # smooth curves: the same run, sampled densely
-        dense = model.simulate(t_span, method=args.method, rtol=args.rtol, atol=args.atol,
-                               params=params, t_eval=report.dense_times(result))
-        report.plot(model, dense, Path(args.plot))
+        report.write_csv(model, result, Path(args.csv), outputs)
+    if args.mat:
+        report.write_mat(model, result, Path(args.mat), outputs)
+    if args.plot:
+        report.plot(result, Path(args.plot), panels=args.panels, outputs=outputs)
         print(f"figure written to {args.plot}")
     if not result.success:
         print(f"integration failed: {result.message}", file=sys.stderr)
         return 1
     return 0
+
+
+def add_run_options(command: argparse.ArgumentParser) -> None:
+    """The options that set up a run: time, method, tolerances, parameters, initial state."""
+    command.add_argument("--t-end", type=finite_number,
+                         help="end time (the scene's t_span end by default)")
+    command.add_argument("--method", help="nemc.DOP853 nemc.Radau nemc.Vern9 nemc.Taylor "
+                         "(native), or scipy's RK45 RK23 DOP853 Radau BDF LSODA (default: the "
+                         "scene's, else nemc.DOP853)")
+    command.add_argument("--rtol", type=positive_number)
+    command.add_argument("--atol", type=positive_number)
+    command.add_argument("--set", dest="params", type=parse_assignment, action="append",
+                         default=[], metavar="NAME=VALUE",
+                         help="override a parameter (repeatable)")
+    command.add_argument("--initial", type=parse_initial, action="append", default=[],
+                         metavar="NAME=VALUE", help="an initial coordinate or rate, e.g. "
+                         "theta=0 or 'dot(q1)=0.5' (repeatable; the others: the scene's)")
+
+
+def parse_initial(text: str) -> tuple[str, float]:
+    """NAME=VALUE for --initial: VALUE a number or a name-free expression (-pi/4)."""
+    name, sep, value = text.partition("=")
+    name = re.sub(r"\s+", "", name)
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    try:
+        number = float(value)
+    except ValueError:
+        number = constant_expression(value)
+    if not math.isfinite(number):
+        raise argparse.ArgumentTypeError(f"{name}: expected a finite number, got {value!r}")
+    return name, number
+
+
+def constant_expression(text: str) -> float:
+    """A name-free expression (2*pi/3) by nemc's expression grammar, never eval'ed."""
+    from .expr import ExprError, Scope, parse_expression
+
+    try:
+        return float(parse_expression(text, Scope(where="here (a number is expected)")))
+    except (ExprError, TypeError, ValueError) as error:
+        raise argparse.ArgumentTypeError(f"expected a number or an expression of numbers "
+                                         f"and pi, got {text!r} ({error})") from None
+
+
+def t_eval_spec(text: str) -> tuple[str, list[float]]:
+    """--t-eval: ("step", [h]) for a number, ("times", [...]) for a comma-separated list."""
+    parts = [part.strip() for part in text.split(",")]
+    if len(parts) == 1:
+        return "step", [positive_number(parts[0])]
+    try:
+        return "times", [finite_number(part) for part in parts if part]
+    except argparse.ArgumentTypeError as error:
+        raise argparse.ArgumentTypeError(f"a list of times: {error}") from None
+
+
+def name_list(text: str) -> list[str]:
+    return [] if text.strip() == "none" else [p.strip() for p in text.split(",") if p.strip()]
+
+
+def panel_list(text: str) -> list[str]:
+    from .figures import PANEL_KINDS
+
+    kinds = name_list(text)
+    unknown = [kind for kind in kinds if kind not in PANEL_KINDS]
+    if unknown or not kinds:
+        named = ", ".join(unknown) if unknown else repr(text)
+        raise argparse.ArgumentTypeError(f"unknown panel kind(s) {named}; choose from "
+                                         f"{', '.join(PANEL_KINDS)}")
+    return kinds
+
+
+def run_settings(model, args: argparse.Namespace) -> dict:
+    """t_span, y0 and t_eval of a run from the options; ValueError names what is wrong."""
+    import numpy as np
+
+    span = model.scene["t_span"] or [0.0, 10.0]
+    t_span = (span[0], args.t_end) if args.t_end is not None else None
+    end = t_span[1] if t_span is not None else span[1]
+    if not end > span[0]:
+        raise ValueError(f"--t-end: must be after the start time {span[0]:g}, got {end:g}")
+    y0 = None
+    if args.initial:
+        y0 = model.initial_state(dict(args.params))
+        for name, value in args.initial:
+            if name not in model.state_names:
+                close = difflib.get_close_matches(name, model.state_names, n=1)
+                hint = f" (did you mean {close[0]}?)" if close else ""
+                raise ValueError(f"--initial: unknown coordinate or rate {name!r}{hint}; the "
+                                 f"state is {', '.join(model.state_names)}")
+            y0[model.state_names.index(name)] = value
+    t_eval = None
+    if getattr(args, "t_eval", None) is not None:
+        kind, values = args.t_eval
+        if kind == "step":
+            count = int(math.floor((end - span[0]) / values[0] * (1 + 1e-12))) + 1
+            t_eval = span[0] + values[0] * np.arange(count)
+        else:
+            t_eval = np.array(values)
+            if np.any(t_eval < span[0]) or np.any(t_eval > end) or np.any(np.diff(t_eval) <= 0):
+                raise ValueError(f"--t-eval: times must increase within [{span[0]:g}, {end:g}]")
+    return {"t_span": t_span, "y0": y0, "t_eval": t_eval}
+
+
+def chosen_outputs(model, patterns: list[str] | None) -> list[str] | None:
+    """The outputs --outputs names (None: all); a name or pattern matching none is an error."""
+    if patterns is None:
+        return None
+    chosen = []
+    for pattern in patterns:
+        found = [n for n in model.output_names if fnmatch.fnmatchcase(n, pattern)]
+        if not found:
+            known = ", ".join(model.output_names) or "none: the YAML requests no outputs"
+            raise ValueError(f"--outputs: no output {pattern!r}; the outputs: {known}")
+        chosen += [n for n in found if n not in chosen]
+    return chosen
 
 
 def print_error_estimate(model, result, params: dict) -> None:
@@ -295,12 +462,23 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    from .assembly import check_assembly
     from .validate import load_mechanism
 
     mech = load_mechanism(args.mechanism)
-    print(f"{args.mechanism}: OK: {mech.name}, {len(mech.bodies)} bodies, "
-          f"{len(mech.coordinates)} coordinates, state {list(mech.state_names)}")
+    assembly = check_assembly(mech)
+    loops = (f", {counted(len(mech.constraints), 'loop constraint')} "
+             f"({counted(assembly.equations, 'equation')})" if mech.constraints else "")
+    driven = f", {counted(len(mech.driven), 'driven joint')}" if mech.driven else ""
+    print(f"{args.mechanism}: OK: {mech.name}, {counted(len(mech.bodies), 'body', 'bodies')}, "
+          f"{counted(len(mech.coordinates), 'coordinate')}{driven}{loops}, "
+          f"{counted(assembly.freedom, 'degree', 'degrees')} of freedom, "
+          f"state {list(mech.state_names)}")
     return 0
+
+
+def counted(count: int, one: str, many: str | None = None) -> str:
+    return f"{count} {one if count == 1 else many or one + 's'}"
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -325,6 +503,7 @@ COMMANDS = {
     "check": cmd_check,
     "bench": cmd_bench,
     "stress": cmd_stress,
+    "animate": cmd_animate,
     "sweep": cmd_sweep,
 }
 

@@ -37,7 +37,8 @@ class DynamicsLayout:
     """What the dynamics program's results are, in order: the accelerations of the undriven
     coordinates (of the tree: before any constraint force), the drives of the driven joints,
     then per constraint equation k its unit pass (the accelerations and drives under the
-    reaction of a unit multiplier k: M^-1 Phi_q^T's column k), then the constraint bias G."""
+    reaction of a unit multiplier k: M^-1 Phi_q^T's column k), then the constraint bias G,
+    Phi, Phi_q (row by row) and Phi_t."""
 
     coordinates: int
     drives: int = 0
@@ -163,9 +164,9 @@ def derive(mech: m.Mechanism) -> Equations:
     count = loops.count if loops is not None else 0
     multipliers = tuple(sympy.Dummy(f"multiplier_{k}", real=True) for k in range(count))
     drives = tuple(sympy.Dummy(f"drive_{joint.name}", real=True) for joint in mech.driven)
-    dynamics = dynamics_program(mech, runtime)
-    if loops is not None:  # the constraint bias G joins the program's results
-        dynamics = Program(dynamics.steps, dynamics.results + loops.bias)
+    # with loops, the program also computes G, Phi, Phi_q and Phi_t (DynamicsLayout), sharing
+    # the kinematics' names
+    dynamics = dynamics_program(mech, runtime, () if loops is None else loops.results)
     return Equations(
         mechanism=mech,
         coordinates=kin.q,

@@ -28,6 +28,7 @@ from .optimize import Block
 from .program import Guard, Program
 from .resources import read_template
 from .taylor import TAYLOR_MAX_ORDER, TaylorUnsupported, series_code
+from .units import unit_metadata
 
 
 @dataclass(frozen=True)
@@ -343,7 +344,61 @@ def dynamics_targets(layout: DynamicsLayout) -> tuple[str, ...]:
     for k in range(layout.equations):
         targets += [f"ACC_UNIT_QDD({k}, {i})" for i in range(n)]
         targets += [f"ACC_UNIT_DRIVE({k}, {j})" for j in range(d)]
-    return tuple(targets + [f"ACC_BIAS({k})" for k in range(layout.equations)])
+    m = layout.equations
+    targets += [f"ACC_BIAS({k})" for k in range(m)] + [f"ACC_PHI({k})" for k in range(m)]
+    targets += [f"ACC_PHI_Q({k}, {i})" for k in range(m) for i in range(n)]
+    return tuple(targets + [f"ACC_PHI_T({k})" for k in range(m)])
+
+
+@dataclass(frozen=True)
+class Phases:
+    """A loop's program in two phases: what depends on the positions only, then what the rates
+    add; the names of the first that the second reads are passed."""
+
+    positions: Program
+    position_targets: tuple[str, ...]
+    rates: Program
+    rate_targets: tuple[str, ...]
+    passed: tuple[sympy.Symbol, ...]
+
+
+def split_by_rates(program: Program, targets: Sequence[str], rates: set[sympy.Symbol]
+                   ) -> Phases:
+    """The program's steps and results by whether they depend on the rates (directly or
+    through earlier steps)."""
+    moving: set[sympy.Symbol] = set(rates)
+    first: list = []
+    second: list = []
+    for step in program.steps:
+        expr = step.value if isinstance(step, Guard) else step[1]
+        if expr.free_symbols & moving:
+            second.append(step)
+            if not isinstance(step, Guard):
+                moving.add(step[0])
+        else:
+            first.append(step)
+    late = [bool(sympy.sympify(r).free_symbols & moving) for r in program.results]
+    rate_results = tuple(r for r, is_late in zip(program.results, late) if is_late)
+    rates_program = Program(tuple(second), rate_results)
+    needed = symbols_used(rates_program)
+    position_results = tuple(r for r, is_late in zip(program.results, late) if not is_late)
+    keep = Program(tuple(first), (*position_results, *needed)).pruned()
+    positions = Program(keep.steps, position_results)
+    passed = tuple(name for name, _ in positions.assignments() if name in needed)
+    return Phases(positions, tuple(t for t, is_late in zip(targets, late) if not is_late),
+                  rates_program, tuple(t for t, is_late in zip(targets, late) if is_late),
+                  passed)
+
+
+def phased_functions(printer: SymbolTablePrinter, phases: Phases) -> str:
+    """The two phases as C (templates/loop_phases.c.tmpl)."""
+    slots = {name: f"passed[{k}]" for k, name in enumerate(phases.passed)}
+    positions = program_body(printer, phases.positions, phases.position_targets,
+                             passed=slots)
+    rates = program_body(SymbolTablePrinter({**printer.names, **slots}), phases.rates,
+                         phases.rate_targets)
+    return template("loop_phases.c.tmpl").substitute(
+        n_passed=max(len(phases.passed), 1), positions=positions, rates=rates)
 
 
 def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str,
@@ -356,10 +411,17 @@ def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
         dynamics = print_program(printer, program, DYNAMICS, chunk_steps)
         return template("tree.c.tmpl").substitute(
             prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body)
-    caller = dataclasses.replace(AUGMENTED, targets=dynamics_targets(eqs.layout))
-    dynamics = print_program(printer, program, caller, chunk_steps)
+    targets = dynamics_targets(eqs.layout)
+    if eqs.loops is not None:
+        functions = phased_functions(printer, split_by_rates(program, targets,
+                                                             set(eqs.speeds)))
+    else:
+        caller = dataclasses.replace(AUGMENTED, targets=targets)
+        dynamics = print_program(printer, program, caller, chunk_steps)
+        functions = template("accelerations_augmented.c.tmpl").substitute(
+            dynamics_parts=dynamics.functions, dynamics=dynamics.body)
     return template("loops.c.tmpl").substitute(
-        prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body,
+        prefix=prefix, dynamics_functions=functions,
         constraint_values=constraint_values(eqs, block, printer))
 
 
@@ -565,11 +627,42 @@ def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, st
     ), None
 
 
+# ---- the drawing's point positions (issue 20): appended to every model's C ------------------
+
+
+def positions_part(eqs: Equations, block: Block, prefix: str) -> tuple[str, dict]:
+    """The C of `<name>_positions` (declared in templates/model.h.tmpl: the ground positions of
+    the points nemc.geometry's drawing needs) and the drawing's structure for model.json."""
+    from .derive import runtime_values
+    from .geometry import drawing
+    from .optimize import rewrite
+
+    picture, runtime = drawing(eqs.mechanism), runtime_values(eqs.mechanism)
+    exprs = [runtime(v) for _, x, y in picture.points for v in (x, y)]
+    symbols = sympy.numbered_symbols("g", cls=sympy.Dummy, real=True)
+    temporaries, reduced = sympy.cse(exprs, symbols=symbols, order="none")
+    names = {**symbol_table(eqs, block), **{s: s.name for s, _ in temporaries}}
+    printer = SymbolTablePrinter(names)
+    indent = " " * 8
+    lines = [f"{indent}const double {s.name} = {printer.doprint(rewrite(e))};"
+             for s, e in temporaries]
+    lines += [f"{indent}{('POINT_X', 'POINT_Y')[k % 2]}({k // 2}) = {printer.doprint(rewrite(e))};"
+              for k, e in enumerate(reduced)]
+    source = template("positions.c.tmpl").substitute(
+        prefix=prefix, n_points=len(picture.points), n_values=2 * len(picture.points),
+        point_names=comment_text(", ".join(name for name, _, _ in picture.points)),
+        positions="\n".join(lines),
+    )
+    return source, picture.metadata()
+
+
 def emit(eqs: Equations, block: Block, chunk_steps: int | None = None) -> Emitted:
     """chunk_steps: the most steps of a program printed as one function (CHUNK_STEPS)."""
     prefix = f"{eqs.mechanism.name}_"
     taylor, taylor_unavailable = taylor_section(eqs, SymbolTablePrinter(symbol_table(eqs, block)))
     info = metadata(eqs, prefix)
+    info.update(unit_metadata(eqs.mechanism, info["output_names"]))
+    positions_c, info["drawing"] = positions_part(eqs, block, prefix)
     if taylor:
         info["generated"].append("taylor")
         info["taylor_program"] = ("articulated body" if eqs.taylor is eqs.dynamics
@@ -580,7 +673,7 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None) -> Emitte
     return Emitted(
         name=eqs.mechanism.name,
         c_source=c_source(eqs, block, prefix, chunk_steps or CHUNK_STEPS)
-        + native_section(eqs, prefix, taylor),
+        + native_section(eqs, prefix, taylor) + positions_c,
         header=interface,
         cdef=cdef(interface),
         package_init=template("package_init.py.tmpl").substitute(

@@ -34,6 +34,13 @@ class LoopEquations:
     def count(self) -> int:
         return len(self.values)
 
+    @property
+    def results(self) -> tuple[sympy.Expr, ...]:
+        """What the dynamics program computes of them (DynamicsLayout's order): G, Phi, Phi_q
+        row by row, Phi_t."""
+        return (*self.bias, *self.values, *(v for row in self.jacobian for v in row),
+                *self.rate)
+
 
 def loop_equations(mech: m.Mechanism, kin: Kinematics,
                    runtime: Callable[[object], sympy.Expr]) -> LoopEquations:

@@ -120,6 +120,29 @@ class LoopsMixin:
         return (f"the given rates cannot satisfy constraint {self._equation(status)!r} "
                 f"(residual {info[2]:.3g}){values}; give fewer rates, or consistent ones")
 
+    def assembled_runs(self, t0: float, y0s: np.ndarray, given: np.ndarray, ps: np.ndarray
+                       ) -> np.ndarray:
+        """An ensemble's initial states (k, n_state), each assembled at its parameters ps
+        (k or 1 rows); an ensemble needs a degree of freedom."""
+        states = np.empty_like(y0s)
+        for run, y0 in enumerate(y0s):
+            states[run], freedom = self.assembled(t0, y0, given, ps[run % len(ps)])
+            if freedom == 0:
+                raise self._model_error(  # type: ignore[attr-defined]
+                    "simulate_many: this mechanism has no degree of freedom left by its drives "
+                    "(a kinematic analysis): use simulate")
+        return states
+
+    def projected_runs(self, t: np.ndarray, y: np.ndarray, ps: np.ndarray) -> np.ndarray:
+        """An ensemble's states (k, n_t, n_state) brought onto the constraints (NaN rows of runs
+        that stopped early stay NaN)."""
+        out = y.copy()
+        for run in range(len(y)):
+            finite = np.all(np.isfinite(y[run]), axis=1)
+            out[run, finite] = self.projected(t[finite], y[run, finite].T,
+                                              ps[run % len(ps)]).T
+        return out
+
     # -- no degree of freedom: a kinematic analysis -----------------------------------------
 
     def kinematic_states(self, times: np.ndarray, y0: np.ndarray, p: np.ndarray

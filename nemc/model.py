@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import sympy
 
@@ -114,6 +114,20 @@ class Simulation:
     guess: Mapping[str, Expr] = field(default_factory=dict)  # closed loops: assembly start
 
 
+AngleDisplay = Literal["rad", "deg"]
+
+
+@dataclass(frozen=True)
+class Units:
+    """The optional `units:` mapping: labels only (nemc never converts). `angle` says how
+    figures and animations show angles; the equations and tables always use radians."""
+
+    length: str | None = None
+    mass: str | None = None
+    time: str | None = None
+    angle: AngleDisplay = "rad"
+
+
 @dataclass(frozen=True)
 class Mechanism:
     name: str
@@ -130,6 +144,7 @@ class Mechanism:
     outputs: Outputs
     simulation: Simulation
     constraints: tuple[Constraint, ...] = ()  # loop-closing joints (nemc/constraints/)
+    units: Units = field(default_factory=Units)
 
     @property
     def coordinates(self) -> tuple[str, ...]:

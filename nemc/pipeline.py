@@ -115,6 +115,7 @@ def generate_and_build(
     source: Source, key: str, jacobian: bool | None, timings: dict[str, float],
     energy: bool = False, taylor: bool | None = None, chunk_steps: int | None = None,
 ) -> Path:
+    from .assembly import check_assembly
     from .build import build
     from .derive import derive, with_diagnostics, with_taylor
     from .emit import emit
@@ -124,6 +125,7 @@ def generate_and_build(
 
     with timed(timings, "validate"):
         mechanism = validate_text(source.data, source.path)
+        check_assembly(mechanism)  # closed loops: refused here if they cannot close
         if energy:
             mechanism = with_energy_output(mechanism)
     method = mechanism.simulation.method

@@ -79,6 +79,17 @@ class ProgramBuilder:
     def lets(self, exprs: Iterable[sympy.Expr]) -> tuple[sympy.Expr, ...]:
         return tuple(self.let(e) for e in exprs)
 
+    def reduce(self, exprs: Iterable[sympy.Expr]) -> tuple[sympy.Expr, ...]:
+        """Expressions made of named steps: their common subexpressions (sympy's cse) become
+        steps, each reusing the name of an equal step the program already has (a cosine the
+        kinematics computed is not computed again)."""
+        temporaries = sympy.numbered_symbols("c", cls=sympy.Dummy, real=True)
+        replacements, reduced = sympy.cse(list(exprs), symbols=temporaries, order="none")
+        names: dict[sympy.Symbol, sympy.Expr] = {}
+        for temporary, expr in replacements:
+            names[temporary] = self.let(expr.xreplace(names).xreplace(self._known))
+        return tuple(expr.xreplace(names).xreplace(self._known) for expr in reduced)
+
     def require_positive(self, value: sympy.Expr, status: int) -> None:
         if not (value.is_number and value > 0):
             self._steps.append(Guard(value, status))

@@ -1,8 +1,11 @@
-"""What `nemc simulate` shows: the book's [ts, xs] table (plus outputs), CSV, and figures."""
+"""What `nemc simulate` shows: the book's [ts, xs] table (plus outputs), CSV, MATLAB files and
+figures."""
 
 from __future__ import annotations
 
 import csv
+import re
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -10,14 +13,28 @@ import numpy as np
 from .runtime import Model, SimulationResult
 
 
-def columns(model: Model, result: SimulationResult) -> tuple[list[str], np.ndarray]:
-    names = ["t", *model.state_names, *result.outputs]
-    data = [result.t, *result.y, *result.outputs.values()]
+def columns(model: Model, result: SimulationResult, outputs: Sequence[str] | None = None
+            ) -> tuple[list[str], np.ndarray]:
+    """The table's column names and values: t, the state, the outputs (or those named)."""
+    chosen = list(result.outputs) if outputs is None else list(outputs)
+    names = ["t", *model.state_names, *chosen]
+    data = [result.t, *result.y, *(result.outputs[name] for name in chosen)]
     return names, np.column_stack(data) if result.t.size else np.empty((0, len(names)))
 
 
-def table(model: Model, result: SimulationResult) -> str:
-    names, data = columns(model, result)
+def unit_of(model: Model, name: str) -> str:
+    """The column's unit as the YAML's `units:` give it (values as computed: angles in rad)."""
+    return model.metadata.get("unit_labels", {}).get(name, "")
+
+
+def headers(model: Model, names: Sequence[str]) -> list[str]:
+    """CSV headers: `name [unit]` where the unit is known, else the name."""
+    return [f"{name} [{unit_of(model, name)}]" if unit_of(model, name) else name
+            for name in names]
+
+
+def table(model: Model, result: SimulationResult, outputs: Sequence[str] | None = None) -> str:
+    names, data = columns(model, result, outputs)
     widths = [max(12, len(n)) for n in names]
     lines = [" ".join(f"{n:>{w}}" for n, w in zip(names, widths))]
     lines += [" ".join(f"{v:>{w}.6g}" for v, w in zip(row, widths)) for row in data]
@@ -28,66 +45,50 @@ def table(model: Model, result: SimulationResult) -> str:
     return "\n".join(lines)
 
 
-def write_csv(model: Model, result: SimulationResult, path: Path) -> None:
-    names, data = columns(model, result)
+def write_csv(model: Model, result: SimulationResult, path: Path,
+              outputs: Sequence[str] | None = None) -> None:
+    names, data = columns(model, result, outputs)
     with path.open("w", newline="") as handle:
         writer = csv.writer(handle)
-        writer.writerow(names)
+        writer.writerow(headers(model, names))
         writer.writerows([repr(float(v)) for v in row] for row in data)
 
 
-def dense_times(result: SimulationResult, count: int = 600) -> np.ndarray:
-    return np.linspace(result.t[0], result.t[-1], count) if result.t.size else result.t
+def matlab_name(name: str) -> str:
+    """A MATLAB variable name for a column: dot(q1) -> dot_q1, A.Fx -> A_Fx."""
+    text = re.sub(r"\W+", "_", name).strip("_")
+    return text if re.match(r"[A-Za-z]", text) else f"v_{text}"
 
 
-def plot(model: Model, result: SimulationResult, path: Path) -> None:
-    """The book's figures: one coordinate -> q, dq and the phase plot (Fig. 5.2); several ->
-    each coordinate against t, angles in degrees (Figs. 5.4, 5.8); then the outputs."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    n = len(model.coordinate_names)
-    panels = 3 if n == 1 else n
-    panels += 1 if result.outputs else 0
-    fig, axes = plt.subplots(panels, 1, figsize=(7, 2.4 * panels), squeeze=False)
-    axes = axes[:, 0]
-    if n == 1:
-        _single_coordinate(model, result, axes)
-    else:
-        _coordinates(model, result, axes)
-    if result.outputs:
-        for name, values in result.outputs.items():
-            axes[-1].plot(result.t, values, label=name)
-        axes[-1].set_xlabel("t")
-        axes[-1].legend(fontsize="small", ncol=3)
-        axes[-1].grid(True)
-    fig.suptitle(f"{model.name} ({result.method}, rtol {result.rtol:g})")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+MAT_RESERVED = frozenset({"ts", "xs", "variables", "names", "units", "description"})
 
 
-def _single_coordinate(model: Model, result: SimulationResult, axes) -> None:
-    q, dq = model.state_names
-    axes[0].plot(result.t, result.y[0], "r")
-    axes[0].set(xlabel="t", ylabel=q)
-    axes[1].plot(result.t, result.y[1], "g")
-    axes[1].set(xlabel="t", ylabel=dq)
-    axes[2].plot(result.y[0], result.y[1])
-    axes[2].set(xlabel=q, ylabel=dq)
-    for ax in axes[:3]:
-        ax.grid(True)
+def write_mat(model: Model, result: SimulationResult, path: Path,
+              outputs: Sequence[str] | None = None) -> None:
+    """A MATLAB file (scipy.io.savemat): the book's ts and xs (one row per time, the state in
+    its columns), each column as a variable, and `names` and `units` (cell arrays) saying
+    what each variable is; `units` as the YAML declares them (angles in rad)."""
+    from scipy.io import savemat
+
+    names, data = columns(model, result, outputs)
+    variables = [matlab_name(name) for name in names]
+    variables = [f"{v}_" if v in MAT_RESERVED else v for v in variables]
+    if len(set(variables)) != len(variables):  # e.g. A.Fx and A_Fx: number them apart
+        variables = [f"{v}_{k}" for k, v in enumerate(variables)]
+    content: dict = {var: data[:, k] for k, var in enumerate(variables)}
+    content |= {
+        "ts": data[:, :1], "xs": data[:, 1 : 1 + model.n_state],
+        "variables": np.array(variables, dtype=object),
+        "names": np.array(names, dtype=object),
+        "units": np.array([unit_of(model, name) for name in names], dtype=object),
+        "description": f"{model.name}: {model.metadata.get('description', '')}",
+    }
+    savemat(path, content, do_compression=True, oned_as="column")
 
 
-def _coordinates(model: Model, result: SimulationResult, axes) -> None:
-    kinds = model.metadata["coordinate_kinds"]
-    for i, (name, kind) in enumerate(zip(model.coordinate_names, kinds)):
-        values = result.y[2 * i]
-        label = name
-        if kind == "angle":
-            values, label = np.degrees(values), f"{name} (deg)"
-        axes[i].plot(result.t, values, "rb"[i % 2])
-        axes[i].set(xlabel="t (s)", ylabel=label)
-        axes[i].grid(True)
+def plot(result: SimulationResult, path: Path, panels: Sequence[str] | None = None,
+         outputs: Sequence[str] | None = None) -> None:
+    """The report figure (nemc.figures): the book's layout of the state, outputs by kind."""
+    from .figures import plot_result
+
+    plot_result(result, path, panels=panels, outputs=outputs)

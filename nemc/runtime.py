@@ -8,6 +8,9 @@ verbatim into every standalone package as `_runtime.py`. It must not import nemc
 from __future__ import annotations
 
 import difflib
+import functools
+import html
+import importlib
 import json
 import math
 import os
@@ -35,6 +38,7 @@ OPTIONAL_PARTS = frozenset({"jacobian", "taylor"})  # C a build has only when as
 KINEMATIC_POINTS = 201  # the default times of a kinematic analysis over t_span
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-9
+SOLVER_STEPS = "steps"  # simulate(t_eval="steps"): the solver's own steps, whatever the scene says
 
 
 class ModelError(ValueError):
@@ -110,6 +114,52 @@ class SimulationResult:
     rtol: float
     atol: float
     params: dict[str, float] = field(default_factory=dict)
+    # the model that ran it, and the same run at other times (dense curves for figures)
+    model: Any = field(default=None, repr=False, compare=False)
+    rerun: Callable[[Any], SimulationResult] | None = field(default=None, repr=False,
+                                                              compare=False)
+
+    # -- the user's view: tables, figures, animation, notebooks (issue 20) ------------------
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """t, the state and the outputs by name, in the table's order."""
+        names = self.model.state_names if self.model is not None else [
+            f"y{i}" for i in range(len(self.y))]
+        return {"t": self.t, **dict(zip(names, self.y)), **self.outputs}
+
+    def to_pandas(self) -> Any:
+        """A pandas DataFrame indexed by t, a column per state and output (pandas is optional:
+        imported here); the unit of each column, where the YAML declares units, in
+        df.attrs["units"]."""
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError("to_pandas() needs pandas: pip install pandas") from None
+        columns = self.columns()
+        frame = pd.DataFrame({k: v for k, v in columns.items() if k != "t"},
+                             index=pd.Index(columns["t"], name="t"))
+        labels = self.model.metadata.get("unit_labels", {}) if self.model is not None else {}
+        frame.attrs["units"] = {name: labels.get(name, "") for name in columns}
+        frame.attrs["method"] = self.method
+        return frame
+
+    def plot(self, path: str | os.PathLike | None = None, **options: Any) -> Any:
+        """The report figure of this run (nemc.figures: state as in the book, outputs grouped
+        by kind, units from the YAML); written to PATH when given. Returns the figure."""
+        return _user_view("figures", "plot()").plot_result(self, path, **options)
+
+    def animate(self, path: str | os.PathLike | None = None, **options: Any) -> Any:
+        """The mechanism moving (nemc.animate): written to PATH (.gif, .mp4, .html) when
+        given, else returned for display (inline in a notebook)."""
+        return _user_view("animate", "animate()").animate_result(self, path, **options)
+
+    def _repr_html_(self) -> str:
+        name = self.model.name if self.model is not None else "simulation"
+        status = "success" if self.success else "failed"
+        head = (f"<p><b>{html.escape(name)}</b>: {html.escape(self.method)}, rtol {self.rtol:g},"
+                f" atol {self.atol:g}, {self.nfev} RHS calls, {len(self.t)} times, {status}: "
+                f"{html.escape(self.message)}</p>")
+        return head + _html_table(self.columns(), rows=_preview_rows(len(self.t)))
 
 
 def _real_array(value: Any, what: str) -> np.ndarray:
@@ -125,6 +175,49 @@ def _real_array(value: Any, what: str) -> np.ndarray:
 
 def read_metadata(path: Path) -> dict:
     return json.loads(Path(path).read_text())
+
+
+def _user_view(module: str, what: str) -> Any:
+    """nemc's module for figures or animation; a standalone package without nemc says what to
+    install instead of failing deep inside."""
+    try:
+        return importlib.import_module(f"nemc.{module}")
+    except ImportError as error:
+        raise ImportError(f"{what} needs nemc and matplotlib installed (pip install nemc, or "
+                          f"use the nemc checkout): {error}") from None
+
+
+def _preview_rows(count: int, head: int = 5) -> list[int]:
+    return list(range(count)) if count <= 2 * head else [
+        *range(head), -1, *range(count - head, count)]
+
+
+def _html_table(columns: Mapping[str, np.ndarray], rows: list[int]) -> str:
+    """An HTML table of the columns at these rows (-1: an ellipsis row)."""
+    names = list(columns)
+    head = "".join(f"<th>{html.escape(n)}</th>" for n in names)
+    body = []
+    for row in rows:
+        cells = ["&hellip;"] * len(names) if row < 0 else [
+            f"{float(columns[n][row]):.6g}" for n in names]
+        body.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+
+
+Simulate = Callable[..., SimulationResult]
+
+
+def _remembers_its_run(simulate: Simulate) -> Simulate:
+    """simulate() whose results know their model and can run again at other times."""
+
+    @functools.wraps(simulate)
+    def run(self: Model, *args: Any, **kwargs: Any) -> SimulationResult:
+        result = simulate(self, *args, **kwargs)
+        result.model = self
+        result.rerun = lambda t_eval: simulate(self, *args, **{**kwargs, "t_eval": t_eval})
+        return result
+
+    return run
 
 
 class Model(LoopsMixin):
@@ -410,6 +503,7 @@ class Model(LoopsMixin):
 
     # -- integration ------------------------------------------------------------------------
 
+    @_remembers_its_run
     def simulate(
         self,
         t_span: Sequence[float] | None = None,
@@ -484,6 +578,8 @@ class Model(LoopsMixin):
             method="kinematic", rtol=rtol, atol=atol, params=self.parameters_at(p))
 
     def _times(self, span: tuple[float, ...], t_eval: Sequence[float] | None) -> Any:
+        if isinstance(t_eval, str) and t_eval == SOLVER_STEPS:  # the solver's own steps
+            return None
         if t_eval is not None:
             return np.asarray(t_eval, dtype=float)
         if self.scene["t_eval_step"]:
@@ -657,7 +753,10 @@ class Model(LoopsMixin):
         atol = float(atol if atol is not None else self.scene["atol"] or DEFAULT_ATOL)
         times = self._times(span, t_eval)
         times = np.array(span[:1] + span[1:] if times is None else times, dtype=float)
+        given = self.given_mask(y0s)
         ps, y0s = self._ensemble_inputs(y0s, params)
+        if self.has_loops:  # each run from its assembled state
+            y0s = self.assembled_runs(span[0], y0s, given, ps)
         integrate_many, method_id = self._native(method, "integrate_many"), self._method_id(method)
         run, keep = self._native_run(span, times, rtol, atol)
         k, n = len(y0s), self.n_state
@@ -678,6 +777,8 @@ class Model(LoopsMixin):
         bounds = np.linspace(0, k, workers + 1).astype(int)
         with ThreadPoolExecutor(workers) as pool:  # cffi releases the GIL during C calls
             list(pool.map(chunk, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]))
+        if self.has_loops:
+            y = self.projected_runs(keep[0], y, ps)
         return EnsembleResult(
             t=keep[0], y=y.transpose(0, 2, 1), status=statuses.astype(int),
             success=statuses == 0, nfev=counts[:, 0].copy(), njev=counts[:, 1].copy(),
@@ -707,6 +808,54 @@ class Model(LoopsMixin):
         if not np.all(np.isfinite(y0s)):
             raise ModelError("y0s must be finite")
         return np.ascontiguousarray(ps), np.ascontiguousarray(y0s, dtype=float)
+
+    # -- the user's view: the drawing's positions, notebook display (issue 20) --------------
+
+    def positions(self, t: Any, y: Any, params: Mapping[str, float] | None = None
+                  ) -> dict[str, np.ndarray]:
+        """Ground-frame positions of the points a drawing needs (bodies' origins, mass
+        centres and named points, joints, spring ends; metadata["drawing"]), computed by the
+        compiled model: name -> [x, y] for one state, [xs, ys] of shape (2, n_t) for y of
+        shape (n_state, n_t)."""
+        array = _real_array(y, "states")
+        single = array.ndim == 1
+        xy = self.positions_array(t, array.reshape(-1, 1) if single else array, params)
+        names = self.metadata["drawing"]["points"]
+        return {name: xy[0, k].copy() if single else xy[:, k].T.copy()
+                for k, name in enumerate(names)}
+
+    def positions_array(self, t: Any, y: Any, params: Mapping[str, float] | None = None
+                        ) -> np.ndarray:
+        """As positions(), as one array (n_t, n_points, 2) for y of shape (n_state, n_t)."""
+        function = getattr(self._lib, self.metadata["c_prefix"] + "positions", None)
+        if function is None or "drawing" not in self.metadata:
+            raise ModelError(f"the build of {self.name} has no positions function: rebuild it"
+                             " with this version of nemc")
+        ys = self._states(y)
+        ts = self._times_for(t, len(ys))
+        out = np.empty((len(ys), len(self.metadata["drawing"]["points"]), 2))
+        buffer = self._buffer
+        function(len(ys), buffer(ts), buffer(ys), buffer(self.parameter_vector(params)),
+                 buffer(out))
+        return out
+
+    def _repr_html_(self) -> str:
+        labels = self.metadata.get("unit_labels", {})
+
+        def row(name: str, value: str = "") -> str:
+            unit = labels.get(name, "")
+            return (f"<tr><td>{html.escape(name)}</td><td>{html.escape(value)}</td>"
+                    f"<td>{html.escape(unit)}</td></tr>")
+
+        sections = [("state", [row(n) for n in self.state_names]),
+                    ("parameters", [row(n, f"{v:g}") for n, v in self.parameters.items()]),
+                    ("outputs", [row(n) for n in self.output_names])]
+        body = "".join(f"<tr><th colspan='3'>{title}</th></tr>" + "".join(rows)
+                       for title, rows in sections if rows)
+        description = html.escape(self.metadata.get("description", ""))
+        return (f"<p><b>nemc model {html.escape(self.name)}</b>: {description}</p>"
+                f"<table><thead><tr><th>name</th><th>default</th><th>unit</th></tr></thead>"
+                f"<tbody>{body}</tbody></table>")
 
 
 @dataclass

@@ -1,29 +1,84 @@
-"""`nemc show`: the derived equations of motion, symbolically."""
+"""`nemc show`: the derived equations of motion, symbolically.
+
+The printed form is the book's M(q) qdd = f(t, q, dq), as derive already derives it
+(Equations.mass_forcing), each entry tidied by the linearization nemc.Taylor uses
+(mass_form.linearized: products of sines and cosines as sums, sin^2 + cos^2 -> 1) and common
+factors pulled out, instead of sympy's simplify (minutes at three coordinates). The explicit
+accelerations, for up to two coordinates, are adj(M) f / det(M) tidied the same way.
+
+LaTeX names the state as a textbook does: \\dot{q}_{1}, \\ddot{q}_{1} (nemc.typeset).
+"""
 
 from __future__ import annotations
 
 import sympy
 
-from .derive import derive
+from . import model as m
+from .derive import Equations, derive
+from .mass_form import linearized
 from .model import Mechanism
+from .typeset import latex_name
 
-EXPLICIT_MAX_COORDINATES = 2  # solving M qdd = f symbolically blows up beyond a few links
+EXPLICIT_MAX_COORDINATES = 2  # adj(M) f / det(M) grows fast past two coordinates
+
+
+def tidy(expr: sympy.Expr) -> sympy.Expr:
+    """The expression as nemc prints it: linearized in sines and cosines, factors pulled out."""
+    return sympy.factor_terms(linearized(sympy.sympify(expr)))
+
+
+def explicit_accelerations(mass: sympy.Matrix, forcing: sympy.Matrix) -> sympy.Matrix:
+    """qdd = adj(M) f / det(M), numerator and determinant tidied."""
+    determinant = tidy(mass.det(method="berkowitz"))
+    numerator = (mass.adjugate() * forcing).applyfunc(tidy)
+    return numerator.applyfunc(lambda entry: entry / determinant)
+
+
+def symbol_names(eqs: Equations) -> dict[sympy.Symbol, str]:
+    """LaTeX of the coordinates, their rates and accelerations, and the parameters (beta ->
+    \\beta, L1 -> L_{1}, thetaf -> \\mathrm{thetaf}, not a product of five letters)."""
+    symbols = (*eqs.coordinates, *eqs.speeds, *eqs.accelerations, *eqs.parameters, m.TIME)
+    return {s: latex_name(s.name) for s in symbols}
+
+
+def sections(mech: Mechanism) -> list[tuple[str, sympy.Basic]]:
+    """(what, expression) in the printed order: M, f, explicit qdd, the outputs."""
+    eqs = derive(mech)
+    mass, forcing = eqs.mass_forcing
+    parts: list[tuple[str, sympy.Basic]] = [("M", mass.applyfunc(tidy)),
+                                            ("f", forcing.applyfunc(tidy))]
+    if eqs.n <= EXPLICIT_MAX_COORDINATES:
+        parts.append(("qdd", explicit_accelerations(mass, forcing)))
+    parts += [(name, tidy(expr)) for name, expr in eqs.outputs]
+    return parts
+
+
+LATEX_LEFT = {"M": "M", "f": "f", "qdd": "\\ddot{q}"}
+TEXT_TITLE = {"M": "mass matrix M:", "f": "forcing f:",
+              "qdd": "explicit accelerations qdd = M^-1 f:"}
+
+
+def latex_left(what: str) -> str:
+    """The left side of a printed LaTeX equation: M, f, \\ddot{q}, or an output's name."""
+    if what in LATEX_LEFT:
+        return LATEX_LEFT[what]
+    if what.startswith("ddot("):
+        return latex_name(what)
+    return f"\\mathtt{{{what}}}"
 
 
 def show(mech: Mechanism, latex: bool = False) -> str:
-    eqs = derive(mech)
-    render = sympy.latex if latex else sympy.pretty
-    parts = [
-        f"{mech.name}: M(q) qdd = f(t, q, dq)",
-        f"coordinates: {', '.join(mech.coordinates)}",
-        "mass matrix M:",
-        render(sympy.simplify(eqs.mass_matrix)),
-        "forcing f:",
-        render(sympy.simplify(eqs.forcing)),
-    ]
-    if eqs.n <= EXPLICIT_MAX_COORDINATES:
-        qdd = sympy.simplify(eqs.mass_matrix.LUsolve(eqs.forcing))
-        parts += ["explicit accelerations qdd = M^-1 f:", render(qdd)]
-    for name, expr in eqs.outputs:
-        parts.append(f"{name} = {render(sympy.simplify(expr))}")
-    return "\n\n".join(parts)
+    eqs_names = symbol_names(derive(mech)) if latex else {}
+    header = [f"{mech.name}: M(q) qdd = f(t, q, dq)",
+              f"coordinates: {', '.join(mech.coordinates)}"]
+    lines = []
+    for what, expr in sections(mech):
+        if latex:
+            lines.append(f"{latex_left(what)} = {sympy.latex(expr, symbol_names=eqs_names)}")
+        elif what in TEXT_TITLE:
+            lines.append(f"{TEXT_TITLE[what]}\n\n{sympy.pretty(expr)}")
+        else:
+            lines.append(f"{what} = {sympy.pretty(expr)}")
+    if latex:
+        header = [f"% {line}" for line in header]
+    return "\n\n".join(header + lines)

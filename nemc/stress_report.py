@@ -258,7 +258,7 @@ def figure(st: Study, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(2, 3, figsize=(11, 6.2))
+    fig, axes = plt.subplots(2, 3, figsize=(16, 8.4), layout="constrained")
     plot_accuracy(st, axes[0, 0])
     plot_drift(st, axes[0, 1])
     plot_divergence(st, axes[0, 2])
@@ -267,9 +267,12 @@ def figure(st: Study, path: Path) -> None:
     plot_conditioning(st, axes[1, 2])
     for ax in axes.flat:
         ax.grid(True, alpha=0.3)
+        if ax.get_legend() is not None:  # beside its axes: never on the data
+            handles, labels = ax.get_legend_handles_labels()
+            ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                      fontsize="small", frameon=False)
     fig.suptitle(f"nemc stress: {st.name}")
-    fig.tight_layout()
-    fig.savefig(path, dpi=62)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
@@ -288,11 +291,20 @@ def plot_drift(st: Study, ax) -> None:
         ax.text(0.5, 0.5, "not conservative", ha="center", va="center", transform=ax.transAxes)
         ax.set(title="energy drift")
         return
-    for d in st.drifts:
-        ax.semilogy(d.t, np.maximum(d.relative, 1e-17), lw=0.8,
+    methods = list(dict.fromkeys(d.method for d in st.drifts))
+    tolerances = sorted({d.rtol for d in st.drifts}, reverse=True)
+    colours = plt_colours()
+    for d in st.drifts:  # a colour per method, a line style per tolerance: no repeats
+        ax.semilogy(d.t, np.maximum(d.relative, 1e-17), lw=0.9,
+                    color=colours[methods.index(d.method) % len(colours)],
+                    ls=("-", "--", ":", "-.")[tolerances.index(d.rtol) % 4],
                     label=f"{d.method} {g(d.rtol)}")
     ax.set(xlabel="t (s)", ylabel="|ΔE/E|", title="energy drift")
     ax.legend(fontsize="x-small", ncol=2)
+
+
+def plt_colours() -> list[str]:
+    return ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"]
 
 
 def plot_divergence(st: Study, ax) -> None:

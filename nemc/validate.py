@@ -35,6 +35,7 @@ from nemc.model import (
     Param,
     PointRef,
     Simulation,
+    Units,
     Vec2,
     symbol,
 )
@@ -47,7 +48,7 @@ CONSTRAINT_KEYS = {name: ("type", "a", "b", *kind.keys) for name, kind in CONSTR
 LOAD_KEYS = {name: kind.keys for name, kind in LOAD_KINDS.items()}
 IMPLICIT_POINTS = ("origin", "com")
 TOP_KEYS = ("name", "description", "parameters", "constants", "gravity", "bodies", "joints",
-            "constraints", "loads", "outputs", "simulation")
+            "constraints", "loads", "outputs", "simulation", "units")
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 ZERO2: Vec2 = (sympy.S.Zero, sympy.S.Zero)
 # An exported package is imported by its name: it must not hide a module it or its runtime
@@ -401,12 +402,14 @@ def _build(ctx: _Ctx, tree: Node, source_hash: str) -> Mechanism | None:
     loads = _loads(ctx, root["loads"]) if "loads" in root else ()
     outputs = _outputs(ctx, root["outputs"]) if "outputs" in root else Outputs()
     simulation = _simulation(ctx, root["simulation"]) if "simulation" in root else Simulation()
+    units = _units(ctx, root["units"]) if "units" in root else Units()
     if ctx.problems or name is None or gravity is None:
         return None
     return Mechanism(name=name, description=description, source=ctx.file,
                      source_hash=source_hash, parameters=parameters, constants=constants,
                      gravity=gravity, bodies=bodies, joints=joints, loads=loads,
-                     outputs=outputs, simulation=simulation, constraints=constraints)
+                     outputs=outputs, simulation=simulation, constraints=constraints,
+                     units=units)
 
 
 def _module_name(ctx: _Ctx, node: Node | None) -> str | None:
@@ -1180,3 +1183,38 @@ def _t_eval(ctx: _Ctx, node: Node, t_span: tuple[float, float] | None,
                                      f"{t_span[1]:g}], got [{times[0]:g} .. {times[-1]:g}]")
         return None, None
     return tuple(times), None  # type: ignore[arg-type]
+
+
+# ----------------------------------------------------------------------------- units
+
+UNIT_KEYS = ("length", "mass", "time", "angle")
+ANGLE_DISPLAYS = ("rad", "deg")
+# A unit label goes into figures, CSV headers and MATLAB files: letters, digits and a few
+# signs, never `$` (matplotlib's mathtext), quotes, commas or control characters.
+UNIT_LABEL = re.compile(r"[^\W\d][\w .*/^()\u00b7\u00b0-]{0,23}")
+
+
+def _units(ctx: _Ctx, node: Node) -> Units:
+    """`units: {length: m, mass: kg, time: s, angle: deg}`: labels, every key optional."""
+    if not _keys(ctx, node, "units", UNIT_KEYS, what="a mapping {length, mass, time, angle}"):
+        return Units()
+    entries = _entries(node)
+    labels: dict[str, str | None] = {}
+    for key in UNIT_KEYS[:3]:
+        labels[key] = _unit_label(ctx, entries[key], _join("units", key)) if key in entries \
+            else None
+    angle = "rad"
+    if "angle" in entries:
+        angle = _choice(ctx, entries["angle"], "units.angle", ANGLE_DISPLAYS,
+                        "angle display (how figures show angles)") or angle
+    return Units(labels["length"], labels["mass"], labels["time"], angle)  # type: ignore[arg-type]
+
+
+def _unit_label(ctx: _Ctx, node: Node, path: str) -> str | None:
+    label = _string(ctx, node, path, "a unit label such as m, kg, s, ft or slug")
+    if label is not None and not UNIT_LABEL.fullmatch(label):
+        ctx.problem(node.line, path, "a unit label starts with a letter and has at most 24 "
+                                     "letters, digits, spaces and . * / ^ ( ) - signs, "
+                                     f"got {label!r}")
+        return None
+    return label

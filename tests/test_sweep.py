@@ -1,6 +1,7 @@
-"""nemc.sweep and `nemc sweep`: the results equal the same runs done serially (bit for bit),
-whatever the chunking, on this machine's threads or on a real Dask LocalCluster of worker
-processes, when a worker is killed mid-sweep, and when an interrupted sweep is resumed."""
+"""nemc.sweep (nemc/sweeps.py) and `nemc sweep`: the results equal the same runs done serially
+(bit for bit), whatever the chunking, on this machine's threads or on a real Dask LocalCluster
+of worker processes, when a worker is killed mid-sweep, and when an interrupted sweep is
+resumed."""
 
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ import pytest
 
 import nemc
 from nemc.runtime import ModelError
-from nemc.sweep import (
+from nemc.sweeps import (
     SweepInterrupted,
     SweepStoreError,
     output_times,
@@ -85,7 +86,7 @@ def test_defaults_are_simulate_many_defaults(model, runs):
     """No settings given: the scene's t_span, t_eval, tolerances and ensemble method, as
     simulate_many resolves them (the sweep resolves them once, for every worker)."""
     y0s, params = runs
-    result = sweep(model, y0s[:10], params={"m2": params["m2"][:10]}, progress=False)
+    result = nemc.sweep(model, y0s[:10], params={"m2": params["m2"][:10]}, progress=False)
     reference = model.simulate_many(y0s[:10], params={"m2": params["m2"][:10]}, threads=1)
     assert_same_runs(result, reference)
     assert result.dataset.attrs["method"] == reference.method
@@ -217,7 +218,7 @@ def test_the_plan_of_grids_and_random_draws(model):
 
 
 def test_core_nemc_imports_none_of_the_sweep_extra():
-    code = ("import sys, nemc, nemc.sweep, nemc.cli; heavy = {'xarray', 'dask', 'distributed',"
+    code = ("import sys, nemc, nemc.sweeps, nemc.cli; heavy = {'xarray', 'dask', 'distributed',"
             " 'zarr', 'tqdm', 'h5netcdf'} & set(sys.modules); assert not heavy, heavy")
     subprocess.run([sys.executable, "-c", code], check=True)
 
@@ -228,7 +229,7 @@ def test_workers_report_the_key_they_built_under_and_a_mismatch_warns(model, run
     import dataclasses
     import warnings
 
-    from nemc.sweep import Inputs, Settings, Tracker, model_ref, run_chunk
+    from nemc.sweeps import Inputs, Settings, Tracker, model_ref, run_chunk
 
     ref = model_ref(model)
     settings = Settings.resolve(model, SETTINGS["t_span"], SETTINGS["t_eval"], "nemc.DOP853",

@@ -1,0 +1,119 @@
+"""Report figures: the book's state layout, outputs grouped by kind with their units, legends
+off the data, curves through the dense output (no aliasing of fast motion)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import nemc
+from nemc.figures import dense_times, figure
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
+
+def model_of(name: str):
+    return nemc.compile(EXAMPLES / f"{name}.yaml")
+
+
+def labels(fig) -> list[str]:
+    return [ax.get_ylabel() for ax in fig.axes]
+
+
+def test_one_coordinate_gets_angle_rate_and_phase_portrait_in_degrees() -> None:
+    """The book's Fig. 5.6 (5.3) is in degrees, as the YAML's `units: {angle: deg}` says."""
+    res = model_of("robot_arm").simulate()
+    fig = figure(res)
+    assert labels(fig) == [r"$\theta$ (deg)", r"$\dot{\theta}$ (deg/s)", r"$\dot{\theta}$ (deg/s)"]
+    angle = fig.axes[0].lines[0]
+    times, degrees = angle.get_xdata(), angle.get_ydata()
+    assert degrees[0] == pytest.approx(10.0, rel=1e-9)  # theta(0) = pi/18
+    assert degrees[-1] == pytest.approx(60.0, abs=0.2)  # settles at pi/3
+    assert times[-1] == pytest.approx(10.0) and len(times) >= 1500  # dense, not the 11 rows
+    phase = fig.axes[2].lines[0]
+    np.testing.assert_allclose(phase.get_xdata(), degrees)
+
+
+def test_several_coordinates_each_against_time_then_outputs_by_kind() -> None:
+    res = model_of("double_pendulum").simulate()
+    fig = figure(res)
+    assert labels(fig) == ["$q_{1}$ (deg)", "$q_{2}$ (deg)", "reaction, ground axes (N)",
+                           "reaction, body axes (N)", "energy (J)"]
+    ground = fig.axes[2]
+    assert [line.get_label() for line in ground.lines] == ["A.Fx", "A.Fy", "B.Fx", "B.Fy"]
+    colours = [line.get_color() for line in ground.lines]
+    assert len(set(colours)) == len(colours)  # distinct within a panel
+    for ax in fig.axes:
+        assert ax.get_xlabel() == "t (s)"
+
+
+def test_legends_sit_above_their_panels_not_on_the_data() -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = figure(model_of("double_pendulum").simulate())
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    legends = [(ax, ax.get_legend()) for ax in fig.axes if ax.get_legend() is not None]
+    assert len(legends) == 3  # the outputs' panels; the state's axes name their curve
+    for ax, legend in legends:
+        box = legend.get_window_extent(renderer)
+        assert box.y0 >= ax.get_window_extent(renderer).y1 - 1  # entirely above the axes
+
+
+def test_panel_choice_and_output_choice() -> None:
+    res = model_of("compound_pendulum").simulate()
+    fig = figure(res, panels=["energy"])
+    assert labels(fig) == ["energy (ft\u00b7lb)"]
+    fig = figure(res, panels=["reactions", "accelerations"], outputs=["O.F?", "ddot(*)"])
+    assert labels(fig) == ["reaction, ground axes (lb)", "reaction, body axes (lb)",
+                           "acceleration (rad/s\u00b2)"]
+    with pytest.raises(ValueError, match="unknown panel kind"):
+        figure(res, panels=["torques"])
+
+
+def test_points_get_position_velocity_and_path_panels() -> None:
+    fig = figure(model_of("prismatic_cart_pendulum").simulate(t_span=(0, 2)), panels=["points"])
+    assert labels(fig) == ["position (m)", "y (m)", "velocity (m/s)"]
+    path = fig.axes[1].lines[0]
+    assert path.get_label() == "pendulum.tip"
+
+
+def test_dense_times_put_many_points_in_every_solver_step() -> None:
+    steps = np.array([0.0, 0.1, 0.5, 3.0, 10.0])
+    times = dense_times(steps)
+    assert times[0] == 0.0 and times[-1] == 10.0 and np.all(np.diff(times) > 0)
+    for a, b in zip(steps[:-1], steps[1:]):
+        assert np.count_nonzero((times >= a) & (times < b)) >= 12
+
+
+def test_curves_follow_fast_motion_that_the_table_would_alias() -> None:
+    """A thruster pulsing at 2000 rad/s: the table's 0.1 s rows see sin(200 k), an alias; the
+    figure's curve is sampled from the dense output, 12 points in each solver step (far more
+    than a fixed count would give), and matches F0 sin(w t) everywhere, with one zero
+    crossing per half period."""
+    model = model_of("body_frame_thruster")
+    w, f0 = 2000.0, 3.0
+    res = model.simulate(t_span=(0, 2), params={"w": w})
+    assert len(res.t) == 21
+    steps = model.simulate(t_span=(0, 2), params={"w": w}, t_eval="steps").t
+    assert len(steps) > 1000
+    thrust = next(line for ax in figure(res, panels=["expressions"]).axes for line in ax.lines
+                  if line.get_label() == "thrust")
+    t, value = thrust.get_xdata(), thrust.get_ydata()
+    assert np.max(np.diff(t)) < (2 * math.pi / w) / 8
+    np.testing.assert_allclose(value, f0 * np.sin(w * t), atol=1e-9)
+    crossings = np.count_nonzero(np.diff(np.sign(value[1:])) != 0)
+    assert abs(crossings - 2 * w / (2 * math.pi) * 2) <= 2
+
+
+def test_result_plot_writes_the_same_figure(tmp_path: Path) -> None:
+    res = model_of("two_link_robot_arm").simulate()
+    fig = res.plot(tmp_path / "arm.png")
+    assert labels(fig) == ["$q_{1}$ (deg)", "$q_{2}$ (deg)"]
+    final = fig.axes[0].lines[0].get_ydata()[-1]
+    assert final == pytest.approx(29.53, abs=0.01)  # the 5.4 steady state (see the example)
+    assert (tmp_path / "arm.png").stat().st_size > 10_000
