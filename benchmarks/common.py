@@ -397,3 +397,17 @@ def mode_parser(description: str, quick_help: str, smoke_help: str) -> argparse.
 def mode_of(args: argparse.Namespace) -> str:
     """The mode mode_parser's options chose: smoke, quick or full."""
     return "smoke" if args.smoke else "quick" if args.quick else "full"
+
+
+def results_folder(args: argparse.Namespace, prefix: str) -> Path:
+    """Where a script writes: --out, else a temporary folder in smoke mode, else RESULTS."""
+    return args.out or (Path(tempfile.mkdtemp(prefix=prefix)) if args.smoke else RESULTS)
+
+
+def write_results(result: dict[str, Any], folder: Path, stem: str, text: str) -> None:
+    """STEM-latest.json and STEM-latest.md in FOLDER; the Markdown printed too."""
+    folder.mkdir(parents=True, exist_ok=True)
+    write_json(result, folder / f"{stem}-latest.json")
+    (folder / f"{stem}-latest.md").write_text(text)
+    print(text)
+    print(f"written: {folder / f'{stem}-latest.json'}, {folder / f'{stem}-latest.md'}")

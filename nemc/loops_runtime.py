@@ -44,7 +44,7 @@ class LoopsMixin:
         equations = self.constraint_equations
         return equations[index] if index < len(equations) else f"equation {index}"
 
-    def loop_failure(self, status: int) -> str | None:
+    def _loop_failure(self, status: int) -> str | None:
         """What a loop status of the model's C means, or None for other statuses."""
         if -2000 < status <= -1000:
             return (f"the state cannot be brought onto constraint {self._equation(status)!r} "
@@ -75,7 +75,7 @@ class LoopsMixin:
                                             buffer(out))
         return out[0] if single else out.T
 
-    def projected(self, t: np.ndarray, y: np.ndarray, p: np.ndarray) -> np.ndarray:
+    def _projected(self, t: np.ndarray, y: np.ndarray, p: np.ndarray) -> np.ndarray:
         """The states y (n_state, n_t) at times t brought onto the constraints (y itself for a
         tree). A state that cannot be is left as it is (its run reports why)."""
         if not self.has_loops or not y.size:
@@ -88,9 +88,31 @@ class LoopsMixin:
             project(1, buffer(ts[k:k + 1]), buffer(ys[k]), buffer(p), buffer(out[k]))
         return out.T
 
+    def _singularity_note(self, t: float, y: np.ndarray, p: np.ndarray) -> str:
+        """Where a run of a closed loop stopped, whether the constraints lose rank there (a
+        singular configuration), naming the constraint most involved; '' if they do not."""
+        if not self.has_loops or not np.all(np.isfinite(y)):
+            return ""
+        n = len(self.state_names) // 2
+        jacobian = np.empty((len(self.constraint_equations), n))
+        buffer = self._buffer  # type: ignore[attr-defined]
+        state = np.ascontiguousarray(y, dtype=float)
+        self._loop_c("constraint_jacobian")(float(t), buffer(state), buffer(p), buffer(jacobian))
+        left, values, _ = np.linalg.svd(jacobian)
+        ratio = values[-1] / values[0] if values[0] > 0 else 0.0
+        if len(values) < len(self.constraint_equations):
+            ratio = 0.0
+        if ratio > 1e-4:
+            return ""
+        weakest = self.constraint_equations[int(np.abs(left[:, -1]).argmax())]
+        return (f" Near t={t:.9g} constraint {weakest!r} is at a singular configuration (its "
+                f"equations lose rank: smallest singular value {ratio:.2g} of the largest), "
+                "where the accelerations are ill-conditioned; a looser tolerance, or a method "
+                "that steps over it (nemc.Vern9), may pass it")
+
     # -- assembly -------------------------------------------------------------------------
 
-    def assembled(self, t0: float, y0: np.ndarray, given: np.ndarray, p: np.ndarray
+    def _assembled(self, t0: float, y0: np.ndarray, given: np.ndarray, p: np.ndarray
                   ) -> tuple[np.ndarray, int]:
         """y0 made consistent at t0: the entries marked given kept, the others solved from the
         constraints starting from their values in y0 (the guess); and the number of degrees of
@@ -120,32 +142,32 @@ class LoopsMixin:
         return (f"the given rates cannot satisfy constraint {self._equation(status)!r} "
                 f"(residual {info[2]:.3g}){values}; give fewer rates, or consistent ones")
 
-    def assembled_runs(self, t0: float, y0s: np.ndarray, given: np.ndarray, ps: np.ndarray
+    def _assembled_runs(self, t0: float, y0s: np.ndarray, given: np.ndarray, ps: np.ndarray
                        ) -> np.ndarray:
         """An ensemble's initial states (k, n_state), each assembled at its parameters ps
         (k or 1 rows); an ensemble needs a degree of freedom."""
         states = np.empty_like(y0s)
         for run, y0 in enumerate(y0s):
-            states[run], freedom = self.assembled(t0, y0, given, ps[run % len(ps)])
+            states[run], freedom = self._assembled(t0, y0, given, ps[run % len(ps)])
             if freedom == 0:
                 raise self._model_error(  # type: ignore[attr-defined]
                     "simulate_many: this mechanism has no degree of freedom left by its drives "
                     "(a kinematic analysis): use simulate")
         return states
 
-    def projected_runs(self, t: np.ndarray, y: np.ndarray, ps: np.ndarray) -> np.ndarray:
+    def _projected_runs(self, t: np.ndarray, y: np.ndarray, ps: np.ndarray) -> np.ndarray:
         """An ensemble's states (k, n_t, n_state) brought onto the constraints (NaN rows of runs
         that stopped early stay NaN)."""
         out = y.copy()
         for run in range(len(y)):
             finite = np.all(np.isfinite(y[run]), axis=1)
-            out[run, finite] = self.projected(t[finite], y[run, finite].T,
+            out[run, finite] = self._projected(t[finite], y[run, finite].T,
                                               ps[run % len(ps)]).T
         return out
 
     # -- no degree of freedom: a kinematic analysis -----------------------------------------
 
-    def kinematic_states(self, times: np.ndarray, y0: np.ndarray, p: np.ndarray
+    def _kinematic_states(self, times: np.ndarray, y0: np.ndarray, p: np.ndarray
                          ) -> tuple[np.ndarray, np.ndarray, str | None]:
         """The states of a mechanism its drives leave without a degree of freedom, at each time:
         assembled from the previous one (the first from y0, assembled already), so the branch
@@ -155,14 +177,14 @@ class LoopsMixin:
         states, state = [], y0
         for t in times:
             try:
-                state, _ = self.assembled(float(t), state, nothing, p)
+                state, _ = self._assembled(float(t), state, nothing, p)
             except ValueError as error:
                 return (times[:len(states)], np.array(states).T.reshape(self.n_state, -1),
                         f"at t={float(t):.9g}: {error}")
             states.append(state)
         return times, np.array(states).T.reshape(self.n_state, -1), None
 
-    def given_mask(self, y0: Any) -> np.ndarray:
+    def _given_mask(self, y0: Any) -> np.ndarray:
         """Which entries of the initial state the caller (or the scene) gives: the scene's
         `initial` for y0 None, a dict's keys, every entry of an array."""
         if y0 is None:

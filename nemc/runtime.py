@@ -384,7 +384,7 @@ class Model(LoopsMixin):
             dy = np.empty(n)
             status = c_rhs(t, buffer(y), p_buffer, buffer(dy))
             if status:
-                raise IntegrationFailure(t, y, status, names, self.loop_failure(status))
+                raise IntegrationFailure(t, y, status, names, self._loop_failure(status))
             return dy
 
         rhs.last = last  # type: ignore[attr-defined]
@@ -528,11 +528,11 @@ class Model(LoopsMixin):
         times = self._times(span, t_eval)
         state0 = self.state_vector(y0, params)
         if self.has_loops:
-            state0, freedom = self.assembled(span[0], state0, self.given_mask(y0), p)
+            state0, freedom = self._assembled(span[0], state0, self._given_mask(y0), p)
             if freedom == 0:
                 return self._kinematic_run(span, state0, times, rtol, atol, p)
             result = self._integrate(method, span, state0, times, rtol, atol, p, params)
-            result.y = self.projected(result.t, result.y, p)
+            result.y = self._projected(result.t, result.y, p)
             return result
         return self._integrate(method, span, state0, times, rtol, atol, p, params)
 
@@ -558,7 +558,7 @@ class Model(LoopsMixin):
         return SimulationResult(
             t=sol.t, y=sol.y, outputs=self._lazy_outputs(sol.t, sol.y, p),
             nfev=int(sol.nfev), njev=int(sol.njev), nlu=int(sol.nlu), status=int(sol.status),
-            message=self._message(sol, rhs.last),
+            message=self._message(sol, rhs.last, p),
             success=bool(sol.success), method=method, rtol=rtol, atol=atol,
             params=dict(zip(self.parameter_names, p.tolist())),
         )
@@ -569,7 +569,7 @@ class Model(LoopsMixin):
         states computed from the constraints at each time of t_eval (default: 201 over
         t_span), the outputs (drives, reactions) there."""
         times = np.linspace(*span, KINEMATIC_POINTS) if times is None else np.asarray(times)
-        t, y, failure = self.kinematic_states(times.astype(float), state0, p)
+        t, y, failure = self._kinematic_states(times.astype(float), state0, p)
         return SimulationResult(
             t=t, y=y, outputs=self._lazy_outputs(t, y, p), nfev=0, njev=0, nlu=0,
             status=0 if failure is None else -1, success=failure is None,
@@ -591,17 +591,19 @@ class Model(LoopsMixin):
             return times[(times >= span[0]) & (times <= span[1])]
         return None
 
-    def _message(self, sol: Any, last: list) -> str:
+    def _message(self, sol: Any, last: list, p: np.ndarray) -> str:
         """scipy's message; when the solver gave up, also where, the state and the likely cause."""
         if sol.success or last[1] is None:
             return str(sol.message)
-        return self._gave_up(str(sol.message), *last)
+        return self._gave_up(str(sol.message), *last, p)
 
-    def _gave_up(self, message: str, t: float, y: np.ndarray) -> str:
+    def _gave_up(self, message: str, t: float, y: np.ndarray, p: np.ndarray) -> str:
         state = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.state_names, y))
-        return (f"integration stopped near t={t:.9g}: {message} State: {state}. Likely "
-                "cause: the solution grows without bound (a finite-time blow-up, a singular "
-                "configuration or an unstable load); `nemc stress` measures the scene")
+        singular = self._singularity_note(t, y, p)
+        cause = singular or (" Likely cause: the solution grows without bound (a finite-time "
+                             "blow-up, a singular configuration or an unstable load); `nemc "
+                             "stress` measures the scene")
+        return f"integration stopped near t={t:.9g}: {message} State: {state}.{cause}"
 
     def _failed(
         self, failure: IntegrationFailure, method: str, rtol: float, atol: float,
@@ -684,7 +686,7 @@ class Model(LoopsMixin):
         lib = self._lib
         if status == lib.NEMC_RHS_FAILED:
             failure = IntegrationFailure(run.t_fail, y_fail, run.rhs_status, self.state_names,
-                                         self.loop_failure(run.rhs_status))
+                                         self._loop_failure(run.rhs_status))
             return self._failed(failure, method, run.rtol, run.atol, self.parameters_at(p))
         messages = {  # scipy's messages for the same outcomes
             lib.NEMC_REACHED_END: SUCCESS_MESSAGE,
@@ -696,7 +698,7 @@ class Model(LoopsMixin):
             t=t, y=y, outputs=self._lazy_outputs(t, y, p), nfev=int(run.nfev),
             njev=int(run.njev), nlu=int(run.nlu), status=status, success=status == 0, method=method,
             message=messages[status] if status == lib.NEMC_REACHED_END
-            else self._gave_up(messages[status], run.t_fail, y_fail),
+            else self._gave_up(messages[status], run.t_fail, y_fail, p),
             rtol=run.rtol, atol=run.atol, params=self.parameters_at(p),
         )
 
@@ -753,10 +755,10 @@ class Model(LoopsMixin):
         atol = float(atol if atol is not None else self.scene["atol"] or DEFAULT_ATOL)
         times = self._times(span, t_eval)
         times = np.array(span[:1] + span[1:] if times is None else times, dtype=float)
-        given = self.given_mask(y0s)
+        given = self._given_mask(y0s)
         ps, y0s = self._ensemble_inputs(y0s, params)
         if self.has_loops:  # each run from its assembled state
-            y0s = self.assembled_runs(span[0], y0s, given, ps)
+            y0s = self._assembled_runs(span[0], y0s, given, ps)
         integrate_many, method_id = self._native(method, "integrate_many"), self._method_id(method)
         run, keep = self._native_run(span, times, rtol, atol)
         k, n = len(y0s), self.n_state
@@ -778,7 +780,7 @@ class Model(LoopsMixin):
         with ThreadPoolExecutor(workers) as pool:  # cffi releases the GIL during C calls
             list(pool.map(chunk, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]))
         if self.has_loops:
-            y = self.projected_runs(keep[0], y, ps)
+            y = self._projected_runs(keep[0], y, ps)
         return EnsembleResult(
             t=keep[0], y=y.transpose(0, 2, 1), status=statuses.astype(int),
             success=statuses == 0, nfev=counts[:, 0].copy(), njev=counts[:, 1].copy(),

@@ -38,24 +38,31 @@ def symbol_names(eqs: Equations) -> dict[sympy.Symbol, str]:
     """LaTeX of the coordinates, their rates and accelerations, and the parameters (beta ->
     \\beta, L1 -> L_{1}, thetaf -> \\mathrm{thetaf}, not a product of five letters)."""
     symbols = (*eqs.coordinates, *eqs.speeds, *eqs.accelerations, *eqs.parameters, m.TIME)
-    return {s: latex_name(s.name) for s in symbols}
+    names = {s: latex_name(s.name) for s in symbols}
+    names.update({s: f"\\lambda_{{{k + 1}}}" for k, s in enumerate(eqs.multipliers)})
+    names.update({s: f"\\tau_{{\\mathrm{{{joint.name}}}}}"
+                  for s, joint in zip(eqs.drives, eqs.mechanism.driven)})
+    return names
 
 
-def sections(mech: Mechanism) -> list[tuple[str, sympy.Basic]]:
-    """(what, expression) in the printed order: M, f, explicit qdd, the outputs."""
-    eqs = derive(mech)
+def sections(eqs: Equations) -> list[tuple[str, sympy.Basic]]:
+    """(what, expression) in the printed order: M, f, explicit qdd (a tree's), the loops'
+    constraints Phi, the outputs."""
     mass, forcing = eqs.mass_forcing
     parts: list[tuple[str, sympy.Basic]] = [("M", mass.applyfunc(tidy)),
                                             ("f", forcing.applyfunc(tidy))]
-    if eqs.n <= EXPLICIT_MAX_COORDINATES:
+    if eqs.n <= EXPLICIT_MAX_COORDINATES and eqs.loops is None:
         parts.append(("qdd", explicit_accelerations(mass, forcing)))
+    if eqs.loops is not None:
+        parts.append(("Phi", sympy.Matrix(eqs.loops.values).applyfunc(tidy)))
     parts += [(name, tidy(expr)) for name, expr in eqs.outputs]
     return parts
 
 
-LATEX_LEFT = {"M": "M", "f": "f", "qdd": "\\ddot{q}"}
+LATEX_LEFT = {"M": "M", "f": "f", "qdd": "\\ddot{q}", "Phi": "\\Phi"}
 TEXT_TITLE = {"M": "mass matrix M:", "f": "forcing f:",
-              "qdd": "explicit accelerations qdd = M^-1 f:"}
+              "qdd": "explicit accelerations qdd = M^-1 f:",
+              "Phi": "loop constraints Phi(q, t) = 0 (their multipliers lambda: the reactions):"}
 
 
 def latex_left(what: str) -> str:
@@ -68,11 +75,16 @@ def latex_left(what: str) -> str:
 
 
 def show(mech: Mechanism, latex: bool = False) -> str:
-    eqs_names = symbol_names(derive(mech)) if latex else {}
-    header = [f"{mech.name}: M(q) qdd = f(t, q, dq)",
-              f"coordinates: {', '.join(mech.coordinates)}"]
+    eqs = derive(mech)
+    eqs_names = symbol_names(eqs) if latex else {}
+    form = ("M(q) qdd = f(t, q, dq) + Phi_q^T lambda, Phi(q, t) = 0" if eqs.loops is not None
+            else "M(q) qdd = f(t, q, dq)")
+    header = [f"{mech.name}: {form}", f"coordinates: {', '.join(mech.coordinates)}"]
+    if mech.driven:
+        header.append("driven: " + ", ".join(f"{j.coordinates[0]} = {j.motion}"
+                                             for j in mech.driven))
     lines = []
-    for what, expr in sections(mech):
+    for what, expr in sections(eqs):
         if latex:
             lines.append(f"{latex_left(what)} = {sympy.latex(expr, symbol_names=eqs_names)}")
         elif what in TEXT_TITLE:

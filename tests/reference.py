@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import sympy as sp
@@ -230,6 +231,7 @@ class ReferenceModel:
         self.mech = mech
         lag = lagrangian(mech)
         M, f = equations(lag)
+        self.lagrangian, self.M, self.f = lag, M, f  # symbolic, for references built on this one
         self.param_symbols = tuple(_definitions(mech))
         args = (TIME, *lag.q, *lag.u, *self.param_symbols)
         self._M = sp.lambdify(args, M, modules="numpy", cse=True, dummify=True)
@@ -274,6 +276,18 @@ class ReferenceModel:
             index = self.mech.state_names.index(name)
             y[index] = float(sp.sympify(expr).xreplace(values))
         return y
+
+
+def tree_example_names(folder: Path) -> list[str]:
+    """The example files this reference covers: trees without driven joints. Closed loops
+    (`constraints`) and driven joints (`motion`) are tests/loop_reference.py's."""
+    names = []
+    for path in sorted(folder.glob("*.yaml")):
+        data = yaml.safe_load(path.read_text())
+        driven = any("motion" in joint for joint in data["joints"].values())
+        if "constraints" not in data and not driven:
+            names.append(path.stem)
+    return names
 
 
 def reference_rhs(mech: Mechanism) -> Callable[..., np.ndarray]:

@@ -14,6 +14,7 @@ import pytest
 import sympy
 
 from nemc import build
+from nemc.constraints import CONSTRAINT_KINDS, Constraint
 from nemc.derive import derive, with_diagnostics, with_taylor
 from nemc.emit import emit, symbol_table
 from nemc.joints import JOINT_KINDS, Joint, Revolute, joint_kind
@@ -23,9 +24,10 @@ from nemc.validate import validate_text
 
 NEMC = Path(build.__file__).resolve().parent
 EXAMPLES = NEMC.parent / "examples"
-REGISTRIES = ("joints", "loads")
-KIND_NAMES = set(JOINT_KINDS) | set(LOAD_KINDS)
-KIND_CLASSES = {kind.__name__ for kind in (*JOINT_KINDS.values(), *LOAD_KINDS.values())}
+REGISTRIES = ("joints", "loads", "constraints")
+KIND_NAMES = set(JOINT_KINDS) | set(LOAD_KINDS) | set(CONSTRAINT_KINDS)
+KIND_CLASSES = {kind.__name__ for kind in (*JOINT_KINDS.values(), *LOAD_KINDS.values(),
+                                           *CONSTRAINT_KINDS.values())}
 
 
 def modules_outside_registries() -> list[Path]:
@@ -85,7 +87,9 @@ def test_the_kind_test_finds_kind_tests() -> None:
 
 
 @pytest.mark.parametrize("registry, table, base", [("joints", JOINT_KINDS, Joint),
-                                                   ("loads", LOAD_KINDS, Load)])
+                                                   ("loads", LOAD_KINDS, Load),
+                                                   ("constraints", CONSTRAINT_KINDS,
+                                                    Constraint)])
 def test_every_kind_module_is_in_its_table(registry: str, table: dict, base: type) -> None:
     """One module per kind, each kind in the table under the name the YAML uses."""
     modules = {path.stem for path in (NEMC / registry).glob("*.py")} - {"__init__", "base"}

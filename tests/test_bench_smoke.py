@@ -74,6 +74,24 @@ def test_native_smoke_mode_writes_the_equal_error_table(tmp_path: Path) -> None:
     assert "speed-up vs lambdify(cse)" in text
 
 
+def test_loops_smoke_mode_writes_its_tables(tmp_path: Path) -> None:
+    """The closed-loop benchmark: the baseline reaches its target against the extended-precision
+    reference; nemc's rows are measured or marked "not supported yet" with a reason."""
+    out = run_script("loops.py", tmp_path)
+    result = json.loads((out / "loops-latest.json").read_text())
+    ref = result["references"]["fourbar"]
+    assert ref["error_bound"] < 1e-7, ref
+    rows = result["rows"]
+    baseline = [r for r in rows if r["contender"].startswith("DOP853 + lambdify")]
+    assert baseline and all(r["reached"] and r["median"] > 0 for r in baseline), baseline
+    for row in rows:
+        if "reason" in row:
+            assert row["reason"].startswith("nemc: not supported yet"), row
+        else:
+            assert row["median"] > 0, row
+    assert (out / "loops-latest.md").read_text().startswith("# Closed loops")
+
+
 def test_sweep_smoke_mode_compares_clusters_and_machinery(tmp_path: Path) -> None:
     out = run_script("sweep.py", tmp_path)
     result = json.loads((out / "sweep-latest.json").read_text())

@@ -16,14 +16,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
-from reference import ReferenceModel, book_two_link_rhs, random_mechanism_yaml
+from reference import (
+    ReferenceModel,
+    book_two_link_rhs,
+    random_mechanism_yaml,
+    tree_example_names,
+)
 from scipy.integrate import solve_ivp
 
 import nemc
 from nemc.validate import load_mechanism
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
-EXAMPLE_NAMES = sorted(p.stem for p in EXAMPLES.glob("*.yaml"))
+EXAMPLE_NAMES = tree_example_names(EXAMPLES)  # loops and drives: test_loops.py
 RANDOM_SEEDS = range(12)
 RHS_RTOL = 1e-10
 

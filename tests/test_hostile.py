@@ -105,6 +105,29 @@ EXPECTED: dict[str, tuple[int, str, str]] = {
     "graph_unknown_point": (9, "joints.B.at", "body 'b1' has no point 'Q'"),
     "graph_free_not_on_ground": (9, "joints.B.parent", "a free joint's parent must be ground"),
     "graph_ground_child": (9, "joints.B.child", "ground is not allowed here"),
+    # closed loops (constraints) and driven joints (motion), format version 2
+    "loop_unknown_point": (13, "constraints.C.a", "body 'rocker' has no point 'Q'"),
+    "loop_unknown_body": (13, "constraints.C.a", "unknown body 'rockr' (did you mean 'rocker'?)"),
+    "loop_same_body": (13, "constraints.C.b", "a and b are both on 'rocker'"),
+    "loop_overconstrained": (13, "constraints", "the constraints add 4 equations but the joints "
+                                                "leave only 3 free coordinates"),
+    "loop_misspelled_type": (13, "constraints.C.type", "unknown constraint type 'revolut' (did "
+                                                       "you mean 'revolute'?)"),
+    "loop_slot_zero_axis": (13, "constraints.C.axis", "axis must not be [0, 0]"),
+    "loop_missing_b": (13, "constraints.C.b", "missing required key 'b'"),
+    "motion_on_free": (7, "joints.F.motion", "key 'motion' does not apply to a free joint"),
+    "motion_on_weld": (9, "joints.W.motion", "key 'motion' does not apply to a weld joint"),
+    "motion_absolute_moving_parent": (9, "joints.B.motion", "a driven revolute joint with angle: "
+                                                            "absolute needs the ground as its "
+                                                            "parent"),
+    "motion_uses_coordinate": (9, "joints.A.motion", "'q2' is a coordinate, not allowed in a "
+                                                     "joint's motion"),
+    "driven_in_initial": (15, "simulation.initial.q1", "q1 is driven (joints.A.motion): its "
+                                                       "value is prescribed"),
+    "guess_driven": (15, "simulation.guess.q1", "q1 is driven (joints.A.motion)"),
+    "guess_unknown": (15, "simulation.guess.q4", "unknown coordinate 'q4' (did you mean 'q3'?)"),
+    "guess_rate": (15, "simulation.guess.dot(q2)", "unknown coordinate 'dot(q2)'"),
+    "drives_undriven": (15, "outputs.drives[0]", "joint 'A' is not driven (it has no motion:)"),
     # masses, inertias and parameters at load time
     "mass_zero": (5, "bodies.b1.mass", "must be > 0, got 0"),
     "mass_negative": (5, "bodies.b1.mass", "must be > 0, got -1.5"),

@@ -25,7 +25,13 @@ import numpy as np
 import pytest
 import sympy as sp
 import yaml
-from reference import ReferenceModel, body_frames, random_mechanism_yaml, resolve_parameters
+from reference import (
+    ReferenceModel,
+    body_frames,
+    random_mechanism_yaml,
+    resolve_parameters,
+    tree_example_names,
+)
 
 import nemc
 from nemc.loads import Force, JointSpring, Spring, Torque
@@ -40,7 +46,7 @@ from nemc.pipeline import compile_mechanism
 from nemc.validate import load_mechanism
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
-EXAMPLE_NAMES = sorted(p.stem for p in EXAMPLES.glob("*.yaml"))
+EXAMPLE_NAMES = tree_example_names(EXAMPLES)  # loops and drives: test_loops.py
 WITH_OUTPUTS = sorted(
     n for n in EXAMPLE_NAMES if "outputs" in yaml.safe_load((EXAMPLES / f"{n}.yaml").read_text())
 )

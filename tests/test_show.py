@@ -53,7 +53,7 @@ def test_printed_equations_equal_the_compiled_model(name: str) -> None:
     compiled right-hand side at random states."""
     mech = load_mechanism(EXAMPLES / f"{name}.yaml")
     eqs = derive(mech)
-    parts = dict(sections(mech))
+    parts = dict(sections(eqs))
     model = nemc.compile(EXAMPLES / f"{name}.yaml")
     state = eqs.state
     values = dict(zip(eqs.parameters, model._default_p))
