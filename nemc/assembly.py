@@ -44,19 +44,32 @@ def check_assembly(mech: m.Mechanism) -> Assembly:
     q = gauss_newton(phi, jacobian, start, ~given)
     residual = np.abs(phi(q))
     if not residual.max() <= TOLERANCE:
-        owners = [c for c in mech.constraints for _ in range(c.equations_count)]
-        worst = owners[int(residual.argmax())]
-        kept = [name for name, keep in zip(names, given) if keep]
-        also = f" with {', '.join(kept)} given" if kept else ""
-        problem = Problem(worst.loc.file, worst.loc.line, worst.loc.key,
-                          f"the mechanism cannot be assembled{also}: this constraint stays "
-                          f"{residual.max():.3g} from closing at the initial values (the loop "
-                          "is too short or too long to close, or the given values over-"
-                          "determine it); change the geometry, the initial values or the "
-                          "guess")
-        raise InputError([problem])
+        raise InputError([assembly_problem(mech, phi, jacobian, start, given, residual)])
     rank = np.linalg.matrix_rank(jacobian(q), tol=1e-9 * max(1.0, np.abs(jacobian(q)).max()))
     return Assembly(dict(zip(names, q.tolist())), len(names) - int(rank), len(residual))
+
+
+def assembly_problem(mech: m.Mechanism, phi, jacobian, start: np.ndarray, given: np.ndarray,
+                     residual: np.ndarray) -> Problem:
+    """Why the loops cannot close: the given initial values (when the loops close once they
+    are free), or the geometry (named by the constraint left farthest from closing)."""
+    kept = [name for name, keep in zip(mech.coordinates, given) if keep]
+    where = mech.simulation.initial_loc
+    owners = [c for c in mech.constraints for _ in range(c.equations_count)]
+    worst = owners[int(residual.argmax())]
+    if kept and where is not None:
+        free = np.abs(phi(gauss_newton(phi, jacobian, start, np.ones_like(given)))).max()
+        if free <= TOLERANCE:
+            return Problem(where.file, where.line, where.key,
+                           f"constraint {worst.name!r} ({worst.loc.key}, line "
+                           f"{worst.loc.line}) cannot close with these values of "
+                           f"{', '.join(kept)}: it stays {residual.max():.3g} from closing, "
+                           "and closes when the coordinates are free; give fewer coordinates, "
+                           "or values the loop can take")
+    return Problem(worst.loc.file, worst.loc.line, worst.loc.key,
+                   f"the mechanism cannot be assembled: this constraint stays "
+                   f"{residual.max():.3g} from closing (the loop is too short or too long to "
+                   "close); change the geometry, or the guess that starts the solve")
 
 
 def numeric_loops(mech: m.Mechanism):

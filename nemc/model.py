@@ -112,6 +112,7 @@ class Simulation:
     rtol: float | None = None
     atol: float | None = None
     guess: Mapping[str, Expr] = field(default_factory=dict)  # closed loops: assembly start
+    initial_loc: Loc | None = None  # where `initial` is, for messages about its values
 
 
 AngleDisplay = Literal["rad", "deg"]

@@ -346,9 +346,14 @@ class Model(LoopsMixin):
         return np.ascontiguousarray(np.broadcast_to(array.astype(np.float64), (count,)))
 
     def initial_state(self, params: Mapping[str, float] | None = None) -> np.ndarray:
-        """The scene's initial state (unlisted values 0) at these parameters."""
+        """The scene's initial state (unlisted values 0) at these parameters; a closed loop's
+        assembled from its given values and its guess (at the scene's start time)."""
+        p = self.parameter_vector(params)
         y0 = np.empty(self.n_state)
-        self._c["initial_state"](self._buffer(self.parameter_vector(params)), self._buffer(y0))
+        self._c["initial_state"](self._buffer(p), self._buffer(y0))
+        if self.has_loops:
+            t0 = (self.scene["t_span"] or DEFAULT_T_SPAN)[0]
+            y0 = self._assembled(t0, y0, self._given_mask(None), p)[0]
         return y0
 
     def state_vector(self, y0: Any, params: Mapping[str, float] | None = None) -> np.ndarray:

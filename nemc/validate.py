@@ -1096,8 +1096,10 @@ def _simulation(ctx: _Ctx, node: Node) -> Simulation:
     guess = {}
     if "guess" in entries:
         guess = _initial(ctx, entries["guess"], "simulation.guess", rates=False)
+    initial_loc = (ctx.loc(entries["initial"], "simulation.initial") if "initial" in entries
+                   else None)
     return Simulation(t_span, initial, t_eval, step, method, tolerances["rtol"],
-                      tolerances["atol"], guess)
+                      tolerances["atol"], guess, initial_loc)
 
 
 def _positive(ctx: _Ctx, node: Node, path: str) -> float | None:
