@@ -18,7 +18,7 @@ export NEMC_CACHE ?= $(CURDIR)/.nemc-cache
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[dev]'
+	$(BIN)/pip install --quiet -e '.[dev,sweep]'
 	touch $(STAMP)
 
 # The README's figures (docs/figures/double_pendulum.{png,gif}) come from here.
@@ -71,6 +71,7 @@ bench: $(PEERS_STAMP)
 	$(BIN)/python benchmarks/stiff.py
 	$(BIN)/python benchmarks/native.py
 	$(BIN)/python benchmarks/loops.py
+	$(BIN)/python benchmarks/sweep.py
 
 bench-quick: $(STAMP)
 	$(BIN)/nemc bench --quick

@@ -11,12 +11,13 @@ loads in milliseconds.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:
     from .runtime import Model
+    from .sweeps import SweepResult
 
 
 def compile(  # noqa: A001
@@ -43,4 +44,13 @@ def compile(  # noqa: A001
     return compile_mechanism(path, jacobian, taylor=taylor).model
 
 
-__all__ = ["compile", "__version__"]
+def sweep(model: Model, y0s: Any = None, **options: Any) -> SweepResult:
+    """Run MODEL over many initial states and parameter sets, on this machine's cores or a Dask
+    cluster (client=...), into one xarray dataset (out=None, or a .zarr, .nc or .npz file).
+    The options and the result: nemc.sweeps.sweep. Needs the extra nemc[sweep]."""
+    from .sweeps import sweep as run_sweep
+
+    return run_sweep(model, y0s, **options)
+
+
+__all__ = ["compile", "sweep", "__version__"]

@@ -50,6 +50,7 @@ NOT_IN_BUILD_KEY = frozenset({
     "cli.py", "report.py", "show.py", "stress.py", "stress_report.py", "load.py", "errors.py",
     "figures.py", "animate.py", "typeset.py",
     "runtime.py", "loops_runtime.py",  # copied into the exported package by `export`
+    "sweeps.py", "sweep_store.py",  # run builds, never make them
 })
 # The runtime of a standalone package: copied from nemc when a package is exported, under these
 # names (the package's __init__ imports ._runtime, which imports .methods).

@@ -87,6 +87,7 @@ def make_parser() -> argparse.ArgumentParser:
                        help="the scaling benchmark (benchmarks/scaling.py) instead of the suite")
     add_stress_parser(commands)
     add_animate_parser(commands)
+    add_sweep_parser(commands)
     return parser
 
 
@@ -144,6 +145,119 @@ def cmd_animate(args: argparse.Namespace) -> int:
         print(f"integration failed: {result.message}", file=sys.stderr)
         return 1
     return 0
+
+
+def sweep_axis(grid: bool):
+    """argparse type of --grid / --random (a bad value: argparse's message, exit status 2)."""
+    def parse(text: str):
+        from .sweeps import parse_axis
+
+        try:
+            return parse_axis(text, grid)
+        except ValueError as error:
+            raise argparse.ArgumentTypeError(str(error)) from None
+    return parse
+
+
+def positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a number >= 1, got {text!r}")
+    return value
+
+
+def add_sweep_parser(commands: argparse._SubParsersAction) -> None:
+    sweep = commands.add_parser(
+        "sweep", help="many runs over parameter and initial-value sets (this machine or Dask)")
+    sweep.add_argument("mechanism")
+    sweep.add_argument("--grid", action="append", default=[], type=sweep_axis(True),
+                       metavar="NAME=START:STOP:N", help="N values from START to STOP of a "
+                       "parameter or initial state (q1, dot(q1)); grids multiply (repeatable)")
+    sweep.add_argument("--random", action="append", default=[], type=sweep_axis(False),
+                       metavar="NAME=LOW:HIGH", help="uniform random values (repeatable)")
+    sweep.add_argument("--runs", type=positive_int,
+                       help="random draws (per grid point, with --grid); default 1")
+    sweep.add_argument("--seed", type=int, default=0, help="of the random draws (0)")
+    sweep.add_argument("--set", dest="params", type=parse_assignment, action="append",
+                       default=[], metavar="NAME=VALUE", help="the same value for every run")
+    sweep.add_argument("--t-end", type=finite_number, help="end time (the scene's by default)")
+    sweep.add_argument("--times", type=positive_int, metavar="N", help="N output times equally"
+                       " spaced up to the end, the last at the end (default: the scene's)")
+    sweep.add_argument("--method", help="nemc.DOP853 nemc.Vern9 nemc.Taylor nemc.Radau "
+                       "(default: the scene's if native, else nemc.DOP853)")
+    sweep.add_argument("--rtol", type=positive_number)
+    sweep.add_argument("--atol", type=positive_number)
+    sweep.add_argument("--dask", metavar="ADDRESS", help="a Dask scheduler (tcp://host:8786), "
+                       "or local[:N] for N local worker processes; default: this machine's "
+                       "threads")
+    sweep.add_argument("--out", help="FILE.zarr, FILE.nc or FILE.npz (default "
+                       "<name>-sweep.zarr); the same command again resumes it")
+    sweep.add_argument("--resume", action="store_true",
+                       help="require an interrupted sweep in --out to continue")
+    sweep.add_argument("--chunk", type=positive_int, metavar="RUNS", help="runs per task")
+    sweep.add_argument("--threads", type=positive_int, help="threads without --dask (cores)")
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from . import sweeps
+    from .pipeline import compile_mechanism
+    from .runtime import ModelError
+
+    model = compile_mechanism(args.mechanism).model
+    span = list(model.scene["t_span"] or [0.0, 10.0])
+    if args.t_end is not None:
+        span[1] = args.t_end
+    out = args.out or f"{model.name}-sweep.zarr"
+    try:
+        if not span[1] > span[0]:
+            raise ModelError(f"--t-end: must be after the start time {span[0]:g}")
+        y0, params, attrs = sweeps.plan_runs(model, args.grid, args.random, args.runs,
+                                             args.seed, dict(args.params))
+        times = None if args.times is None else sweeps.output_times(span, args.times)
+        with sweeps.dask_client(args.dask) as client:
+            result = sweeps.sweep(model, y0, params=params, t_span=span, t_eval=times,
+                                  method=args.method, rtol=args.rtol, atol=args.atol,
+                                  client=client, out=out, resume=args.resume,
+                                  chunk_runs=args.chunk, threads=args.threads, attrs=attrs)
+    except (ModelError, sweeps.SweepStoreError) as error:
+        print(f"{args.mechanism}: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt as stop:  # SweepInterrupted, or Ctrl-C while setting up
+        kept = f"{stop.done} of {stop.runs} runs" if isinstance(stop, sweeps.SweepInterrupted) \
+            else "the finished runs"
+        print(f"\ninterrupted: {kept} kept in {out}; run the same command again to continue",
+              file=sys.stderr)
+        return 130
+    except ImportError as error:
+        print(f"nemc: {error}", file=sys.stderr)
+        return 1
+    return report_sweep(result)
+
+
+def report_sweep(result) -> int:
+    """The summary: runs, time, rate, failures counted by status and listed (the first 20);
+    1 if any run failed or did not run."""
+    import numpy as np
+
+    rate = f"{result.ran / result.seconds:.0f} runs/s" if result.ran else "nothing left to run"
+    print(f"{result.runs} runs ({result.resumed} done before) in {result.seconds:.1f} s, "
+          f"{rate}; {result.failed} failed, {result.not_run} not run -> {result.path}")
+    if result.failed:
+        from .sweep_store import STATUS_MEANINGS
+
+        codes, counts = np.unique(result.status[result.status != 0], return_counts=True)
+        print("failed runs: " + ", ".join(f"{n} {STATUS_MEANINGS.get(int(c), c)} ({c})"
+                                          for c, n in zip(codes, counts)))
+    for run, status, message in result.failures(20):
+        print(f"  run {run}: status {status}: {message}")
+    if result.failed > 20:
+        print(f"  ... and {result.failed - 20} more (status != 0 in the file)")
+    for error in result.chunk_errors:
+        print(f"  chunk failed: {error}", file=sys.stderr)
+    return 1 if result.failed or result.not_run else 0
 
 
 def cmd_compile(args: argparse.Namespace) -> int:
@@ -390,6 +504,7 @@ COMMANDS = {
     "bench": cmd_bench,
     "stress": cmd_stress,
     "animate": cmd_animate,
+    "sweep": cmd_sweep,
 }
 
 

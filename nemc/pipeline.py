@@ -23,6 +23,19 @@ if TYPE_CHECKING:  # a cache hit imports no sympy
     from .model import Mechanism
 
 
+@dataclass(frozen=True)
+class Recipe:
+    """What builds a model again in another process (a Dask worker, `nemc.sweep`): the
+    mechanism's bytes and the options it was compiled with, and the C parts that gave."""
+
+    source: Source
+    jacobian: bool | None = None
+    taylor: bool | None = None
+    energy: bool = False
+    chunk_steps: int | None = None
+    parts: tuple[str, ...] = ()
+
+
 @dataclass
 class Compiled:
     """A compiled model, where its package lives, and the time each stage took (seconds)."""
@@ -93,6 +106,8 @@ def compile_source(
                               taylor="taylor" in parts, chunk_steps=chunk_steps).model
 
     model.part_compiler = compile_parts
+    model.recipe = Recipe(source, jacobian, taylor, energy, chunk_steps,
+                          tuple(model.metadata["generated"]))
     return Compiled(model, package, cached, timings)
 
 

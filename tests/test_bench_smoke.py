@@ -90,3 +90,11 @@ def test_loops_smoke_mode_writes_its_tables(tmp_path: Path) -> None:
         else:
             assert row["median"] > 0, row
     assert (out / "loops-latest.md").read_text().startswith("# Closed loops")
+
+
+def test_sweep_smoke_mode_compares_clusters_and_machinery(tmp_path: Path) -> None:
+    out = run_script("sweep.py", tmp_path)
+    result = json.loads((out / "sweep-latest.json").read_text())
+    assert all(result["identical_to_simulate_many"].values()), result
+    assert set(result["ratios"]) >= {"2 workers vs 1 (throughput)", "sweep (zarr) / simulate_many"}
+    assert all(math.isfinite(r["median"]) for r in result["ratios"].values())

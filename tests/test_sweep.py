@@ -1,0 +1,325 @@
+"""nemc.sweep (nemc/sweeps.py) and `nemc sweep`: the results equal the same runs done serially
+(bit for bit), whatever the chunking, on this machine's threads or on a real Dask LocalCluster
+of worker processes, when a worker is killed mid-sweep, and when an interrupted sweep is
+resumed."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import nemc
+from nemc.runtime import ModelError
+from nemc.sweeps import (
+    SweepInterrupted,
+    SweepStoreError,
+    output_times,
+    parse_axis,
+    plan_runs,
+    sweep,
+)
+
+pytest.importorskip("distributed")
+pytest.importorskip("xarray")
+pytest.importorskip("zarr")
+
+EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "double_pendulum.yaml"
+SETTINGS = dict(t_span=(0.0, 2.0), t_eval=[0.5, 1.0, 2.0], method="nemc.DOP853", rtol=1e-8,
+                atol=1e-10)
+NEMC = [sys.executable, "-m", "nemc.cli"]
+
+
+@pytest.fixture(scope="module")
+def model():
+    return nemc.compile(EXAMPLE)
+
+
+@pytest.fixture(scope="module")
+def runs():
+    """120 runs: a grid of initial angles, and a mass that differs per run."""
+    q1, q2 = np.meshgrid(np.linspace(-2.5, 2.5, 12), np.linspace(-2.0, 2.0, 10), indexing="ij")
+    y0s = np.zeros((q1.size, 4))
+    y0s[:, 0], y0s[:, 2] = q1.ravel(), q2.ravel()
+    return y0s, {"m2": np.linspace(0.5, 1.5, q1.size), "L1": 1.1}
+
+
+def serial(model, y0s, params, **settings):
+    """The same runs in one simulate_many call on one thread: the reference."""
+    return model.simulate_many(y0s, params=params, threads=1, **{**SETTINGS, **settings})
+
+
+def assert_same_runs(result, reference):
+    assert np.array_equal(np.asarray(result.y), reference.y, equal_nan=True)
+    assert np.array_equal(result.status, reference.status)
+    assert np.array_equal(result.nfev, reference.nfev)
+    assert np.array_equal(result.t, reference.t)
+
+
+@pytest.fixture(scope="module")
+def client():
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=":0") as cluster, Client(cluster) as dask_client:
+        yield dask_client
+
+
+@pytest.mark.parametrize("chunk_runs", [7, 50, 120])
+def test_local_sweep_equals_serial_whatever_the_chunking(model, runs, chunk_runs):
+    y0s, params = runs
+    result = sweep(model, y0s, params=params, chunk_runs=chunk_runs, threads=2,
+                   progress=False, **SETTINGS)
+    assert_same_runs(result, serial(model, y0s, params))
+    assert result.ran == len(y0s) and result.failed == 0
+    assert np.array_equal(result.dataset["m2"].values, params["m2"])
+    assert np.array_equal(result.dataset["y0"].values, y0s)
+
+
+def test_defaults_are_simulate_many_defaults(model, runs):
+    """No settings given: the scene's t_span, t_eval, tolerances and ensemble method, as
+    simulate_many resolves them (the sweep resolves them once, for every worker)."""
+    y0s, params = runs
+    result = nemc.sweep(model, y0s[:10], params={"m2": params["m2"][:10]}, progress=False)
+    reference = model.simulate_many(y0s[:10], params={"m2": params["m2"][:10]}, threads=1)
+    assert_same_runs(result, reference)
+    assert result.dataset.attrs["method"] == reference.method
+
+
+def test_dask_sweep_to_zarr_equals_serial(model, runs, client, tmp_path):
+    y0s, params = runs
+    result = sweep(model, y0s, params=params, client=client, chunk_runs=9,
+                   out=tmp_path / "runs.zarr", progress=False, **SETTINGS)
+    reference = serial(model, y0s, params)
+    assert_same_runs(result, reference)
+    data = result.dataset
+    assert dict(data.sizes) == {"run": 120, "state": 4, "time": 3}
+    assert list(data["state"].values) == list(model.state_names)
+    assert set(data["message"].values) == {""}
+    assert data.attrs["method"] == "nemc.DOP853" and data.attrs["shared_inputs"] == '{"L1": 1.1}'
+
+
+def test_initial_state_columns_take_the_scene_for_the_rest(model, client):
+    """y0s as columns: the other states are the scene's initial state (here dot(q) = 0)."""
+    q1 = np.linspace(-1, 1, 30)
+    result = sweep(model, {"q1": q1, "q2": 0.5}, client=client, chunk_runs=8, progress=False,
+                   **SETTINGS)
+    y0s = model.initial_state()[None, :].repeat(30, axis=0)
+    y0s[:, 0], y0s[:, 2] = q1, 0.5
+    assert_same_runs(result, serial(model, y0s, None))
+
+
+def test_a_worker_killed_mid_sweep_costs_only_a_rerun(model, client):
+    """SIGKILL one worker process after the first chunk is stored: Dask re-runs its chunks
+    (the nanny starts a new worker) and the results still equal the serial runs."""
+    q1, q2 = np.meshgrid(np.linspace(-3, 3, 30), np.linspace(-3, 3, 30), indexing="ij")
+    y0s = np.zeros((q1.size, 4))
+    y0s[:, 0], y0s[:, 2] = q1.ravel(), q2.ravel()
+    before = client.run(os.getpid)
+    killed = []
+
+    def kill_one(report):
+        if not killed:
+            killed.append(next(iter(before.values())))
+            os.kill(killed[0], signal.SIGKILL)
+
+    settings = {**SETTINGS, "t_span": (0.0, 4.0), "t_eval": [4.0]}
+    result = sweep(model, y0s, client=client, chunk_runs=20, on_chunk=kill_one,
+                   progress=False, **settings)
+    assert killed and result.chunk_errors == [] and result.not_run == 0
+    assert_same_runs(result, serial(model, y0s, None, **settings))
+    client.wait_for_workers(2, timeout=60)
+    assert killed[0] not in client.run(os.getpid).values()
+
+
+@pytest.mark.parametrize("suffix", [".zarr", ".nc", ".npz"])
+def test_an_interrupted_sweep_keeps_its_chunks_and_resumes(model, runs, tmp_path, suffix):
+    y0s, params = runs
+    out = tmp_path / f"runs{suffix}"
+    stored = []
+
+    def interrupt(report):
+        stored.append(report)
+        if len(stored) == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(SweepInterrupted) as stop:
+        sweep(model, y0s, params=params, out=out, chunk_runs=10, threads=1,
+              on_chunk=interrupt, progress=False, **SETTINGS)
+    assert stop.value.done == 30 and stop.value.runs == 120
+    resumed = sweep(model, y0s, params=params, out=out, chunk_runs=10, resume=True,
+                    progress=False, **SETTINGS)
+    assert (resumed.resumed, resumed.ran) == (30, 90)
+    assert_same_runs(resumed, serial(model, y0s, params))
+    assert not Path(str(out) + ".partial.zarr").exists()
+    again = sweep(model, y0s, params=params, out=out, progress=False, **SETTINGS)
+    assert (again.resumed, again.ran) == (120, 0)
+
+
+def test_an_output_of_another_sweep_or_not_nemcs_is_refused(model, runs, tmp_path):
+    y0s, params = runs
+    out = tmp_path / "runs.zarr"
+    sweep(model, y0s[:10], out=out, progress=False, **SETTINGS)
+    with pytest.raises(SweepStoreError, match="different sweep"):
+        sweep(model, y0s[:11], out=out, progress=False, **SETTINGS)
+    foreign = tmp_path / "mine.nc"
+    foreign.write_bytes(b"not a sweep")
+    with pytest.raises(SweepStoreError, match="not a nemc sweep"):
+        sweep(model, y0s[:10], out=foreign, progress=False, **SETTINGS)
+    assert foreign.read_bytes() == b"not a sweep"
+    with pytest.raises(SweepStoreError, match="nothing|no sweep"):
+        sweep(model, y0s[:10], out=tmp_path / "new.zarr", resume=True, progress=False,
+              **SETTINGS)
+
+
+def test_refused_parameters_fail_their_runs_only(model, runs):
+    y0s, _ = runs
+    masses = np.linspace(-1.0, 1.5, 20)  # the first 8 are not positive
+    result = sweep(model, y0s[:20], params={"m2": masses}, chunk_runs=6, progress=False,
+                   **SETTINGS)
+    refused = masses <= 0
+    assert np.all(result.status[refused] == -3) and np.all(result.status[~refused] == 0)
+    assert result.failures(1)[0][2].startswith("inputs refused: bodies.link2.mass must be > 0")
+    reference = serial(model, y0s[:20][~refused], {"m2": masses[~refused]})
+    assert np.array_equal(np.asarray(result.y)[~refused], reference.y)
+    assert np.all(np.isnan(np.asarray(result.y)[refused]))
+
+
+def test_settings_and_names_are_checked_before_anything_runs(model, runs, tmp_path):
+    y0s, _ = runs
+    with pytest.raises(ModelError, match="t_eval"):
+        sweep(model, y0s, t_span=(0, 1), t_eval=[2.0], out=tmp_path / "x.zarr", progress=False)
+    with pytest.raises(ModelError, match="unknown state"):
+        sweep(model, {"q3": [1.0, 2.0]}, progress=False)
+    with pytest.raises(ModelError, match="disagree"):
+        sweep(model, y0s, params={"m2": [1.0, 2.0]}, progress=False)
+    assert not (tmp_path / "x.zarr").exists()
+
+
+def test_the_plan_of_grids_and_random_draws(model):
+    grids = [parse_axis("q1=-1:1:3", True), parse_axis("m2=1:2:2", True)]
+    y0, params, attrs = plan_runs(model, grids, [parse_axis("q2=0:0.5", False)], 4, 7, {"g": 9})
+    assert np.array_equal(y0["q1"], np.repeat([-1.0, -1.0, 0.0, 0.0, 1.0, 1.0], 4))
+    assert np.array_equal(params["m2"], np.tile(np.repeat([1.0, 2.0], 4), 3))
+    assert params["g"] == 9 and len(y0["q2"]) == 24 and np.all((0 <= y0["q2"]) & (y0["q2"] < 0.5))
+    again = plan_runs(model, grids, [parse_axis("q2=0:0.5", False)], 4, 7, {"g": 9})
+    assert np.array_equal(again[0]["q2"], y0["q2"])  # seeded
+    with pytest.raises(ModelError, match="neither a parameter"):
+        plan_runs(model, [parse_axis("q9=0:1:2", True)], [], None, 0, {})
+    with pytest.raises(ValueError, match="NAME=START:STOP:N"):
+        parse_axis("q1=0:1", True)
+    assert np.array_equal(output_times((0.0, 10.0), 2), [5.0, 10.0])
+
+
+def test_core_nemc_imports_none_of_the_sweep_extra():
+    code = ("import sys, nemc, nemc.sweeps, nemc.cli; heavy = {'xarray', 'dask', 'distributed',"
+            " 'zarr', 'tqdm', 'h5netcdf'} & set(sys.modules); assert not heavy, heavy")
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_workers_report_the_key_they_built_under_and_a_mismatch_warns(model, runs):
+    """A worker builds the shipped recipe itself; the key it built under comes back with
+    each chunk, and one that differs from this machine's warns (other nemc or compiler)."""
+    import dataclasses
+    import warnings
+
+    from nemc.sweeps import Inputs, Settings, Tracker, model_ref, run_chunk
+
+    ref = model_ref(model)
+    settings = Settings.resolve(model, SETTINGS["t_span"], SETTINGS["t_eval"], "nemc.DOP853",
+                                1e-8, 1e-10)
+    chunk = Inputs.of(model, runs[0][:3], None).chunk(0, 3)
+    out = run_chunk(dataclasses.replace(ref, key="another-machine"), settings, chunk)
+    assert out.build_key == ref.key
+    assert np.array_equal(out.y, serial(model, runs[0][:3], None).y)
+    tracker = Tracker(None, 3, 0, False, None, dataclasses.replace(ref, key="another-machine"))
+    with pytest.warns(UserWarning, match="another key"):
+        tracker.check_build(out.build_key)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tracker.check_build(out.build_key)  # once per key
+
+
+def test_a_missing_extra_says_how_to_install_it():
+    from nemc.sweep_store import require
+
+    with pytest.raises(ImportError, match=r"pip install 'nemc\[sweep\]'"):
+        require("nemc_no_such_module")
+
+
+def cli(*args, **kwargs):
+    return subprocess.run([*NEMC, "sweep", str(EXAMPLE), *args], capture_output=True,
+                          text=True, **kwargs)
+
+
+def test_cli_end_to_end_on_threads_and_on_a_local_cluster(model, tmp_path):
+    grid = ["--grid", "q1=-2:2:5", "--grid", "q2=-1:1:4", "--random", "m2=0.5:1.5",
+            "--runs", "3", "--t-end", "2", "--times", "4", "--rtol", "1e-8", "--atol", "1e-10"]
+    done = cli(*grid, "--out", str(tmp_path / "a.nc"))
+    assert done.returncode == 0, done.stderr
+    assert "60 runs (0 done before)" in done.stdout and "0 failed" in done.stdout
+    import xarray as xr
+
+    data = xr.open_dataset(tmp_path / "a.nc", engine="h5netcdf").load()
+    assert dict(data.sizes) == {"run": 60, "state": 4, "time": 4}
+    q1 = np.repeat(np.linspace(-2, 2, 5), 4 * 3)
+    assert np.array_equal(data["q1"].values, q1)
+    assert np.array_equal(data["time"].values, [0.5, 1.0, 1.5, 2.0])
+    reference = model.simulate_many(
+        data["y0"].values, params={"m2": data["m2"].values}, t_span=(0.0, 2.0),
+        t_eval=data["time"].values, method="nemc.DOP853", rtol=1e-8, atol=1e-10, threads=1)
+    assert np.array_equal(data["y"].values, reference.y)
+    assert np.all(data["status"].values == 0)
+    on_cluster = cli(*grid, "--out", str(tmp_path / "b.zarr"), "--dask", "local:2",
+                     "--chunk", "7")
+    assert on_cluster.returncode == 0, on_cluster.stderr
+    other = xr.open_zarr(tmp_path / "b.zarr", consolidated=False)
+    assert np.array_equal(other["y"].values, data["y"].values)
+
+
+def test_cli_refuses_bad_input_with_status_2(tmp_path):
+    unknown = cli("--grid", "q9=0:1:3", "--out", str(tmp_path / "x.zarr"))
+    assert unknown.returncode == 2 and "'q9' is neither a parameter" in unknown.stderr
+    malformed = cli("--grid", "q1=0:1", "--out", str(tmp_path / "x.zarr"))
+    assert malformed.returncode == 2 and "NAME=START:STOP:N" in malformed.stderr
+    foreign = tmp_path / "mine.npz"
+    foreign.write_bytes(b"keep me")
+    refused = cli("--grid", "q1=0:1:3", "--out", str(foreign))
+    assert refused.returncode == 2 and "not a nemc sweep" in refused.stderr
+    assert foreign.read_bytes() == b"keep me" and not (tmp_path / "x.zarr").exists()
+
+
+def test_cli_ctrl_c_keeps_finished_chunks_exits_130_and_the_same_command_resumes(tmp_path):
+    out = tmp_path / "long.zarr"
+    args = ["--grid", "q1=-3:3:100", "--grid", "q2=-3:3:100", "--t-end", "4", "--times", "1",
+            "--chunk", "100", "--threads", "1", "--out", str(out)]
+    process = subprocess.Popen([*NEMC, "sweep", str(EXAMPLE), *args], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while finished_runs(out) < 200 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=120)
+    kept = finished_runs(out)
+    assert process.returncode == 130, stderr
+    assert "interrupted" in stderr and "run the same command again" in stderr
+    assert 200 <= kept < 10_000
+    again = cli(*args)
+    assert again.returncode == 0, again.stderr
+    assert f"10000 runs ({kept} done before)" in again.stdout
+
+
+def finished_runs(store: Path) -> int:
+    """Runs whose status is written (not NOT_RUN), read the way resume reads them."""
+    import zarr
+
+    try:
+        return int(np.sum(zarr.open_group(str(store), mode="r")["status"][:] != -9))
+    except Exception:  # noqa: BLE001 - not created yet
+        return 0
