@@ -42,9 +42,10 @@ def timed(timings: dict[str, float], stage: str) -> Iterator[None]:
 
 def read_source(path: str | Path) -> Source:
     from .errors import InputError, Problem
+    from .reading import read_file
 
     try:
-        return Source(str(path), Path(path).read_bytes())
+        return Source(str(path), read_file(path))
     except OSError as error:
         problem = Problem(str(path), 0, "", f"cannot read the file: {error.strerror}")
         raise InputError([problem]) from None
