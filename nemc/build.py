@@ -176,6 +176,11 @@ def compile_c(c_file: Path, wrapper_file: Path, out_file: Path) -> None:
         raise BuildError(f"linking failed:\n$ {' '.join(link)}\n{output}")
 
 
+# The modules and files of a package besides <name>.c: a model named like one of them would
+# clash with it (a model named _native cannot import its own extension). validate refuses them.
+PACKAGE_FILE_STEMS = ("__init__", "_runtime", "_native", "model", COMPLETE)
+
+
 def write_package(code: Emitted, folder: Path) -> None:
     """Everything of the standalone package except the compiled extension."""
     folder.mkdir()

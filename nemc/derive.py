@@ -25,7 +25,7 @@ from .articulated import dynamics_program, inverse_mass_program
 from .kinematics import Kinematics, applied_loads
 from .mass_form import MAX_COORDINATES, mass_form_program
 from .outputs import derive_outputs
-from .program import Program
+from .program import Program, split_deep
 from .tangent import tangent_program
 from .taylor import series_cost
 from .values import resolve_values
@@ -132,7 +132,7 @@ def derive(mech: m.Mechanism) -> Equations:
         parameters=values.runtime_symbols,
         parameter_defaults=values.runtime_defaults,
         derived_parameters=values.derived,
-        dynamics=dynamics_program(mech, runtime),
+        dynamics=split_deep(dynamics_program(mech, runtime), "v"),
         outputs=tuple((name, runtime(expr)) for name, expr in derive_outputs(mech, kin)),
         checks=checks,
         initial_state=initial_state(mech, runtime),
@@ -144,7 +144,8 @@ def with_diagnostics(eqs: Equations) -> Equations:
     return dataclasses.replace(
         eqs,
         jacobian=tangent_program(eqs.dynamics, eqs.state),
-        inverse_mass=inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism)),
+        inverse_mass=split_deep(inverse_mass_program(eqs.mechanism,
+                                                     runtime_values(eqs.mechanism)), "vm"),
     )
 
 
@@ -153,7 +154,7 @@ def with_taylor(eqs: Equations) -> Equations:
     articulated-body program, or on small mechanisms the mass-matrix form (nemc/mass_form.py)."""
     program = eqs.dynamics
     if eqs.n <= MAX_COORDINATES:
-        candidate = mass_form_program(*eqs.mass_forcing)
+        candidate = split_deep(mass_form_program(*eqs.mass_forcing), "vt")
         if series_cost(candidate, eqs.state, m.TIME) < series_cost(program, eqs.state, m.TIME):
             program = candidate
     return dataclasses.replace(eqs, taylor=program)
