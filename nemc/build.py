@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING
 import cffi
 
 from . import __version__
-from .errors import BuildError
+from .errors import BuildError, describe
 
 if TYPE_CHECKING:  # emit imports sympy; a cached load must not
     from .emit import Emitted
@@ -256,21 +256,12 @@ def export(package: Path, out_dir: Path, name: str) -> Path:
     try:
         return copy_out(package, out_dir, name)
     except OSError as error:
-        where = f": {error.filename}" if error.filename else ""
-        raise BuildError(f"cannot write the output folder {out_dir} ({error.strerror}{where}): "
+        raise BuildError(f"cannot write the output folder {out_dir} ({describe(error)}): "
                          "choose a writable folder with -o/--output") from None
 
 
 def copy_out(package: Path, out_dir: Path, name: str) -> Path:
-    out_dir.mkdir(parents=True, exist_ok=True)
-    target = out_dir / name
-    staging = Path(tempfile.mkdtemp(prefix=f".{name}-", dir=out_dir))
-    try:
-        shutil.copytree(package, staging / name, ignore=shutil.ignore_patterns("__pycache__"))
-        old = staging / "old"
-        if target.exists():
-            os.rename(target, old)
-        os.rename(staging / name, target)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
-    return target
+    """OUT_DIR/<name>/, replaced only if nemc wrote it (nemc/export.py)."""
+    from .export import export_package
+
+    return export_package(package, out_dir, name, key=package.name)

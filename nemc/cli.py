@@ -8,11 +8,13 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager, suppress
 from pathlib import Path
 
-from .errors import BuildError, InputError
+from .errors import BuildError, InputError, OutputRefused
 
 
 def parse_assignment(text: str) -> tuple[str, float]:
@@ -44,6 +46,26 @@ def positive_number(text: str) -> float:
     return value
 
 
+def relative_tolerance(text: str) -> float:
+    value = finite_number(text)
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"expected a number > 0 and < 1, got {text!r}")
+    return value
+
+
+def figure_path(text: str) -> str:
+    """--plot's file: its suffix names a format matplotlib writes, so the file written is
+    exactly the one named (a name without one got '.png' added: the message named another)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = sorted(FigureCanvasBase.get_supported_filetypes())
+    suffix = Path(text).suffix.lower().lstrip(".")
+    if suffix not in formats:
+        raise argparse.ArgumentTypeError(
+            f"expected a file name ending in a figure format ({', '.join(formats)}), got {text!r}")
+    return text
+
+
 def make_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="nemc", description="Newton-Euler Mechanism Compiler")
     commands = parser.add_subparsers(dest="command", required=True)
@@ -56,12 +78,13 @@ def make_parser() -> argparse.ArgumentParser:
                      help="end time (the scene's t_span end by default)")
     sim.add_argument("--method", help="nemc.DOP853 nemc.Radau nemc.Vern9 (native), or scipy's"
                      " RK45 RK23 DOP853 Radau BDF LSODA (default: the scene's, else nemc.DOP853)")
-    sim.add_argument("--rtol", type=positive_number)
+    sim.add_argument("--rtol", type=relative_tolerance)
     sim.add_argument("--atol", type=positive_number)
     sim.add_argument("--set", dest="params", type=parse_assignment, action="append", default=[],
                      metavar="NAME=VALUE", help="override a parameter (repeatable)")
     sim.add_argument("--csv", help="also write the table to this CSV file")
-    sim.add_argument("--plot", help="write the book-style figure to this file (PNG, PDF, SVG)")
+    sim.add_argument("--plot", type=figure_path,
+                     help="write the book-style figure to this file (.png, .pdf, .svg, ...)")
     sim.add_argument("--error-estimate", action="store_true",
                      help="also print the run's error against DOP853 at rtol/1000, atol/1000")
     show = commands.add_parser("show", help="print the derived equations of motion")
@@ -85,7 +108,7 @@ def add_stress_parser(commands: argparse._SubParsersAction) -> None:
     stress.add_argument("--suite", choices=["book"], help="the book's four systems + an index")
     stress.add_argument("--out", default="generated/stress",
                         help="folder for the Markdown and PNG (generated/stress)")
-    stress.add_argument("--horizon", type=float, default=1000.0,
+    stress.add_argument("--horizon", type=positive_number, default=1000.0,
                         help="long horizon for energy drift of conservative scenes (1000 s)")
     stress.add_argument("--set", dest="params", type=parse_assignment, action="append",
                         default=[], metavar="NAME=VALUE", help="override a parameter")
@@ -131,16 +154,32 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.error_estimate and result.success:
         print_error_estimate(model, result, params)
     if args.csv:
-        report.write_csv(model, result, Path(args.csv))
+        with writing(Path(args.csv)):
+            report.write_csv(model, result, Path(args.csv))
     if args.plot:  # smooth curves: the same run, sampled densely
         dense = model.simulate(t_span, method=args.method, rtol=args.rtol, atol=args.atol,
                                params=params, t_eval=report.dense_times(result))
-        report.plot(model, dense, Path(args.plot))
+        with writing(Path(args.plot)):
+            report.plot(model, dense, Path(args.plot))
         print(f"figure written to {args.plot}")
     if not result.success:
         print(f"integration failed: {result.message}", file=sys.stderr)
         return 1
     return 0
+
+
+@contextmanager
+def writing(path: Path) -> Iterator[None]:
+    """Writing PATH: a failure names it (a full disk's error names no file) and removes the
+    part written, when the file did not exist before."""
+    existed = os.path.lexists(path)
+    try:
+        yield
+    except OSError as error:
+        if not existed:
+            with suppress(OSError):
+                path.unlink()
+        raise OSError(error.errno, error.strerror or str(error), str(path)) from None
 
 
 def print_error_estimate(model, result, params: dict) -> None:
@@ -223,6 +262,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return COMMANDS[args.command](args)
     except InputError as error:
         print(error, file=sys.stderr)
+        return 2
+    except OutputRefused as error:  # -o names a folder nemc did not write
+        print(f"nemc: {error}", file=sys.stderr)
         return 2
     except BuildError as error:
         print(f"nemc: {error}", file=sys.stderr)
