@@ -20,12 +20,14 @@ and nemc/methods.py, as they are now) to make the standalone package.
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import io
 import json
 import os
 import shlex
 import shutil
+import stat
 import subprocess
 import sysconfig
 import tempfile
@@ -37,7 +39,7 @@ from typing import TYPE_CHECKING
 import cffi
 
 from . import __version__
-from .errors import BuildError
+from .errors import BuildError, describe
 from .resources import template_files
 
 if TYPE_CHECKING:  # emit imports sympy; a cached load must not
@@ -62,6 +64,11 @@ COMPLETE = "BUILD_OK"
 # loads in any later CPython too. A free-threaded CPython has no stable ABI: its own suffix.
 LIMITED_API = "0x030A0000"
 STALE_SCRATCH_S = 24 * 3600  # a temporary build folder this old was left by a killed build
+# Names of nemc's own temporary entries in the cache folder: only these are ever cleaned up,
+# so a NEMC_CACHE shared with other programs (even /tmp) loses none of their files.
+SCRATCH_PREFIX = ".nemc-tmp-"
+BROKEN_PREFIX = ".nemc-broken-"
+MAX_MANIFEST_BYTES = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -128,19 +135,36 @@ def write_manifest(package: Path, key: str) -> None:
 
 
 def is_intact(package: Path, key: str) -> bool:
-    """Whether PACKAGE is a complete build of KEY whose files all match its manifest."""
+    """Whether PACKAGE is a complete build of KEY whose files all match its manifest: a real
+    folder of regular files (a symbolic link, a FIFO or /dev/zero in their place is broken,
+    never read)."""
     try:
+        if not stat.S_ISDIR(os.lstat(package).st_mode) or not is_regular(package / COMPLETE,
+                                                                          MAX_MANIFEST_BYTES):
+            return False
         manifest = json.loads((package / COMPLETE).read_text())
         files = manifest["files"]
         return manifest["key"] == key and bool(files) and all(
-            file_digest(package / name) == digest for name, digest in files.items())
+            is_plain_name(name) and is_regular(package / name)
+            and file_digest(package / name) == digest for name, digest in files.items())
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return False
 
 
+def is_regular(path: Path, max_bytes: int | None = None) -> bool:
+    info = os.lstat(path)
+    return stat.S_ISREG(info.st_mode) and (max_bytes is None or info.st_size <= max_bytes)
+
+
+def is_plain_name(name: object) -> bool:
+    """A file name inside the entry (a manifest naming ../x would read outside it)."""
+    return isinstance(name, str) and name not in ("", ".", "..") and "/" not in name \
+        and "\0" not in name
+
+
 def discard(path: Path) -> None:
     """Remove a broken cache entry: first renamed aside (atomic), so no process can load it."""
-    aside = path.with_name(f".broken-{path.name}-{os.getpid()}-{time.time_ns()}")
+    aside = path.with_name(f"{BROKEN_PREFIX}{path.name}-{os.getpid()}-{time.time_ns()}")
     try:
         os.rename(path, aside)
     except OSError:  # gone already, or another process moved it first
@@ -161,7 +185,7 @@ def cached_package(key: str) -> Path | None:
     path = cache_root() / key
     if is_intact(path, key):
         return path
-    if path.exists():
+    if os.path.lexists(path):  # anything at all, a dangling symbolic link included
         discard(path)
     return None
 
@@ -176,7 +200,7 @@ def start(command: list[str]) -> subprocess.Popen:
     try:
         return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
     except OSError as error:
-        raise BuildError(f"cannot run the C compiler {command[0]!r} ({error.strerror}): install "
+        raise BuildError(f"cannot run the C compiler {command[0]!r} ({describe(error)}): install "
                          "gcc, or set the CC environment variable to a working C compiler "
                          f"(CC is {os.environ.get('CC', '')!r})") from None
 
@@ -217,6 +241,12 @@ def extension_suffix() -> str:
         "EXT_SUFFIX")
 
 
+# The modules and files of a package besides <name>.c: a model named like one of them would
+# clash with it (a model named _native cannot import its own extension). validate refuses them.
+PACKAGE_FILE_STEMS = ("__init__", "_native", "model", COMPLETE,
+                      *(Path(copied).stem for copied in RUNTIME_FILES.values()))
+
+
 def write_package(code: Emitted, folder: Path) -> None:
     """Everything of the standalone package except the compiled extension."""
     folder.mkdir()
@@ -231,16 +261,16 @@ def scratch_folder(root: Path, name: str) -> Path:
     try:
         root.mkdir(parents=True, exist_ok=True)
         remove_stale_scratch(root)
-        return Path(tempfile.mkdtemp(prefix=f".tmp-{name}-", dir=root))
+        return Path(tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{name}-", dir=root))
     except OSError as error:
-        raise BuildError(f"cannot write to the nemc cache folder {root} ({error.strerror}): "
+        raise BuildError(f"cannot write to the nemc cache folder {root} ({describe(error)}): "
                          "set NEMC_CACHE to a writable folder") from None
 
 
 def remove_stale_scratch(root: Path) -> None:
     """Delete what killed builds left long ago (a live build is never that old)."""
     cutoff = time.time() - STALE_SCRATCH_S
-    for leftover in [*root.glob(".tmp-*"), *root.glob(".broken-*")]:
+    for leftover in [*root.glob(f"{SCRATCH_PREFIX}*"), *root.glob(f"{BROKEN_PREFIX}*")]:
         with contextlib.suppress(OSError):
             if leftover.lstat().st_mtime < cutoff:
                 remove(leftover)
@@ -267,18 +297,24 @@ def build(code: Emitted, key: str) -> Path:
         publish(package, final, key)
     except OSError as error:  # e.g. the disk filled up while writing the package
         raise BuildError(f"cannot write the build in the nemc cache folder {root} "
-                         f"({error.strerror}: {error.filename}): free some space or set "
-                         "NEMC_CACHE to a writable folder") from None
+                         f"({describe(error)}): {cache_advice(error)}") from None
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     return final
+
+
+def cache_advice(error: OSError) -> str:
+    """What to do about a failed write in the cache, from its cause."""
+    if error.errno in (errno.ENOSPC, errno.EDQUOT):
+        return "free some space, or set NEMC_CACHE to a folder on another disk"
+    return "set NEMC_CACHE to a writable folder (or remove the entry named above)"
 
 
 def publish(package: Path, final: Path, key: str) -> None:
     """Move a finished build into place, unless another process already published one."""
     if is_intact(final, key):
         return
-    if final.exists():  # a broken leftover: move it aside first
+    if os.path.lexists(final):  # a broken leftover of any kind: move it aside first
         discard(final)
     try:
         os.rename(package, final)
@@ -292,23 +328,13 @@ def export(package: Path, out_dir: Path, name: str) -> Path:
     try:
         return copy_out(package, out_dir, name)
     except OSError as error:
-        where = f": {error.filename}" if error.filename else ""
-        raise BuildError(f"cannot write the output folder {out_dir} ({error.strerror}{where}): "
+        raise BuildError(f"cannot write the output folder {out_dir} ({describe(error)}): "
                          "choose a writable folder with -o/--output") from None
 
 
 def copy_out(package: Path, out_dir: Path, name: str) -> Path:
-    out_dir.mkdir(parents=True, exist_ok=True)
-    target = out_dir / name
-    staging = Path(tempfile.mkdtemp(prefix=f".{name}-", dir=out_dir))
-    try:
-        shutil.copytree(package, staging / name, ignore=shutil.ignore_patterns("__pycache__"))
-        for module, copied in RUNTIME_FILES.items():
-            shutil.copyfile(NEMC_DIR / module, staging / name / copied)
-        old = staging / "old"
-        if target.exists():
-            os.rename(target, old)
-        os.rename(staging / name, target)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
-    return target
+    """OUT_DIR/<name>/, replaced only if nemc wrote it (nemc/export.py)."""
+    from .export import export_package
+
+    extras = {copied: NEMC_DIR / module for module, copied in RUNTIME_FILES.items()}
+    return export_package(package, out_dir, name, key=package.name, extras=extras)

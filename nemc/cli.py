@@ -10,12 +10,14 @@ import argparse
 import difflib
 import fnmatch
 import math
+import os
 import re
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager, suppress
 from pathlib import Path
 
-from .errors import BuildError, InputError
+from .errors import BuildError, InputError, OutputRefused
 
 
 def parse_assignment(text: str) -> tuple[str, float]:
@@ -47,6 +49,26 @@ def positive_number(text: str) -> float:
     return value
 
 
+def relative_tolerance(text: str) -> float:
+    value = finite_number(text)
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"expected a number > 0 and < 1, got {text!r}")
+    return value
+
+
+def figure_path(text: str) -> str:
+    """--plot's file: its suffix names a format matplotlib writes, so the file written is
+    exactly the one named (a name without one got '.png' added: the message named another)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = sorted(FigureCanvasBase.get_supported_filetypes())
+    suffix = Path(text).suffix.lower().lstrip(".")
+    if suffix not in formats:
+        raise argparse.ArgumentTypeError(
+            f"expected a file name ending in a figure format ({', '.join(formats)}), got {text!r}")
+    return text
+
+
 def make_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="nemc", description="Newton-Euler Mechanism Compiler")
     commands = parser.add_subparsers(dest="command", required=True)
@@ -69,7 +91,8 @@ def make_parser() -> argparse.ArgumentParser:
     sim.add_argument("--csv", help="also write the table to this CSV file (units in headers)")
     sim.add_argument("--mat", help="also write the table to this MATLAB file (ts, xs, each"
                      " column, names, units)")
-    sim.add_argument("--plot", help="write the report figure to this file (PNG, PDF, SVG)")
+    sim.add_argument("--plot", type=figure_path,
+                     help="write the report figure to this file (.png, .pdf, .svg, ...)")
     sim.add_argument("--panels", type=panel_list, metavar="KINDS",
                      help="what --plot draws, comma-separated: state, reactions, drives, energy,"
                      " points, accelerations, expressions (default: all)")
@@ -98,7 +121,7 @@ def add_stress_parser(commands: argparse._SubParsersAction) -> None:
     stress.add_argument("--suite", choices=["book"], help="the book's four systems + an index")
     stress.add_argument("--out", default="generated/stress",
                         help="folder for the Markdown and PNG (generated/stress)")
-    stress.add_argument("--horizon", type=float, default=1000.0,
+    stress.add_argument("--horizon", type=positive_number, default=1000.0,
                         help="long horizon for energy drift of conservative scenes (1000 s)")
     stress.add_argument("--set", dest="params", type=parse_assignment, action="append",
                         default=[], metavar="NAME=VALUE", help="override a parameter")
@@ -296,11 +319,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.error_estimate and result.success:
         print_error_estimate(model, result, params)
     if args.csv:
-        report.write_csv(model, result, Path(args.csv), outputs)
+        with writing(Path(args.csv)):
+            report.write_csv(model, result, Path(args.csv), outputs)
     if args.mat:
-        report.write_mat(model, result, Path(args.mat), outputs)
+        with writing(Path(args.mat)):
+            report.write_mat(model, result, Path(args.mat), outputs)
     if args.plot:
-        report.plot(result, Path(args.plot), panels=args.panels, outputs=outputs)
+        with writing(Path(args.plot)):
+            report.plot(result, Path(args.plot), panels=args.panels, outputs=outputs)
         print(f"figure written to {args.plot}")
     if not result.success:
         print(f"integration failed: {result.message}", file=sys.stderr)
@@ -315,7 +341,7 @@ def add_run_options(command: argparse.ArgumentParser) -> None:
     command.add_argument("--method", help="nemc.DOP853 nemc.Radau nemc.Vern9 nemc.Taylor "
                          "(native), or scipy's RK45 RK23 DOP853 Radau BDF LSODA (default: the "
                          "scene's, else nemc.DOP853)")
-    command.add_argument("--rtol", type=positive_number)
+    command.add_argument("--rtol", type=relative_tolerance)
     command.add_argument("--atol", type=positive_number)
     command.add_argument("--set", dest="params", type=parse_assignment, action="append",
                          default=[], metavar="NAME=VALUE",
@@ -424,6 +450,20 @@ def chosen_outputs(model, patterns: list[str] | None) -> list[str] | None:
     return chosen
 
 
+@contextmanager
+def writing(path: Path) -> Iterator[None]:
+    """Writing PATH: a failure names it (a full disk's error names no file) and removes the
+    part written, when the file did not exist before."""
+    existed = os.path.lexists(path)
+    try:
+        yield
+    except OSError as error:
+        if not existed:
+            with suppress(OSError):
+                path.unlink()
+        raise OSError(error.errno, error.strerror or str(error), str(path)) from None
+
+
 def print_error_estimate(model, result, params: dict) -> None:
     from .stress import error_estimate
 
@@ -515,6 +555,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return COMMANDS[args.command](args)
     except InputError as error:
         print(error, file=sys.stderr)
+        return 2
+    except OutputRefused as error:  # -o names a folder nemc did not write
+        print(f"nemc: {error}", file=sys.stderr)
         return 2
     except BuildError as error:
         print(f"nemc: {error}", file=sys.stderr)

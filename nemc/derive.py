@@ -26,7 +26,7 @@ from .kinematics import Kinematics, applied_loads, motion_substitutions
 from .loops import LoopEquations, loop_equations
 from .mass_form import MAX_COORDINATES, mass_form_program
 from .outputs import derive_outputs
-from .program import Program
+from .program import Program, split_deep
 from .tangent import seed_symbols, tangent_program
 from .taylor import series_cost, unsupported_operation
 from .values import resolve_values
@@ -175,7 +175,7 @@ def derive(mech: m.Mechanism) -> Equations:
         parameters=values.runtime_symbols,
         parameter_defaults=values.runtime_defaults,
         derived_parameters=values.derived,
-        dynamics=dynamics,
+        dynamics=split_deep(dynamics, "v"),
         outputs=tuple((name, runtime(expr)) for name, expr in
                       derive_outputs(mech, kin, dict(zip((j.name for j in mech.driven), drives)),
                                      multipliers_by_constraint(mech, multipliers))),
@@ -226,7 +226,8 @@ def with_diagnostics(eqs: Equations) -> Equations:
         eqs,
         jacobian=tangent_program(eqs.accelerations_program, seeds),
         seeds=seeds,
-        inverse_mass=inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism), forces),
+        inverse_mass=split_deep(inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism),
+                                                     forces), "vm"),
         generalized_forces=forces,
     )
 
@@ -241,7 +242,7 @@ def with_taylor(eqs: Equations) -> Equations:
         return dataclasses.replace(eqs, taylor_unavailable=refusal)
     program = eqs.accelerations_program
     if eqs.n <= MAX_COORDINATES:
-        candidate = mass_form_program(*eqs.mass_forcing)
+        candidate = split_deep(mass_form_program(*eqs.mass_forcing), "vt")
         if (series_cost(candidate, eqs.coordinates, eqs.speeds, m.TIME)
                 < series_cost(program, eqs.coordinates, eqs.speeds, m.TIME)):
             program = candidate

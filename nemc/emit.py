@@ -13,6 +13,7 @@ comments, sanitized.
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -57,6 +58,46 @@ class SymbolTablePrinter(C99CodePrinter):
             raise ValueError(f"no C name for symbol {expr.name!r}") from None
 
     _print_Dummy = _print_Symbol
+
+    # Every number reaches C as a double literal, correctly rounded: an integer literal of 2**64
+    # or more was cut modulo 2**64 by gcc (a constant k: 1e20 written out became -3.88e18).
+    def _print_Integer(self, expr: sympy.Integer) -> str:
+        return double_literal(expr)
+
+    _print_Zero = _print_Integer
+
+    def _print_Rational(self, expr: sympy.Rational) -> str:
+        if max(abs(expr.p), expr.q) > EXACT_INTEGERS:
+            return double_literal(expr)
+        numerator, denominator = sympy.Integer(expr.p), sympy.Integer(expr.q)
+        return f"{double_literal(numerator)}/{double_literal(denominator)}"  # one IEEE rounding
+
+    def _print_Float(self, expr: sympy.Float) -> str:
+        return double_literal(expr)
+
+
+EXACT_INTEGERS = 2**53  # every integer up to this magnitude is a double exactly
+
+
+class NumberOutOfRange(ValueError):
+    """A number of the derived equations that no double holds (e.g. constants 1e300 * 1e300)."""
+
+
+def double_literal(number: sympy.Rational | sympy.Float) -> str:
+    """The C literal of the double nearest NUMBER (ties to even): Python's int division is
+    correctly rounded, and repr() gives the shortest text that reads back as the same double."""
+    exact = sympy.Rational(number)
+    try:
+        value = int(exact.p) / int(exact.q)
+    except OverflowError:
+        value = math.inf
+    if not math.isfinite(value) or (value == 0 and exact != 0):
+        shown = sympy.Float(number, 3)
+        raise NumberOutOfRange(f"a number of the equations, {shown}, is beyond the range of a "
+                               "double (about 1e-308 to 1e308): rescale the constants or "
+                               "parameters that make it")
+    text = repr(value)
+    return text if any(c in text for c in ".en") else text + ".0"
 
 
 def template(name: str) -> Template:

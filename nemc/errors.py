@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -30,3 +31,20 @@ class InputError(Exception):
 
 class BuildError(Exception):
     """The build failed (exit status 1): names the C file and carries the compiler's output."""
+
+
+class OutputRefused(BuildError):
+    """nemc will not replace a folder it did not write (exit status 2: choose another -o)."""
+
+
+def describe(error: OSError) -> str:
+    """An OSError for a message: its text and file. shutil's copy errors (shutil.Error) carry
+    neither strerror nor filename but a list of (source, destination, reason)."""
+    if error.strerror:
+        return f"{error.strerror}: {error.filename}" if error.filename else error.strerror
+    details = error.args[0] if error.args else None
+    if isinstance(details, list) and details and isinstance(details[0], tuple):
+        source, _, reason = details[0]
+        cause = re.match(r"\[Errno \d+\] ([^:]+)", str(reason))
+        return f"{cause.group(1) if cause else reason}: copying {source}"
+    return str(error) or type(error).__name__

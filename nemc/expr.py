@@ -168,7 +168,44 @@ def parse_expression(text: str, scope: Scope) -> sympy.Expr:
                         0) from None
     if result.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo):
         raise ExprError(f"expression is not finite (it simplifies to {result})", 0)
+    _check_double_range(result)
     return result
+
+
+def _check_double_range(expr: sympy.Expr) -> None:
+    """Refuse an exact number C cannot hold as a double: 10**400, or 1/10**400 (sympy keeps
+    them exact; the generated C would otherwise get an infinite or zero literal)."""
+    for number in expr.atoms(sympy.Rational):
+        if number.is_zero:
+            continue
+        try:
+            value = abs(int(number.p) / int(number.q))
+        except OverflowError:
+            value = math.inf
+        if value == math.inf or value == 0:
+            raise ExprError("a number in the expression is out of range (beyond about 1e308 or "
+                            "below about 1e-308)", 0)
+
+
+def tree_depth(expr: sympy.Basic, leaves: Mapping[sympy.Basic, int] | None = None) -> int:
+    """The levels of EXPR's tree: a number or a name is 1, f(a, b) one more than its deepest
+    argument. A symbol in LEAVES counts as that many levels: a parameter or constant stands for
+    its definition, substituted before the later stages. Iterative: any depth is measured."""
+    leaves = leaves or {}
+    depth: dict[sympy.Basic, int] = {}
+    stack = [expr]
+    while stack:
+        node = stack[-1]
+        if node in depth:
+            stack.pop()
+            continue
+        pending = [arg for arg in node.args if arg not in depth]
+        if pending:
+            stack.extend(pending)
+            continue
+        stack.pop()
+        depth[node] = 1 + max((depth[arg] for arg in node.args), default=leaves.get(node, 1) - 1)
+    return depth[expr]
 
 
 def number(text: str, offset: int = 0) -> sympy.Expr:

@@ -30,8 +30,16 @@ class Block:
     programs: dict[str, Program]  # the programs, rewritten, by name
 
 
+# sympy's rewritten powers (x*x inside an UnevaluatedExpr) have no assumptions: Min and Max then
+# refuse them ("not comparable") and Heaviside's conditions call them non-real, so expressions
+# holding those keep pow() (min(q, q**2) failed to compile, found by tests/test_hostile_runs.py)
+KEEP_POWERS_IN = (sympy.Min, sympy.Max, sympy.Heaviside, sympy.Piecewise)
+
+
 def rewrite(expr: sympy.Expr) -> sympy.Expr:
-    return optimize(expr, REWRITES) if isinstance(expr, sympy.Basic) else expr
+    if not isinstance(expr, sympy.Basic) or expr.has(*KEEP_POWERS_IN):
+        return expr
+    return optimize(expr, REWRITES)
 
 
 def shared_cse(groups: dict[str, tuple[sympy.Expr, ...]]) -> tuple[

@@ -7,6 +7,7 @@ booleans) and silently keeps the last of duplicate keys.
 
 from __future__ import annotations
 
+import bisect
 import math
 import re
 from dataclasses import dataclass, field
@@ -14,11 +15,11 @@ from dataclasses import dataclass, field
 import yaml
 
 from nemc.errors import InputError, Problem
+from nemc.reading import MAX_BYTES
 
 # Bounds on what one file may cost: PyYAML's composer is pure Python (~0.6 s a megabyte to
 # scan, ~50 us a node), so these keep any file under a few seconds and ~100 MB. The largest
 # example is 2 KB; a 100-link chain is about 25 KB.
-MAX_BYTES = 1_000_000
 MAX_NODES = 100_000  # composed (checked while composing) and after expanding aliases
 MAX_NESTING = 64
 
@@ -106,40 +107,76 @@ def parse_text(text: str | bytes, file: str) -> Node:
         raise _error(file, 1, f"file is too large (more than {MAX_BYTES} bytes)")
     if not text.strip():
         raise _error(file, 1, "file is empty; expected a mapping with name, bodies and joints")
+    lines = Lines(text)
+    _refuse_unicode_line_breaks(text, file, lines)
     try:
         root = yaml.compose(text, Loader=_Loader)
     except yaml.MarkedYAMLError as exc:
-        raise _syntax_error(exc, file) from None
+        raise _syntax_error(exc, file, lines) from None
     except yaml.reader.ReaderError as exc:
-        line = text.count("\n", 0, exc.position) + 1
-        raise _error(file, line, f"invalid character in YAML: {exc.reason}") from None
+        raise _error(file, lines.at(exc.position), f"invalid character in YAML: {exc.reason}") \
+            from None
     except yaml.YAMLError as exc:
         raise _error(file, 1, f"YAML error: {exc}") from None
     except _TooDeep as exc:
-        raise _error(file, exc.line, f"YAML is nested more than {MAX_NESTING} levels deep") \
-            from None
+        raise _error(file, lines.at(exc.index), f"YAML is nested more than {MAX_NESTING} levels "
+                                                "deep") from None
     except _TooMany as exc:
-        raise _error(file, exc.line, f"document has more than {MAX_NODES} nodes") from None
+        raise _error(file, lines.at(exc.index), f"document has more than {MAX_NODES} nodes") \
+            from None
     if root is None:
         raise _error(file, 1, "file is empty (no YAML document); expected a mapping with "
                               "name, bodies and joints")
-    converter = _Converter(file)
+    converter = _Converter(file, Lines(text))
     tree = converter.convert(root, depth=0, path="")
     if converter.problems:
         raise InputError(converter.problems)
     return tree
 
 
+class Lines:
+    """Line numbers of character offsets, counting only \\n as a line end (as editors, grep -n
+    and compilers do). PyYAML's marks also count NEL (U+0085), U+2028 and U+2029 as line breaks,
+    so its line numbers would drift from the file's in a file holding those characters."""
+
+    def __init__(self, text: str):
+        self.starts = [match.end() for match in re.finditer("\n", text)]
+
+    def at(self, index: int) -> int:
+        """The 1-based line of the character at offset INDEX."""
+        return bisect.bisect_right(self.starts, index) + 1
+
+    def of(self, mark: yaml.Mark) -> int:
+        return self.at(mark.index)
+
+
+# YAML 1.1 (and so PyYAML) takes these as line breaks, YAML 1.2 as ordinary characters: the two
+# readings of one file differ, so a file holding them is refused rather than read either way.
+UNICODE_LINE_BREAKS = re.compile("[\x85\u2028\u2029]")
+UNICODE_BREAK_NAMES = {"\x85": "NEL", "\u2028": "LINE SEPARATOR",
+                       "\u2029": "PARAGRAPH SEPARATOR"}
+
+
+def _refuse_unicode_line_breaks(text: str, file: str, lines: Lines) -> None:
+    found = UNICODE_LINE_BREAKS.search(text)
+    if found is None:
+        return
+    char = found.group()
+    raise _error(file, lines.at(found.start()), f"character U+{ord(char):04X} "
+                 f"({UNICODE_BREAK_NAMES[char]}) is not allowed: YAML readers disagree on whether"
+                 " it ends a line; remove it (end lines with a plain newline)")
+
+
 class _TooDeep(Exception):
-    def __init__(self, line: int):
-        super().__init__(line)
-        self.line = line
+    def __init__(self, index: int):
+        super().__init__(index)
+        self.index = index  # character offset where it happened
 
 
 class _TooMany(Exception):
-    def __init__(self, line: int):
-        super().__init__(line)
-        self.line = line
+    def __init__(self, index: int):
+        super().__init__(index)
+        self.index = index
 
 
 class _Loader(yaml.SafeLoader):
@@ -155,24 +192,34 @@ class _Loader(yaml.SafeLoader):
         self.nesting += 1
         self.nodes += 1
         if self.nodes > MAX_NODES:
-            raise _TooMany(self.peek_event().start_mark.line + 1)
+            raise _TooMany(self.peek_event().start_mark.index)
         if self.nesting > MAX_NESTING:
-            raise _TooDeep(self.peek_event().start_mark.line + 1)
+            raise _TooDeep(self.peek_event().start_mark.index)
         try:
             return super().compose_node(parent, index)
         finally:
             self.nesting -= 1
 
 
-def _syntax_error(exc: yaml.MarkedYAMLError, file: str) -> InputError:
+def _syntax_error(exc: yaml.MarkedYAMLError, file: str, lines: Lines) -> InputError:
     mark = exc.problem_mark or exc.context_mark
-    line = mark.line + 1 if mark is not None else 1
+    line = lines.of(mark) if mark is not None else 1
     message = exc.problem or "invalid YAML"
     if exc.context:
         message = f"{exc.context}: {message}"
     if "'\\t'" in message:
         message += " (tabs are not allowed in YAML indentation; use spaces)"
     return _error(file, line, f"YAML syntax error: {message}")
+
+
+MERGE_KEY_REFUSED = ("YAML merge keys ('<<') are not supported: write the keys out (an alias "
+                     "'*name' may still repeat a whole value)")
+
+
+def _is_merge_key(key: yaml.ScalarNode) -> bool:
+    """A plain '<<' key: YAML 1.1's merge, which nemc does not perform (it is not YAML 1.2);
+    taken as an ordinary key it would silently drop the merged keys."""
+    return key.value == "<<" and key.style is None
 
 
 def _error(file: str, line: int, message: str) -> InputError:
@@ -182,15 +229,16 @@ def _error(file: str, line: int, message: str) -> InputError:
 class _Converter:
     """Turns composed nodes into :class:`Node` trees, counting nodes to stop alias bombs."""
 
-    def __init__(self, file: str):
+    def __init__(self, file: str, lines: Lines):
         self.file = file
+        self.lines = lines
         self.count = 0
         self.active: set[int] = set()  # ids of nodes being converted (recursive aliases)
         self.problems: list[Problem] = []
 
     def convert(self, node: yaml.Node, depth: int, path: str) -> Node:
         self.count += 1
-        line = node.start_mark.line + 1
+        line = self.lines.of(node.start_mark)
         if self.count > MAX_NODES:
             raise _error(self.file, line, f"document expands to more than {MAX_NODES} nodes "
                                           "(too many aliases?)")
@@ -221,12 +269,15 @@ class _Converter:
         result = Node({}, *mark)
         mapping: dict[str, Node] = {}
         for key_node, value_node in node.value:
-            key_line = key_node.start_mark.line + 1
+            key_line = self.lines.of(key_node.start_mark)
             if not isinstance(key_node, yaml.ScalarNode):
                 raise _error(self.file, key_line, "a mapping key must be a plain word, "
                                                   "not a list or mapping")
             key = key_node.value
             key_path = f"{path}.{key}" if path else key
+            if _is_merge_key(key_node):
+                self.problems.append(Problem(self.file, key_line, key_path, MERGE_KEY_REFUSED))
+                continue
             if key in mapping:
                 self.problems.append(Problem(self.file, key_line, key_path, "duplicate key "
                                              f"(first at line {result.key_lines[key]})"))

@@ -55,9 +55,10 @@ def timed(timings: dict[str, float], stage: str) -> Iterator[None]:
 
 def read_source(path: str | Path) -> Source:
     from .errors import InputError, Problem
+    from .reading import read_file
 
     try:
-        return Source(str(path), Path(path).read_bytes())
+        return Source(str(path), read_file(path))
     except OSError as error:
         problem = Problem(str(path), 0, "", f"cannot read the file: {error.strerror}")
         raise InputError([problem]) from None
@@ -137,10 +138,22 @@ def generate_and_build(
             equations = with_taylor(equations)
     with timed(timings, "optimize"):
         block = optimize_equations(equations)
-    with timed(timings, "emit"):
+    with timed(timings, "emit"), number_range(source):
         code = emit(equations, block, chunk_steps)
     with timed(timings, "build"):
         return build(code, key)
+
+
+@contextmanager
+def number_range(source: Source) -> Iterator[None]:
+    """A number no double holds, made by folding the file's constants, is bad input (exit 2)."""
+    from .emit import NumberOutOfRange
+    from .errors import InputError, Problem
+
+    try:
+        yield
+    except NumberOutOfRange as error:
+        raise InputError([Problem(source.path, 1, "", str(error))]) from None
 
 
 def with_energy_output(mechanism: Mechanism) -> Mechanism:

@@ -12,7 +12,7 @@ generated C return `status` when the value is not > 0 (a singular articulated in
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
 import sympy
@@ -118,3 +118,71 @@ def prune(steps: list[Step], results: tuple[sympy.Expr, ...]) -> tuple[Step, ...
             live |= step[1].free_symbols
             kept.append(step)
     return tuple(reversed(kept))
+
+
+# The deepest expression a step keeps: sympy's diff (the Jacobian's tangent program), its
+# printers and CSE recurse about 5 Python frames a level, so a load nested 100 levels deep
+# (the documented limit, nemc.expr.MAX_DEPTH) overflowed Python's stack in compile. The
+# mechanism's own steps are at most 9 deep; only expressions from the file get split.
+MAX_STEP_DEPTH = 24
+
+
+def split_deep(program: Program, prefix: str, max_depth: int = MAX_STEP_DEPTH) -> Program:
+    """The same program with no expression deeper than MAX_DEPTH: deeper subexpressions become
+    steps of their own (named PREFIX<k>), before the step that uses them (the same operations,
+    in the same order)."""
+    exprs = [step.value if isinstance(step, Guard) else step[1] for step in program.steps]
+    if all(depth_at_most(sympy.sympify(e), max_depth) for e in [*exprs, *program.results]):
+        return program
+    names = sympy.numbered_symbols(prefix, cls=sympy.Dummy, real=True)
+    steps: list[Step] = []
+
+    def name(expr: sympy.Expr) -> sympy.Symbol:
+        symbol = next(names)
+        steps.append((symbol, expr))
+        return symbol
+
+    for step in program.steps:
+        if isinstance(step, Guard):
+            steps.append(Guard(shallow(step.value, max_depth, name), step.status))
+        else:
+            steps.append((step[0], shallow(step[1], max_depth, name)))
+    results = tuple(shallow(sympy.sympify(r), max_depth, name) for r in program.results)
+    return Program(tuple(steps), results)
+
+
+def depth_at_most(expr: sympy.Basic, limit: int) -> bool:
+    """Whether EXPR's tree has at most LIMIT levels (an atom is 1), without recursion."""
+    level = {expr}
+    for _ in range(limit):
+        level = {arg for node in level for arg in node.args}
+        if not level:
+            return True
+    return False
+
+
+def shallow(expr: sympy.Expr, max_depth: int, name: Callable[[sympy.Expr], sympy.Symbol]
+            ) -> sympy.Expr:
+    """EXPR with every subexpression that reaches MAX_DEPTH levels replaced by name(it), from
+    the leaves up (post-order, without recursion: any depth is handled)."""
+    done: dict[sympy.Basic, tuple[sympy.Basic, int]] = {}
+    stack = [expr]
+    while stack:
+        node = stack[-1]
+        if node in done:
+            stack.pop()
+            continue
+        pending = [arg for arg in node.args if arg not in done]
+        if pending:
+            stack.extend(pending)
+            continue
+        stack.pop()
+        if not node.args:
+            done[node] = (node, 1)
+            continue
+        args = [done[arg][0] for arg in node.args]
+        depth = 1 + max(done[arg][1] for arg in node.args)
+        same = all(new is old for new, old in zip(args, node.args))
+        rebuilt = node if same else node.func(*args)
+        done[node] = (name(rebuilt), 1) if depth >= max_depth else (rebuilt, depth)
+    return done[expr][0]

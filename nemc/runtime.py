@@ -302,15 +302,15 @@ class Model(LoopsMixin):
         raise ModelError(f"unknown parameter {name!r}{hint} (known: {list(self.parameter_names)})")
 
     @staticmethod
-    def _finite(name: str, value: Any) -> float:
+    def _finite(name: str, value: Any, what: str = "parameter") -> float:
         if isinstance(value, (str, bytes)) or np.iscomplexobj(value):
-            raise ModelError(f"parameter {name!r}: expected a real number, got {value!r}")
+            raise ModelError(f"{what} {name!r}: expected a real number, got {value!r}")
         try:
             number = float(value)
         except (TypeError, ValueError, OverflowError):
-            raise ModelError(f"parameter {name!r}: expected a number, got {value!r}") from None
+            raise ModelError(f"{what} {name!r}: expected a number, got {value!r}") from None
         if not math.isfinite(number):
-            raise ModelError(f"parameter {name!r}: must be finite, got {number}")
+            raise ModelError(f"{what} {name!r}: must be finite, got {number}")
         return number
 
     def _check_masses(self, p: np.ndarray) -> None:
@@ -334,6 +334,8 @@ class Model(LoopsMixin):
         array = _real_array(t, "time t")
         if array.ndim != 0:
             raise ModelError(f"time t must be a scalar, got shape {array.shape}")
+        if not np.isfinite(array):
+            raise ModelError(f"time t must be finite, got {float(array)}")
         return float(array)
 
     @staticmethod
@@ -343,6 +345,8 @@ class Model(LoopsMixin):
         if array.ndim != 0 and array.shape != (count,):
             raise ModelError(f"times t must be a scalar or have shape ({count},), "
                              f"got {array.shape}")
+        if not np.isfinite(array).all():
+            raise ModelError("times t must be finite")
         return np.ascontiguousarray(np.broadcast_to(array.astype(np.float64), (count,)))
 
     def initial_state(self, params: Mapping[str, float] | None = None) -> np.ndarray:
@@ -367,7 +371,7 @@ class Model(LoopsMixin):
                     close = difflib.get_close_matches(str(name), self.state_names, n=1)
                     hint = f"; did you mean {close[0]!r}?" if close else ""
                     raise ModelError(f"unknown state name {name!r}{hint}")
-                state[self.state_names.index(name)] = self._finite(name, value)
+                state[self.state_names.index(name)] = self._finite(name, value, "state value")
             return state
         return self._state(y0).copy()
 
@@ -527,14 +531,12 @@ class Model(LoopsMixin):
         (t_span (0, 10), method nemc.DOP853, rtol 1e-6, atol 1e-9, t_eval: the solver's steps).
         Methods: scipy's solve_ivp methods (SCIPY_METHODS) and nemc's own (NATIVE_METHODS)."""
         p = self.parameter_vector(params)
-        span = tuple(float(v) for v in (t_span or self.scene["t_span"] or DEFAULT_T_SPAN))
-        method = method or self.scene["method"] or DEFAULT_METHOD
-        if method not in METHODS:
-            raise ModelError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
-        rtol = float(rtol if rtol is not None else self.scene["rtol"] or DEFAULT_RTOL)
-        atol = float(atol if atol is not None else self.scene["atol"] or DEFAULT_ATOL)
+        span = checked_span(self.scene["t_span"] or DEFAULT_T_SPAN if t_span is None else t_span)
+        method = checked_method(self.scene["method"] or DEFAULT_METHOD if method is None
+                                else method, METHODS)
+        rtol, atol = self._tolerances(rtol, atol)
         times = self._times(span, t_eval)
-        state0 = self.state_vector(y0, params)
+        state0 = self._initial(y0, params)
         if self.has_loops:
             state0, freedom = self._assembled(span[0], state0, self._given_mask(y0), p)
             if freedom == 0:
@@ -551,6 +553,8 @@ class Model(LoopsMixin):
         if method in NATIVE_METHODS:
             model = self._native_model(method)
             return model._simulate_native(method, span, state0, times, rtol, atol, p)
+        if span[0] == span[1]:  # solve_ivp returns nothing; the native methods return y0
+            return self._at_start(method, span, state0, times, rtol, atol, p)
         from scipy.integrate import solve_ivp  # here: importing scipy costs more than a load
 
         rhs = self._rhs_function(p)
@@ -586,18 +590,49 @@ class Model(LoopsMixin):
             method="kinematic", rtol=rtol, atol=atol, params=self.parameters_at(p))
 
     def _times(self, span: tuple[float, ...], t_eval: Sequence[float] | None) -> Any:
+        """The checked times of the returned states: t_eval, else the scene's (its step from
+        t0 towards t1, or its list within t_span, in the span's direction), else None."""
         if isinstance(t_eval, str) and t_eval == SOLVER_STEPS:  # the solver's own steps
             return None
         if t_eval is not None:
-            return np.asarray(t_eval, dtype=float)
+            return checked_times(_real_array(t_eval, "t_eval"), span)
         if self.scene["t_eval_step"]:
-            step = float(self.scene["t_eval_step"])
-            count = int(math.floor((span[1] - span[0]) / step * (1 + 1e-12))) + 1
-            return span[0] + step * np.arange(count)
+            return step_times(span, float(self.scene["t_eval_step"]))
         if self.scene["t_eval"] is not None:
             times = np.asarray(self.scene["t_eval"], dtype=float)
-            return times[(times >= span[0]) & (times <= span[1])]
+            inside = times[(times >= min(span)) & (times <= max(span))]
+            if not inside.size:
+                raise ModelError(f"none of the scene's t_eval times lies in t_span {list(span)}:"
+                                 " pass t_eval")
+            return inside if span[1] >= span[0] else inside[::-1].copy()
         return None
+
+    def _tolerances(self, rtol: Any, atol: Any) -> tuple[float, float]:
+        """rtol and atol, or the scene's, or the defaults; checked (see checked_tolerances)."""
+        return checked_tolerances(
+            rtol if rtol is not None else self.scene["rtol"] or DEFAULT_RTOL,
+            atol if atol is not None else self.scene["atol"] or DEFAULT_ATOL)
+
+    def _initial(self, y0: Any, params: Mapping[str, float] | None) -> np.ndarray:
+        """The initial state of a run: finite, whatever gave it (y0, the scene, parameters)."""
+        state = self.state_vector(y0, params)
+        if not np.all(np.isfinite(state)):
+            values = ", ".join(f"{n}={v:g}" for n, v in zip(self.state_names, state))
+            raise ModelError(f"the initial state must be finite, got {values}")
+        return state
+
+    def _at_start(
+        self, method: str, span: tuple[float, ...], y0: np.ndarray, times: np.ndarray | None,
+        rtol: float, atol: float, p: np.ndarray,
+    ) -> SimulationResult:
+        """A run over an empty interval (t1 == t0), as the native methods give it: y0 at t0."""
+        t = np.array([span[0]]) if times is None else times
+        y = np.repeat(y0.reshape(-1, 1), t.size, axis=1)
+        return SimulationResult(
+            t=t, y=y, outputs=self._lazy_outputs(t, y, p), nfev=0, njev=0, nlu=0, status=0,
+            message=SUCCESS_MESSAGE, success=True, method=method, rtol=rtol, atol=atol,
+            params=self.parameters_at(p),
+        )
 
     def _message(self, sol: Any, last: list, p: np.ndarray) -> str:
         """scipy's message; when the solver gave up, also where, the state and the likely cause."""
@@ -750,19 +785,20 @@ class Model(LoopsMixin):
         method: a native method; default the scene's when native, nemc.Radau when the scene's
         method is implicit, else nemc.DOP853. threads: how many threads share the runs
         (default: the machine's cores); each run is independent and deterministic."""
-        span = tuple(float(v) for v in (t_span or self.scene["t_span"] or DEFAULT_T_SPAN))
-        method = method or ensemble_method(self.scene["method"])
-        if method not in NATIVE_METHODS:
+        span = checked_span(self.scene["t_span"] or DEFAULT_T_SPAN if t_span is None else t_span)
+        method = ensemble_method(self.scene["method"]) if method is None else method
+        if not isinstance(method, str) or method not in NATIVE_METHODS:
             raise ModelError(f"simulate_many: method must be one of {', '.join(NATIVE_METHODS)},"
                              f" got {method!r}")
         model = self._native_model(method)
         if model is not self:  # a build with the method's part: it runs the ensemble
             return model.simulate_many(y0s, params=params, t_span=t_span, t_eval=t_eval,
                                        method=method, rtol=rtol, atol=atol, threads=threads)
-        rtol = float(rtol if rtol is not None else self.scene["rtol"] or DEFAULT_RTOL)
-        atol = float(atol if atol is not None else self.scene["atol"] or DEFAULT_ATOL)
+        rtol, atol = self._tolerances(rtol, atol)
+        threads = checked_threads(threads)
         times = self._times(span, t_eval)
-        times = np.array(span[:1] + span[1:] if times is None else times, dtype=float)
+        times = np.array(sorted(set(span), reverse=span[1] < span[0]) if times is None else times,
+                         dtype=float)
         given = self._given_mask(y0s)
         ps, y0s = self._ensemble_inputs(y0s, params)
         if self.has_loops:  # each run from its assembled state
@@ -797,18 +833,19 @@ class Model(LoopsMixin):
 
     def _ensemble_inputs(self, y0s: Any, params: Mapping[str, Any] | None):
         """(parameter vectors (k or 1, n_p), initial states (k, n_state)), checked."""
-        columns = {name: np.atleast_1d(np.asarray(v, dtype=float)) for name, v in
-                   (params or {}).items()}
+        columns = ensemble_columns(params)
         sizes = {len(v) for v in columns.values() if len(v) != 1}
         if y0s is not None:
-            y0s = np.asarray(y0s, dtype=float)
-            if y0s.ndim != 2 or y0s.shape[1] != self.n_state:
+            y0s = _real_array(y0s, "y0s").astype(float)
+            if y0s.ndim != 2 or y0s.shape[1] != self.n_state or not len(y0s):
                 raise ModelError(f"y0s must have shape (k, {self.n_state}), got {y0s.shape}")
             sizes.add(len(y0s))
         if len(sizes) > 1:
             raise ModelError(f"simulate_many: y0s and params disagree on the number of runs:"
                              f" {sorted(sizes)}")
         k = sizes.pop() if sizes else 1
+        if k == 0:
+            raise ModelError("simulate_many: no runs (params hold empty arrays)")
         sets = [{name: v[i % len(v)] for name, v in columns.items()} for i in
                 range(k if any(len(v) > 1 for v in columns.values()) else 1)]
         ps = np.array([self.parameter_vector(s) for s in sets])
@@ -901,22 +938,109 @@ def native_tolerances(rtol: float, atol: float) -> tuple[float, float]:
 
 
 def checked_times(times: np.ndarray, span: tuple[float, ...]) -> np.ndarray:
-    """t_eval checked as solve_ivp checks it, as a contiguous float array."""
-    times = np.ascontiguousarray(times, dtype=float)
+    """t_eval checked, as a contiguous float array: 1-d, not empty, finite, within t_span, in
+    the span's direction. (solve_ivp silently drops NaN times and fails on an empty t_eval.)"""
+    times = np.asarray(times, dtype=float)
     t0, tf = span
-    if times.ndim != 1:
-        raise ModelError("`t_eval` must be 1-dimensional.")
-    if not times.size:
-        return times
-    if times.min() < min(t0, tf) or times.max() > max(t0, tf):  # NaN fails neither: below
-        raise ModelError("Values in `t_eval` are not within `t_span`.")
+    if times.ndim != 1 or not times.size:
+        raise ModelError(f"t_eval must be a 1-d list of at least one time (or None: the "
+                         f"solver's own steps), got shape {times.shape}")
     if not np.isfinite(times).all():
-        raise ModelError("Values in `t_eval` are not within `t_span`.")
+        raise ModelError("Values in `t_eval` are not within `t_span`: "
+                         f"{times[~np.isfinite(times)][0]} is not finite")
+    if times.min() < min(t0, tf) or times.max() > max(t0, tf):
+        raise ModelError(f"Values in `t_eval` are not within `t_span` {list(span)}")
     if times.size > 1:
         d = np.diff(times)
-        if (tf > t0 and not d.min() > 0) or (tf < t0 and not d.max() < 0):
-            raise ModelError("Values in `t_eval` are not properly sorted.")
-    return times
+        if not ((tf > t0 and d.min() > 0) or (tf < t0 and d.max() < 0)):
+            direction = "increasing" if tf > t0 else "decreasing"
+            raise ModelError(f"Values in `t_eval` are not properly sorted: they must be strictly "
+                             f"{direction}, as t_span {list(span)}")
+    return np.ascontiguousarray(times)
+
+
+MAX_STEP_TIMES = 1_000_000  # times a scene's t_eval {step} may give (memory: n_state doubles each)
+
+
+def checked_span(t_span: Any) -> tuple[float, float]:
+    """t_span as two finite times. t1 < t0 integrates backwards (every method can); t1 == t0
+    returns the initial state."""
+    array = _real_array(t_span, "t_span")
+    if array.shape != (2,):
+        got = f"{array.size} value(s)" if array.ndim == 1 else f"shape {array.shape}"
+        raise ModelError(f"t_span must be two times [t0, t1], got {got}")
+    t0, t1 = (float(v) for v in array)
+    if not (math.isfinite(t0) and math.isfinite(t1) and math.isfinite(t1 - t0)):
+        raise ModelError(f"t_span must be two finite times [t0, t1] (and t1 - t0 finite), "
+                         f"got [{t0}, {t1}]")
+    return t0, t1
+
+
+def checked_method(method: Any, methods: Sequence[str]) -> str:
+    if not isinstance(method, str) or method not in methods:
+        raise ModelError(f"unknown method {method!r}; choose one of {', '.join(methods)}")
+    return method
+
+
+def checked_tolerances(rtol: Any, atol: Any) -> tuple[float, float]:
+    """rtol in (0, 1) and atol >= 0, each one finite number (scipy would take rtol 1e10, and a
+    native method then returned 1e54 with success). rtol below 100 eps is raised to it with a
+    warning, by scipy and native_tolerances alike."""
+    rtol, atol = _tolerance(rtol, "rtol"), _tolerance(atol, "atol")
+    if not 0 < rtol < 1:
+        raise ModelError(f"rtol must be > 0 and < 1 (a relative error), got {rtol:g}")
+    if not atol >= 0:
+        raise ModelError(f"atol must be >= 0, got {atol:g}")
+    return rtol, atol
+
+
+def _tolerance(value: Any, name: str) -> float:
+    if isinstance(value, (bool, np.bool_)):
+        raise ModelError(f"{name} must be a number, got {value!r}")
+    array = _real_array(value, name)
+    if array.ndim != 0:
+        raise ModelError(f"{name} must be one number (tolerances per state entry are not "
+                         f"supported), got an array of shape {array.shape}")
+    number = float(array)
+    if not math.isfinite(number):
+        raise ModelError(f"{name} must be finite, got {number}")
+    return number
+
+
+def checked_threads(threads: Any) -> int | None:
+    if threads is None:
+        return None
+    if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)) \
+            or threads < 1:
+        raise ModelError(f"threads must be a whole number >= 1 (or None: every core), "
+                         f"got {threads!r}")
+    return int(threads)
+
+
+def step_times(span: tuple[float, ...], step: float) -> np.ndarray:
+    """t0, t0 + step, ... up to t1 (down to t1 when t1 < t0), at most MAX_STEP_TIMES of them."""
+    ratio = abs(span[1] - span[0]) / step
+    if not ratio < MAX_STEP_TIMES:
+        raise ModelError(f"t_eval {{step: {step:g}}} over t_span {list(span)} gives more than "
+                         f"{MAX_STEP_TIMES} times: use a larger step or a shorter span")
+    count = int(math.floor(ratio * (1 + 1e-12))) + 1
+    return span[0] + math.copysign(step, span[1] - span[0]) * np.arange(count)
+
+
+def ensemble_columns(params: Any) -> dict[str, np.ndarray]:
+    """simulate_many's params: name -> 1-d float array (one value, or one per run)."""
+    if params is None:
+        return {}
+    if not isinstance(params, Mapping):
+        raise ModelError(f"params must be a mapping name -> value(s), got {type(params).__name__}")
+    columns = {}
+    for name, value in params.items():
+        array = _real_array(value, f"parameter {name!r}")
+        if array.ndim > 1:
+            raise ModelError(f"parameter {name!r}: expected a number or a 1-d array of one value"
+                             f" per run, got shape {array.shape}")
+        columns[name] = np.atleast_1d(array.astype(float))
+    return columns
 
 
 def ensemble_method(scene_method: str | None) -> str:

@@ -18,6 +18,43 @@ import sympy
 from .program import Program, ProgramBuilder
 
 
+class RealAbs(sympy.Function):
+    """|x| of a real x, differentiated as sign(x). sympy's Abs allows a complex argument: its
+    derivative of |asin(q)| holds re() and im(), which C cannot print."""
+
+    def fdiff(self, argindex: int = 1) -> sympy.Expr:
+        return sympy.sign(self.args[0])
+
+
+class RealSign(sympy.Function):
+    """sign(x) of a real x, differentiated as 0: its derivative is 0 wherever it exists (all but
+    x = 0). sympy's is 2 DiracDelta(x), which C cannot print."""
+
+    def fdiff(self, argindex: int = 1) -> sympy.Expr:
+        return sympy.S.Zero
+
+
+# min and max need no rule: sympy differentiates them to Heaviside steps (a piecewise choice of
+# the argument that is the minimum or maximum), which C prints as a conditional.
+REAL_DERIVATIVES = {sympy.Abs: RealAbs, sympy.sign: RealSign}
+
+
+def with_real_derivatives(expr: sympy.Expr) -> sympy.Expr:
+    if not expr.has(*REAL_DERIVATIVES):
+        return expr
+    for function, real in REAL_DERIVATIVES.items():
+        expr = expr.replace(function, real)
+    return expr
+
+
+def from_real_derivatives(expr: sympy.Expr) -> sympy.Expr:
+    if not expr.has(*REAL_DERIVATIVES.values()):
+        return expr
+    for function, real in REAL_DERIVATIVES.items():
+        expr = expr.replace(real, function)
+    return expr
+
+
 def seed_symbols(n_state: int) -> tuple[sympy.Symbol, ...]:
     """The tangent of y[k], as new symbols no name from the file can equal (printed seed[k])."""
     return tuple(sympy.Dummy(f"seed_{k}", real=True) for k in range(n_state))
@@ -32,8 +69,9 @@ def tangent_program(primal: Program, seeds: Mapping[sympy.Symbol, sympy.Symbol])
 
     def derivative(expr: sympy.Expr) -> sympy.Expr:
         expr = sympy.sympify(expr)
+        real = with_real_derivatives(expr)
         terms = [
-            sympy.diff(expr, symbol).xreplace(known) * tangent[symbol]
+            from_real_derivatives(sympy.diff(real, symbol)).xreplace(known) * tangent[symbol]
             for symbol in expr.free_symbols
             if symbol in tangent
         ]

@@ -15,14 +15,23 @@ import re
 import sys
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import sympy
 
+from nemc.build import PACKAGE_FILE_STEMS
 from nemc.constraints import CONSTRAINT_KINDS, Constraint
 from nemc.errors import InputError, Problem
-from nemc.expr import RESERVED, Budget, ExprError, Scope, parse_expression, suggest
+from nemc.expr import (
+    MAX_DEPTH,
+    RESERVED,
+    Budget,
+    ExprError,
+    Scope,
+    parse_expression,
+    suggest,
+    tree_depth,
+)
 from nemc.joints import JOINT_KINDS, Joint
 from nemc.loads import LOAD_KINDS, Load
 from nemc.methods import METHODS  # the scene accepts exactly what simulate accepts
@@ -40,6 +49,8 @@ from nemc.model import (
     symbol,
 )
 from nemc.parse import Node, parse_text
+from nemc.reading import read_file
+from nemc.values import dependency_order
 
 
 def joint_keys(kind: type[Joint]) -> tuple[str, ...]:
@@ -70,6 +81,14 @@ ZERO2: Vec2 = (sympy.S.Zero, sympy.S.Zero)
 # needs (a model named json would make the runtime's own `import json` import the model).
 SHADOWED_MODULES = frozenset({*sys.stdlib_module_names, "numpy", "scipy", "cffi",
                               "_cffi_backend", "nemc"})
+# Problems reported at most: each costs a suggestion (difflib over every name), so a file of
+# 15,000 wrong loads and 5,000 parameters took 106 s to report in full.
+MAX_PROBLEMS = 100
+# The largest mechanism nemc builds: a 200-body chain took 14 s to build, 58 s with its Jacobian
+# (800 bodies: 66 s without; 2-core machine under load 4). Raise them when the build scales.
+MAX_BODIES = 200
+MAX_COORDINATES = 200
+MAX_MODEL_NAME = 64  # characters: it names the package's folder and files, and prefixes C names
 FIXED_WHERE = "in body, joint, gravity and initial-condition fields (parameters and constants only)"
 MOTION_WHERE = "in a joint's motion (parameters, constants and t only)"
 
@@ -78,7 +97,7 @@ def load_mechanism(path: str | os.PathLike[str]) -> Mechanism:
     """Read, parse and validate the mechanism file at ``path``; raise InputError if it is bad."""
     file = os.fspath(path)
     try:
-        data = Path(file).read_bytes()
+        data = read_file(file)
     except OSError as exc:
         raise InputError([Problem(file, 1, "", f"cannot read file: {exc.strerror}")]) from None
     return validate_text(data, file)
@@ -110,6 +129,7 @@ class _Ctx:
     constants: list[str] = field(default_factory=list)
     coordinates: list[str] = field(default_factory=list)
     defaults: dict[sympy.Symbol, sympy.Expr] = field(default_factory=dict)
+    depths: dict[sympy.Symbol, int] = field(default_factory=dict)  # of written-out definitions
     bodies: dict[str, Body] = field(default_factory=dict)
     body_names: list[str] = field(default_factory=list)  # valid names, in file order
     body_keys: list[str] = field(default_factory=list)  # every key under bodies
@@ -118,16 +138,30 @@ class _Ctx:
     joints: dict[str, Joint] = field(default_factory=dict)
     joint_coordinates: dict[str, tuple[str, ...]] = field(default_factory=dict)
     budget: Budget = field(default_factory=Budget)  # tokens left for the file's expressions
+    scopes: dict[tuple, Scope] = field(default_factory=dict)  # see scope()
 
     def problem(self, line: int, key: str, message: str) -> None:
         self.problems.append(Problem(self.file, line, key, message))
+        if len(self.problems) >= MAX_PROBLEMS:
+            raise InputError([*sorted(self.problems, key=lambda p: p.line), Problem(
+                self.file, line, "", f"stopped after {MAX_PROBLEMS} problems: fix these first")])
 
     def loc(self, node: Node, key: str) -> Loc:
         return Loc(self.file, node.line, node.column, key)
 
     def scope(self, kind: str) -> Scope:
         """``constants``, ``parameters``, ``fixed`` (body, joint, ...), ``motion`` (a driven
-        joint's: fixed and t) or ``load`` fields."""
+        joint's: fixed and t) or ``load`` fields.
+
+        Made once per kind while the names it is made of stay the same (they only grow):
+        making it costs time linear in the names, and a file may hold 20,000 expressions."""
+        version = (kind, len(self.names), len(self.constants), len(self.parameters),
+                   len(self.coordinates))
+        if version not in self.scopes:
+            self.scopes[version] = self._make_scope(kind)
+        return self.scopes[version]
+
+    def _make_scope(self, kind: str) -> Scope:
         allowed = list(self.constants)
         if kind != "constants":
             allowed += self.parameters
@@ -227,7 +261,7 @@ def _expr(ctx: _Ctx, node: Node, path: str, scope: Scope) -> sympy.Expr | None:
             return None
         return sympy.Float(value)
     try:
-        return parse_expression(value, scope)
+        expr = parse_expression(value, scope)
     except ExprError as exc:
         shown = value if len(value) <= 60 else value[:57] + "..."
         ctx.problem(node.line, path, f"{exc.message} (in expression {shown!r}, "
@@ -235,6 +269,17 @@ def _expr(ctx: _Ctx, node: Node, path: str, scope: Scope) -> sympy.Expr | None:
         if ctx.budget.exhausted:  # stop: every later expression would say the same
             raise InputError(sorted(ctx.problems, key=lambda p: p.line)) from None
         return None
+    return _shallow_enough(ctx, node, path, expr)
+
+
+def _shallow_enough(ctx: _Ctx, node: Node, path: str, expr: sympy.Expr) -> sympy.Expr | None:
+    """EXPR, unless it is deeper than MAX_DEPTH with the definitions it uses written out (as
+    derive substitutes them): every later stage must handle what validation accepts."""
+    depth = tree_depth(expr, ctx.depths)
+    if depth <= MAX_DEPTH:
+        return expr
+    ctx.problem(node.line, path, _too_deep(expr, depth))
+    return None
 
 
 def _value(ctx: _Ctx, expr: sympy.Expr) -> float | None:
@@ -409,6 +454,7 @@ def _build(ctx: _Ctx, tree: Node, source_hash: str) -> Mechanism | None:
     if "description" in root:
         description = _string(ctx, root["description"], "description", "text") or ""
     _collect_names(ctx, root)
+    _check_size(ctx, root)
     parameters, constants = _parameters(ctx, root)
     gravity = _vec2(ctx, root["gravity"], "gravity") if "gravity" in root else ZERO2
     bodies = _bodies(ctx, root.get("bodies"))
@@ -427,6 +473,18 @@ def _build(ctx: _Ctx, tree: Node, source_hash: str) -> Mechanism | None:
                      units=units)
 
 
+def _check_size(ctx: _Ctx, root: Mapping[str, Node]) -> None:
+    """Refuse, at once, a mechanism larger than nemc builds in reasonable time (MAX_BODIES)."""
+    sizes = (("bodies", len(ctx.body_keys), MAX_BODIES, "bodies"),
+             ("joints", len(ctx.coordinates), MAX_COORDINATES, "coordinates"))
+    too_large = [(key, count, most, what) for key, count, most, what in sizes if count > most]
+    for key, count, most, what in too_large:
+        ctx.problem(root[key].line, key, f"{count} {what}: nemc builds at most {most} {what} "
+                    f"(a {MAX_BODIES}-body chain builds in about a minute with its Jacobian)")
+    if too_large:  # validating the rest would take long and say nothing more useful
+        raise InputError(sorted(ctx.problems, key=lambda p: p.line))
+
+
 def _module_name(ctx: _Ctx, node: Node | None) -> str | None:
     if node is None:
         return None
@@ -441,7 +499,23 @@ def _module_name(ctx: _Ctx, node: Node | None) -> str | None:
         ctx.problem(node.line, "name", f"{name!r} is the name of a Python module the generated "
                                        "package would hide when imported; choose another name")
         return None
+    clash = _package_name_clash(name)
+    if clash:
+        ctx.problem(node.line, "name", f"{clash}; choose another name")
+        return None
     return name
+
+
+def _package_name_clash(name: str) -> str | None:
+    """Why NAME cannot name a generated package (its folder, module, C file and C prefix)."""
+    if len(name) > MAX_MODEL_NAME:
+        return (f"a model name has at most {MAX_MODEL_NAME} characters (it names files and C "
+                f"functions), got {len(name)}")
+    if name in PACKAGE_FILE_STEMS:
+        return f"{name!r} is the name of a module or file inside every generated package"
+    if name.startswith("__") and name.endswith("__"):
+        return f"{name!r} has the form of a Python special name (__x__)"
+    return None
 
 
 # ----------------------------------------------------------------------------- parameters
@@ -479,51 +553,62 @@ def _dependencies(expr: sympy.Expr) -> list[str]:
 
 
 def _check_cycles(ctx: _Ctx, parsed: Mapping[str, tuple[Node, str, sympy.Expr]]) -> set[str]:
-    """Report each cycle among parameter definitions once; return the names on cycles."""
+    """Report each cycle among parameter definitions once; return the names on cycles.
+    A depth-first search with its own stack: a chain of thousands of definitions is fine."""
     cyclic: set[str] = set()
     done: set[str] = set()
-
-    def visit(name: str, stack: list[str]) -> None:
-        if name in done or name not in parsed:
-            return
-        if name in stack:
-            cycle = stack[stack.index(name):]
-            if not cyclic & set(cycle):
-                node, path, _ = parsed[cycle[0]]
-                chain = " -> ".join([*cycle, cycle[0]])
-                ctx.problem(node.line, path, f"definitions form a cycle: {chain}")
-            cyclic.update(cycle)
-            return
-        stack.append(name)
-        for dep in _dependencies(parsed[name][2]):
-            visit(dep, stack)
-        stack.pop()
-        done.add(name)
-
-    for name in parsed:
-        visit(name, [])
+    for start in parsed:
+        if start in done:
+            continue
+        path = [start]
+        pending = [iter(_dependencies(parsed[start][2]))]
+        while path:
+            dep = next(pending[-1], None)
+            if dep is None:
+                done.add(path.pop())
+                pending.pop()
+            elif dep in path:
+                cycle = path[path.index(dep):]
+                if not cyclic & set(cycle):
+                    node, key, _ = parsed[cycle[0]]
+                    chain = " -> ".join([*cycle, cycle[0]])
+                    ctx.problem(node.line, key, f"definitions form a cycle: {chain}")
+                cyclic.update(cycle)
+            elif dep in parsed and dep not in done:
+                path.append(dep)
+                pending.append(iter(_dependencies(parsed[dep][2])))
     return cyclic
 
 
 def _compute_defaults(ctx: _Ctx, parsed: Mapping[str, tuple[Node, str, sympy.Expr]],
                       cyclic: set[str]) -> None:
-    """Evaluate default values in dependency order; each must be a finite real number."""
-    pending = [name for name in parsed if name not in cyclic]
-    progress = True
-    while pending and progress:
-        progress = False
-        for name in list(pending):
-            node, path, expr = parsed[name]
-            if not _known(ctx, expr):
-                continue
-            pending.remove(name)
-            progress = True
-            value = _value(ctx, expr)
-            if math.isnan(value):
-                ctx.problem(node.line, path, "default value does not evaluate to a finite real "
-                                             f"number (got {expr})")
-            else:
-                ctx.defaults[symbol(name)] = sympy.Float(value)
+    """Evaluate default values in dependency order; each must be a finite real number, and
+    each definition, with the definitions it uses written out, at most MAX_DEPTH deep."""
+    names = [name for name in parsed if name not in cyclic]
+    for name in dependency_order(names, lambda n: _dependencies(parsed[n][2])):
+        node, path, expr = parsed[name]
+        if not _known(ctx, expr):
+            continue
+        depth = tree_depth(expr, ctx.depths)
+        if depth > MAX_DEPTH:
+            ctx.problem(node.line, path, _too_deep(expr, depth))
+            continue
+        ctx.depths[symbol(name)] = depth
+        value = _value(ctx, expr)
+        if math.isnan(value):
+            ctx.problem(node.line, path, "default value does not evaluate to a finite real "
+                                         f"number (got {expr})")
+        else:
+            ctx.defaults[symbol(name)] = sympy.Float(value)
+
+
+def _too_deep(expr: sympy.Expr, depth: int) -> str:
+    """The message for an expression DEPTH levels deep with its definitions written out."""
+    if tree_depth(expr) == depth:
+        return (f"expression is nested too deeply: {depth} levels, at most {MAX_DEPTH} (each "
+                "operation and function call is a level)")
+    return (f"expression is nested too deeply: {depth} levels once the parameters and constants "
+            f"it uses are written out, at most {MAX_DEPTH}")
 
 
 # ----------------------------------------------------------------------------- bodies

@@ -165,6 +165,26 @@ EXPECTED: dict[str, tuple[int, str, str]] = {
     "alias_bomb": (3, "", "document expands to more than 100000 nodes"),
     "deep_parentheses": (5, "bodies.b1.mass", "expression is nested too deeply"),
     "deep_yaml": (3, "", "YAML is nested more than 64 levels deep"),
+    # round 2 (issue 21): names that clash with the package's own files, or are too long
+    "model_name_native": (2, "name", "'_native' is the name of a module or file inside every"),
+    "model_name_runtime": (2, "name", "'_runtime' is the name of a module or file inside"),
+    "model_name_model": (2, "name", "'model' is the name of a module or file inside"),
+    "model_name_init": (2, "name", "'__init__' is the name of a module or file inside"),
+    "model_name_build_ok": (2, "name", "'BUILD_OK' is the name of a module or file inside"),
+    "model_name_dunder_main": (2, "name", "has the form of a Python special name"),
+    "model_name_300_characters": (2, "name", "a model name has at most 64 characters"),
+    # YAML that PyYAML reads another way than YAML 1.2, or than an editor numbers it
+    "yaml_merge_key": (6, "bodies.b1.<<", "YAML merge keys ('<<') are not supported"),
+    "unicode_nel": (6, "", "character U+0085 (NEL) is not allowed"),
+    "unicode_line_separator": (3, "", "character U+2028 (LINE SEPARATOR) is not allowed"),
+    "unicode_paragraph_separator": (6, "", "character U+2029 (PARAGRAPH SEPARATOR) is not"),
+    "line_lone_carriage_return": (6, "bodies.b1.mass", "must be > 0, got -1"),  # PyYAML: 7
+    # numbers C cannot hold as a double, and depths the later stages cannot take
+    "number_huge_integer_in_load": (11, "loads[0].torque", "a number in the expression is out"),
+    "number_tiny_rational_in_load": (11, "loads[0].torque", "a number in the expression is out"),
+    "deep_expression_tree": (11, "loads[0].torque", "nested too deeply: 103 levels, at most 100"),
+    "parameter_chain_too_deep": (16, "parameters.p10", "nested too deeply: 101 levels once the "
+                                                       "parameters and constants it uses"),
 }
 
 
@@ -180,7 +200,47 @@ def generated_cases() -> dict[str, tuple[bytes, tuple[int, str, str]]]:
         "token_flood": (base.replace("{m: 1, L: 2}", "{m: 1, L: 2, " + flood + "}").encode(),
                         (3, "", "the file's expressions have more than 50000 tokens")),
         "comments_near_the_limit": (base.encode() + b"#" * 99 + b"\n" * 9_000, (0, "", "")),
+        # round 2: each took minutes, or died with RecursionError, before issue 21
+        "parameter_chain_3000": (parameter_chain(3000, "parameters", "p{i}: p{j}*m + 1").encode(),
+                                 (54, "parameters.p2950", "nested too deeply: 101 levels")),
+        "constant_chain_3000": (parameter_chain(3000, "constants", "c{i}: sin(c{j})").encode(),
+                                (104, "constants.c2900", "nested too deeply: 101 levels")),
+        "loads_flood_with_5000_names": (names_and_loads(5000, 15000).encode(),
+                                        (5006, "loads[0].torque", "stopped after 100 problems")),
+        "chain_of_2000_bodies": (chain_yaml(2000).encode(),
+                                 (5, "bodies", "2000 bodies: nemc builds at most 200")),
     }
+
+
+def parameter_chain(count: int, section: str, definition: str) -> str:
+    """COUNT + 1 definitions, each made of the next (DEFINITION.format(i=..., j=...)), the
+    last a number, listed last first (a resolver in file order needs a pass for each)."""
+    lines = ["name: chained", f"{section}:", "  m: 2", f"  {definition[0]}{count}: 1"]
+    lines += [f"  {definition.format(i=i, j=i + 1)}" for i in reversed(range(count))]
+    lines += ["bodies: {b: {mass: 1, inertia: 1}}",
+              "joints: {A: {type: revolute, parent: ground, child: b, coordinate: q}}"]
+    return "\n".join(lines) + "\n"
+
+
+def names_and_loads(names: int, loads: int) -> str:
+    """Many parameters and many loads naming an unknown one: the scope of every expression
+    was made again from every name (quadratic), and every problem got a suggestion."""
+    lines = ["name: flood", "parameters:", *(f"  p{i}: 1" for i in range(names)),
+             "bodies: {b: {mass: 1, inertia: 1}}",
+             "joints: {A: {type: revolute, parent: ground, child: b, coordinate: q}}", "loads:"]
+    lines += ["  - {torque: -qq, body: b}"] * loads
+    return "\n".join(lines) + "\n"
+
+
+def chain_yaml(bodies: int) -> str:
+    lines = ["name: long_chain", "parameters: {m: 1, L: 1}", "gravity: [0, -9.81]", "bodies:"]
+    lines += [f"  link{i}: {{mass: m, inertia: m*L**2/12, com: [L/2, 0], points: {{tip: [L, 0]}}}}"
+              for i in range(bodies)]
+    lines.append("joints:")
+    lines += [f"  J{i}: {{type: revolute, parent: {'ground' if i == 0 else f'link{i - 1}'}, "
+              f"child: link{i}, at: {'[0, 0]' if i == 0 else 'tip'}, coordinate: q{i}}}"
+              for i in range(bodies)]
+    return "\n".join(lines) + "\n"
 
 
 @pytest.fixture
