@@ -52,6 +52,7 @@ class Equations:
     inverse_mass: Program | None = None  # M^-1 Q at rest, with the jacobian
     generalized_forces: tuple[sympy.Symbol, ...] = ()  # Q, the inverse_mass program's input
     taylor: Program | None = None  # the program nemc.Taylor's coefficients come from, if built
+    events: tuple[m.Event, ...] = ()  # the scene's events, when and laws in runtime symbols
 
     @property
     def n(self) -> int:
@@ -139,6 +140,7 @@ def derive(mech: m.Mechanism) -> Equations:
         outputs=tuple((name, runtime(expr)) for name, expr in derive_outputs(mech, kin)),
         checks=checks,
         initial_state=initial_state(mech, runtime),
+        events=runtime_events(mech, runtime),
     )
 
 
@@ -170,3 +172,12 @@ def with_taylor(eqs: Equations) -> Equations:
 def initial_state(mech: m.Mechanism, runtime) -> tuple[sympy.Expr, ...]:
     given: Mapping[str, sympy.Expr] = mech.simulation.initial
     return tuple(runtime(given.get(name, sympy.S.Zero)) for name in mech.state_names)
+
+
+def runtime_events(mech: m.Mechanism, runtime) -> tuple[m.Event, ...]:
+    """The scene's events with their `when` and impact laws in runtime symbols."""
+    return tuple(
+        dataclasses.replace(event, when=runtime(event.when),
+                            law=tuple((name, runtime(expr)) for name, expr in event.law))
+        for event in mech.simulation.events
+    )

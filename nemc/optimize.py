@@ -54,11 +54,21 @@ def rewrite_program(program: Program) -> Program:
     return Program(steps, tuple(rewrite(sympy.sympify(r)) for r in program.results))
 
 
+def event_groups(eqs: Equations) -> dict[str, tuple[sympy.Expr, ...]]:
+    """The events' functions ("events") and each impact law's new values ("impact.<k>", k the
+    event's index), so they share the other expressions' common subexpressions."""
+    groups = {"events": tuple(event.when for event in eqs.events)} if eqs.events else {}
+    groups.update({f"impact.{k}": tuple(expr for _, expr in event.law)
+                   for k, event in enumerate(eqs.events) if event.law})
+    return groups
+
+
 def optimize_equations(eqs: Equations) -> Block:
     groups = {
         "outputs": tuple(expr for _, expr in eqs.outputs),
         "checks": tuple(expr for _, expr in eqs.checks),
         "initial": eqs.initial_state,
+        **event_groups(eqs),
     }
     programs = {"dynamics": eqs.dynamics, "jacobian": eqs.jacobian,
                 "inverse_mass": eqs.inverse_mass}
