@@ -49,10 +49,11 @@ NEMC_DIR = Path(__file__).resolve().parent
 NOT_IN_BUILD_KEY = frozenset({
     "cli.py", "report.py", "show.py", "stress.py", "stress_report.py", "load.py", "errors.py",
     "runtime.py",  # copied into the exported package by `export`, not into the cache entry
+    "runs.py",  # the runtime's run control, copied with it
 })
 # The runtime of a standalone package: copied from nemc when a package is exported, under these
 # names (the package's __init__ imports ._runtime, which imports .methods).
-RUNTIME_FILES = {"runtime.py": "_runtime.py", "methods.py": "methods.py"}
+RUNTIME_FILES = {"runtime.py": "_runtime.py", "methods.py": "methods.py", "runs.py": "runs.py"}
 CFLAGS = ["-O2", "-fPIC", "-Wall", "-Wextra", "-std=c99"]  # never -ffast-math: it changes answers
 COMPLETE = "BUILD_OK"
 STALE_SCRATCH_S = 24 * 3600  # a temporary build folder this old was left by a killed build
