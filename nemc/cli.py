@@ -1,7 +1,8 @@
 """The `nemc` command: compile, simulate, show, check, bench, stress.
 
 Exit status: 0 success; 2 bad input (`FILE:LINE: key.path: what is wrong`, no traceback);
-1 any other failure (e.g. the C compiler failed: the message names the C file and its error).
+1 any other failure (e.g. the C compiler failed: the message names the C file and its error);
+130 interrupted (Ctrl-C; `simulate` prints the states it has first).
 """
 
 from __future__ import annotations
@@ -13,6 +14,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from .errors import BuildError, InputError
+
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
 
 
 def parse_assignment(text: str) -> tuple[str, float]:
@@ -111,6 +114,7 @@ def cmd_compile(args: argparse.Namespace) -> int:
 def cmd_simulate(args: argparse.Namespace) -> int:
     from . import report
     from .pipeline import compile_mechanism
+    from .runs import INTERRUPTED
     from .runtime import ModelError
 
     model = compile_mechanism(args.mechanism).model
@@ -128,6 +132,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         print(f"{args.mechanism}: --set/options: {error}", file=sys.stderr)
         return 2
     print(report.table(model, result))
+    if result.status == INTERRUPTED:  # Ctrl-C: what was computed is printed (and written)
+        if args.csv:
+            report.write_csv(model, result, Path(args.csv))
+        print(f"nemc: {result.message}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     if args.error_estimate and result.success:
         print_error_estimate(model, result, params)
     if args.csv:
@@ -225,6 +234,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BuildError as error:
         print(f"nemc: {error}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:  # Ctrl-C outside a run (a run returns what it has)
+        print("nemc: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except BrokenPipeError:  # e.g. `nemc simulate ... | head`
         sys.stderr.close()
         return 0

@@ -16,11 +16,34 @@ def columns(model: Model, result: SimulationResult) -> tuple[list[str], np.ndarr
     return names, np.column_stack(data) if result.t.size else np.empty((0, len(names)))
 
 
-def table(model: Model, result: SimulationResult) -> str:
+def rows_with_events(model: Model, result: SimulationResult
+                     ) -> tuple[list[str], list[tuple[np.ndarray, str]]]:
+    """The table's columns and rows in time order: the result's rows (label ""), and a row
+    for each event that fired (its time, the state just before it, the outputs there; label
+    its name). The label column is there only when the scene has events."""
     names, data = columns(model, result)
+    rows = [(row, "") for row in data]
+    fired = [(name, t, y) for name, (times, states) in result.events.items()
+             for t, y in zip(times, states)]
+    if not result.events:
+        return names, rows
+    for name, t, y in fired:
+        outputs = model.outputs(t, y, result.params) if result.outputs else {}
+        values = [t, *y, *(outputs[k] for k in result.outputs)]
+        rows.append((np.array(values, dtype=float), name))
+    rows.sort(key=lambda item: (item[0][0] if result.t.size < 2 or result.t[-1] >= result.t[0]
+                                else -item[0][0]))
+    return [*names, "event"], rows
+
+
+def table(model: Model, result: SimulationResult) -> str:
+    names, rows = rows_with_events(model, result)
     widths = [max(12, len(n)) for n in names]
     lines = [" ".join(f"{n:>{w}}" for n, w in zip(names, widths))]
-    lines += [" ".join(f"{v:>{w}.6g}" for v, w in zip(row, widths)) for row in data]
+    lines += [" ".join([*(f"{v:>{w}.6g}" for v, w in zip(row, widths)),
+                        *([f"{'<- ' + label if label else '':<{widths[-1]}}"]
+                          if len(names) > row.size else [])]).rstrip()
+              for row, label in rows]
     lines.append(
         f"# {model.name}: {result.method}, rtol {result.rtol:g}, atol {result.atol:g}, "
         f"{result.nfev} rhs calls, {result.message}"
@@ -29,11 +52,12 @@ def table(model: Model, result: SimulationResult) -> str:
 
 
 def write_csv(model: Model, result: SimulationResult, path: Path) -> None:
-    names, data = columns(model, result)
+    names, rows = rows_with_events(model, result)
     with path.open("w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(names)
-        writer.writerows([repr(float(v)) for v in row] for row in data)
+        writer.writerows([*(repr(float(v)) for v in row),
+                          *([label] if len(names) > row.size else [])] for row, label in rows)
 
 
 def dense_times(result: SimulationResult, count: int = 600) -> np.ndarray:
