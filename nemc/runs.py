@@ -26,8 +26,10 @@ DEFAULT_MAX_EVENTS = 32  # simulate_many: the event times kept per run
 PACE_WINDOW = 1000  # as run_control.c.tmpl: steps between two looks at the pace,
 PACE_FACTOR = 100.0  # and how many budgets the rest may take at that pace
 STIFF_TESTS, NONSTIFF_TESTS = 15, 6  # Hairer's counters (dop853.f)
+STIFF_FRACTION = 0.01  # a stiff run stops when the rest would take over this x max_steps steps
 NSTIFF = 1000  # scipy's methods: test every NSTIFF steps, and every step once one is positive
-CHATTER_FRACTION = 1e-9  # impacts of one event closer than this x |t_end - t0| chatter
+CHATTER_FRACTION = 1e-9  # the chattering window, x |t_end - t0|: after an impact its event
+# is not looked at for one window; impacts of one event closer than two windows chatter
 DIRECTIONS = {"rising": 1, "falling": -1, "both": 0}
 # The statuses of a run: the C enum nemc_status (templates/model.h.tmpl), the same for scipy's
 # methods. scipy's own: 1 a terminal event, 0 the end, -1 it gave up.
@@ -157,8 +159,10 @@ def ending_message(end: Ending) -> str:
                 "without bound (negative damping, an unstable load) or move too fast to "
                 "follow; raise max_steps (0: no budget) to go on")
     if end.status == CHATTERING:
-        return (f"event {end.event!r} chatters {at}: two impacts {end.interval:.2g} apart (less "
-                f"than {CHATTER_FRACTION:g} of the interval): they accumulate there (a body "
+        window = 2 * CHATTER_FRACTION * abs(end.span[1] - end.span[0])
+        return (f"event {end.event!r} chatters {at}: two impacts {end.interval:.2g} apart (within "
+                f"{window:.2g}, {2 * CHATTER_FRACTION:g} of the run's interval): they accumulate "
+                "there (a body "
                 "coming to rest on a surface, or a law that does not separate, e.g. restitution "
                 f"0); the run stops. End t_span before t = {end.t:.6g}, or model the contact")
     raise ValueError(f"no message for status {end.status}")
@@ -377,7 +381,7 @@ class ScipyControl:
         if math.isnan(self.stiff_from):
             self.stiff_from = self.stiff_start
         budget = self.settings.max_steps
-        if budget and abs(self.span[1] - solver.t) > (budget - self.steps) * abs(h):
+        if budget and abs(self.span[1] - solver.t) > STIFF_FRACTION * budget * abs(h):
             self.h_recent = abs(h)
             self.end(STIFF, solver.t)
 
@@ -498,6 +502,7 @@ class _Segments:
     # -- the run --
 
     def run(self, y0: np.ndarray) -> ScipyOutcome:
+        self.n_state = len(y0)
         stops = list(self.control.settings.tstops) + [self.span[1]]
         t, y, first = self.span[0], y0, True
         while True:
@@ -574,7 +579,7 @@ class _Segments:
         for k in enders:
             y = self.model_events.impact(k, t_end, y)  # type: ignore[union-attr]
             last = self.last_impact.get(k)
-            if last is not None and abs(t_end - last) <= CHATTER_FRACTION * abs(
+            if last is not None and abs(t_end - last) <= 2 * CHATTER_FRACTION * abs(
                     self.span[1] - self.span[0]):
                 outcome = self.outcome(CHATTERING, ending_message(Ending(
                     CHATTERING, t_end, self.span, self.control.steps, "", 0, y,
@@ -595,19 +600,22 @@ class _Segments:
         f = self.rhs(t, y)
         self.counts[0] += 1
         now, later = events.values(t, y), events.values(t + h, y + h * f)
+        window = CHATTER_FRACTION * abs(self.span[1] - self.span[0])
         for k in impacted:
             moving = int(np.sign(later[k] - now[k]))
-            if moving and np.sign(now[k]) != moving:  # zero, or back across: it leaves
-                until = t + 2 * abs(now[k] / (later[k] - now[k])) * h \
-                    + self.direction * 64 * np.finfo(float).eps * (abs(t) + abs(h) / 1e-7)
+            if moving:
+                leave = 2 * abs(now[k] / (later[k] - now[k]) * h)  # back across zero
+                until = t + self.direction * (max(leave, window)
+                                              + 64 * np.finfo(float).eps * abs(t))
                 self.cooldown[k] = (until, moving)
 
     def outcome(self, status: int, message: str) -> ScipyOutcome:
         t = np.concatenate(self.ts) if self.ts else np.empty(0)
         y = np.concatenate(self.ys, axis=1) if self.ys else np.empty((0, 0))
+        n = y.shape[0] if y.size else self.n_state
         events = {name: (np.array(self.t_events[i], dtype=float),
                          np.array(self.y_events[i], dtype=float).reshape(len(self.t_events[i]),
-                                                                        -1))
+                                                                        n))
                   for i, name in enumerate(self.names)}
         nfev, njev, nlu = (int(v) for v in self.counts)
         return ScipyOutcome(t, y, nfev, njev, nlu, status, message, events)
