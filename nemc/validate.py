@@ -1212,7 +1212,8 @@ def _max_steps(ctx: _Ctx, node: Node) -> int | None:
     value = _number(ctx, node, path)
     if value is None:
         return None
-    if not (1 <= value <= MAX_STEPS_LIMIT and value == int(value)):
-        ctx.problem(node.line, path, f"expected a whole number of steps >= 1, got {value:g}")
+    if not (0 <= value <= MAX_STEPS_LIMIT and value == int(value)):
+        ctx.problem(node.line, path, "expected a whole number of steps >= 0 (0: no budget), "
+                                     f"got {value:g}")
         return None
     return int(value)
