@@ -169,14 +169,23 @@ def cmd_stress(args: argparse.Namespace) -> int:
         print("nemc stress: give a mechanism file or --suite book (not both)", file=sys.stderr)
         return 2
     out = Path(args.out)
+    finished = stress_report.Finished(Path(args.mechanism or "book").stem)
     try:
         if args.suite:
             stress_report.run_suite(out, args.horizon)
             return 0
-        study = stress_report.study(args.mechanism, args.horizon, params=dict(args.params))
+        study = stress_report.study(args.mechanism, args.horizon, params=dict(args.params),
+                                    finished=finished)
     except ModelError as error:
         print(f"{args.mechanism or args.suite}: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # keep what is finished
+        if not args.suite:
+            print(f"nemc: interrupted; what was measured: "
+                  f"{stress_report.write_partial(finished, out)}", file=sys.stderr)
+        else:
+            print("nemc: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     print(f"{study.name}: measured in {study.seconds:.1f} s -> {stress_report.write(study, out)}")
     return 0
 

@@ -225,6 +225,20 @@ class _InterruptWatch:
 
 
 _WATCH = _InterruptWatch()
+_RAISING = threading.local()  # interrupts_raise() is active in this thread
+
+
+@contextmanager
+def interrupts_raise() -> Iterator[None]:
+    """Within: a run stopped by Ctrl-C raises KeyboardInterrupt when it returns, instead of
+    returning its partial result: for loops of runs (nemc stress, the benchmarks), whose next
+    run would otherwise start as if nothing had happened."""
+    before = getattr(_RAISING, "on", False)
+    _RAISING.on = True
+    try:
+        yield
+    finally:
+        _RAISING.on = before
 
 
 @contextmanager
@@ -255,6 +269,8 @@ def interrupt_flag() -> Iterator[np.ndarray]:
         _signals.signal(2, _signals.default_int_handler)
         with _WATCH.lock:
             _WATCH.flags.remove(flag)
+    if flag[0] and getattr(_RAISING, "on", False):
+        raise KeyboardInterrupt
 
 
 # ---- progress on a terminal ------------------------------------------------------------------

@@ -296,3 +296,45 @@ def test_an_interrupted_ensemble_returns_its_runs(tmp_path: Path) -> None:
     out, _ = child.communicate(timeout=20)
     assert time.perf_counter() - sent < 1.0
     assert out.split("]")[0] == "[-11" and out.split()[-1] == "8"
+
+
+def test_an_interrupted_stress_keeps_what_it_measured(tmp_path: Path) -> None:
+    nemc.compile(EXAMPLES / "double_pendulum.yaml")
+    child = subprocess.Popen([sys.executable, "-m", "nemc.cli", "stress",
+                              str(EXAMPLES / "double_pendulum.yaml"), "--out", str(tmp_path)],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(6.0)
+    child.send_signal(signal.SIGINT)
+    _, err = child.communicate(timeout=60)
+    assert child.returncode == 130, err
+    partial = (tmp_path / "double_pendulum.partial.md").read_text()
+    assert "interrupted" in partial and "- the scene's run: RK45" in partial
+    assert "nemc: interrupted; what was measured:" in err
+
+
+class Terminal:
+    """A stderr that says it is a terminal, keeping what is written."""
+
+    def __init__(self) -> None:
+        self.text = ""
+
+    def isatty(self) -> bool:
+        return True
+
+    def write(self, text: str) -> None:
+        self.text += text
+
+    def flush(self) -> None:
+        pass
+
+
+def test_progress_shows_only_on_a_terminal() -> None:
+    from nemc.runs import Progress
+
+    terminal = Terminal()
+    progress = Progress("runs", 10, delay=0.0, stream=terminal)
+    progress.update(4)
+    assert "runs 4/10" in terminal.text
+    progress.close()
+    assert terminal.text.endswith("\r\x1b[K")
+    assert Progress("runs", delay=0.0).enabled is sys.stderr.isatty()
