@@ -45,6 +45,8 @@ from common import (  # noqa: E402
     timed,
 )
 
+from nemc.runs import interrupts_raise  # noqa: E402
+
 DOUBLE_PENDULUM = ROOT / "examples" / "double_pendulum.yaml"
 BOOK_SYSTEMS = {
     "double_pendulum": DOUBLE_PENDULUM,
@@ -398,16 +400,21 @@ def run(config: Config) -> dict[str, Any]:
                               "config": asdict(config), "setup": {}, "rhs": {},
                               "work_precision": {}, "phases": {}, "peers": {}, "notes": []}
     start = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="nemc-bench-") as folder:
-        for name, path in systems(config, Path(folder)).items():
-            step = compile_step(name, path, config, result)
-            if step == "stop":
-                break
-            if step == "ok":
-                print(f"{name}: runtime", flush=True)
-                run_system(name, path, config, result)
-        result["peers"] = peers.run_peers(DOUBLE_PENDULUM, result, config.peer_timeout) \
-            if config.peers else peers.availability()
+    try:
+        with tempfile.TemporaryDirectory(prefix="nemc-bench-") as folder, interrupts_raise():
+            for name, path in systems(config, Path(folder)).items():
+                step = compile_step(name, path, config, result)
+                if step == "stop":
+                    break
+                if step == "ok":
+                    print(f"{name}: runtime", flush=True)
+                    run_system(name, path, config, result)
+            result["peers"] = peers.run_peers(DOUBLE_PENDULUM, result, config.peer_timeout) \
+                if config.peers else peers.availability()
+    except KeyboardInterrupt:  # keep what is measured: the results are written as they are
+        result["interrupted"] = True
+        result["notes"].append("interrupted (Ctrl-C): only what was measured until then")
+        result["peers"] = result["peers"] or peers.availability()
     common.finish_environment(result["environment"], start)
     return result
 
@@ -585,7 +592,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     written = write_outputs(result, folder, latest)
     print(markdown(result))
     print("written: " + ", ".join(str(p) for p in written))
-    return 0
+    return 130 if result.get("interrupted") else 0
 
 
 if __name__ == "__main__":

@@ -51,13 +51,13 @@ NEMC_DIR = Path(__file__).resolve().parent
 NOT_IN_BUILD_KEY = frozenset({
     "cli.py", "report.py", "show.py", "stress.py", "stress_report.py", "load.py", "errors.py",
     "figures.py", "animate.py", "typeset.py",
-    "runtime.py", "loops_runtime.py",  # copied into the exported package by `export`
+    "runtime.py", "loops_runtime.py", "runs.py",  # copied into the exported package by `export`
     "sweeps.py", "sweep_store.py",  # run builds, never make them
 })
 # The runtime of a standalone package: copied from nemc when a package is exported, under these
 # names (the package's __init__ imports ._runtime, which imports .methods).
 RUNTIME_FILES = {"runtime.py": "_runtime.py", "methods.py": "methods.py",
-                 "loops_runtime.py": "loops_runtime.py"}
+                 "loops_runtime.py": "loops_runtime.py", "runs.py": "runs.py"}
 CFLAGS = ["-O2", "-fPIC", "-Wall", "-Wextra", "-std=c99"]  # never -ffast-math: it changes answers
 COMPLETE = "BUILD_OK"
 # The cffi wrapper uses only CPython's stable ABI (3.10 on): the extension, named .abi3.so,

@@ -1,7 +1,8 @@
 """The `nemc` command: compile, simulate, show, check, bench, stress.
 
 Exit status: 0 success; 2 bad input (`FILE:LINE: key.path: what is wrong`, no traceback);
-1 any other failure (e.g. the C compiler failed: the message names the C file and its error).
+1 any other failure (e.g. the C compiler failed: the message names the C file and its error);
+130 interrupted (Ctrl-C; `simulate` prints the states it has first).
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ from contextlib import contextmanager, suppress
 from pathlib import Path
 
 from .errors import BuildError, InputError, OutputRefused
+
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
 
 
 def parse_assignment(text: str) -> tuple[str, float]:
@@ -303,6 +306,7 @@ def cmd_compile(args: argparse.Namespace) -> int:
 def cmd_simulate(args: argparse.Namespace) -> int:
     from . import report
     from .pipeline import compile_mechanism
+    from .runs import INTERRUPTED
     from .runtime import ModelError
 
     model = compile_mechanism(args.mechanism).model
@@ -316,6 +320,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         print(f"{args.mechanism}: --set/options: {error}", file=sys.stderr)
         return 2
     print(report.table(model, result, outputs))
+    if result.status == INTERRUPTED:  # Ctrl-C: what was computed is printed (and written)
+        if args.csv:
+            with writing(Path(args.csv)):
+                report.write_csv(model, result, Path(args.csv), outputs)
+        print(f"nemc: {result.message}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     if args.error_estimate and result.success:
         print_error_estimate(model, result, params)
     if args.csv:
@@ -481,14 +491,23 @@ def cmd_stress(args: argparse.Namespace) -> int:
         print("nemc stress: give a mechanism file or --suite book (not both)", file=sys.stderr)
         return 2
     out = Path(args.out)
+    finished = stress_report.Finished(Path(args.mechanism or "book").stem)
     try:
         if args.suite:
             stress_report.run_suite(out, args.horizon)
             return 0
-        study = stress_report.study(args.mechanism, args.horizon, params=dict(args.params))
+        study = stress_report.study(args.mechanism, args.horizon, params=dict(args.params),
+                                    finished=finished)
     except ModelError as error:
         print(f"{args.mechanism or args.suite}: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # keep what is finished
+        if not args.suite:
+            print(f"nemc: interrupted; what was measured: "
+                  f"{stress_report.write_partial(finished, out)}", file=sys.stderr)
+        else:
+            print("nemc: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     print(f"{study.name}: measured in {study.seconds:.1f} s -> {stress_report.write(study, out)}")
     return 0
 
@@ -562,6 +581,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BuildError as error:
         print(f"nemc: {error}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:  # Ctrl-C outside a run (a run returns what it has)
+        print("nemc: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except BrokenPipeError:  # e.g. `nemc simulate ... | head`
         sys.stderr.close()
         return 0

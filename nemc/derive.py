@@ -76,6 +76,7 @@ class Equations:
     loops: LoopEquations | None = None  # the constraint equations, with constraints
     multipliers: tuple[sympy.Symbol, ...] = ()  # lambda, per constraint equation
     drives: tuple[sympy.Symbol, ...] = ()  # the drives of the driven joints, in file order
+    events: tuple[m.Event, ...] = ()  # the scene's events, when and laws in runtime symbols
 
     @property
     def n(self) -> int:
@@ -185,6 +186,7 @@ def derive(mech: m.Mechanism) -> Equations:
         loops=loops,
         multipliers=multipliers,
         drives=drives,
+        events=runtime_events(mech, runtime),
     )
 
 
@@ -279,3 +281,12 @@ def initial_state(mech: m.Mechanism, runtime) -> tuple[sympy.Expr, ...]:
     starts) the guess, else 0."""
     given: Mapping[str, sympy.Expr] = {**mech.simulation.guess, **mech.simulation.initial}
     return tuple(runtime(given.get(name, sympy.S.Zero)) for name in mech.state_names)
+
+
+def runtime_events(mech: m.Mechanism, runtime) -> tuple[m.Event, ...]:
+    """The scene's events with their `when` and impact laws in runtime symbols."""
+    return tuple(
+        dataclasses.replace(event, when=runtime(event.when),
+                            law=tuple((name, runtime(expr)) for name, expr in event.law))
+        for event in mech.simulation.events
+    )

@@ -517,6 +517,8 @@ def header(eqs: Equations, prefix: str) -> str:
         source_hash=mech.source_hash, prefix=prefix, n_coord=eqs.n, n_state=2 * eqs.n,
         n_param=len(eqs.parameters), n_output=len(eqs.outputs), n_drive=len(eqs.drives),
         n_lambda=len(eqs.multipliers),
+        n_event=len(eqs.events),
+        event_names=comment_text(", ".join(event.name for event in eqs.events)),
         parameter_names=comment_text(", ".join(s.name for s in eqs.parameters)),
         state_names=comment_text(", ".join(mech.state_names)),
         equation_names=comment_text(", ".join(equation_labels(eqs))),
@@ -556,7 +558,7 @@ def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int) -> str
         jacobian_section=jacobian_section(eqs, block, printer, prefix, chunk_steps),
         loops_absent="" if eqs.loops is not None else
         template("loops_absent.c.tmpl").substitute(prefix=prefix),
-    )
+    ) + events_section(eqs, block, printer, prefix)
 
 
 def generated_functions(eqs: Equations) -> list[str]:
@@ -600,8 +602,53 @@ def metadata(eqs: Equations, prefix: str) -> dict:
             "method": sim.method,
             "rtol": sim.rtol,
             "atol": sim.atol,
+            "max_step": sim.max_step,
+            "tstops": list(sim.tstops),
+            "max_steps": sim.max_steps,
         },
+        "events": event_metadata(eqs),
     }
+
+
+# ---- events (format v2, simulation.events) ----------------------------------------------------
+
+EVENT_DIRECTIONS = {"falling": "NEMC_FALLING", "both": "NEMC_BOTH", "rising": "NEMC_RISING"}
+EVENT_ACTIONS = {"record": "NEMC_RECORD", "stop": "NEMC_STOP", "impact": "NEMC_IMPACT"}
+
+
+def event_metadata(eqs: Equations) -> list[dict]:
+    """Each event's name, direction, action and the states its impact law sets (model.json)."""
+    return [{"name": event.name, "direction": event.direction, "action": event.action,
+             "sets": [name for name, _ in event.law]} for event in eqs.events]
+
+
+def impact_case(eqs: Equations, block: Block, printer: SymbolTablePrinter, k: int) -> str:
+    """Event k's impact law as a case of the impact function: every new value computed from the
+    state before the event, checked, then written through the layout macros."""
+    event = eqs.events[k]
+    writes = "\n".join(
+        f"        {printer.doprint(m.symbol(name))} = value[{i}]; /* {comment_text(name)} */"
+        for i, (name, _) in enumerate(event.law))
+    values = body(printer, block, indexed("value", block.groups[f"impact.{k}"]))
+    return template("impact_case.c.tmpl").substitute(
+        k=k, name=comment_text(event.name), count=len(event.law),
+        values="\n".join("    " + line for line in values.splitlines()), writes=writes)
+
+
+def events_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str) -> str:
+    """The events' functions and impact laws (or the functions saying the scene has none), and
+    the table of directions and actions the integrators read."""
+    if not eqs.events:
+        return template("events_absent.c.tmpl").substitute(prefix=prefix)
+    return template("events.c.tmpl").substitute(
+        prefix=prefix,
+        event_names=comment_text(", ".join(event.name for event in eqs.events)),
+        directions=", ".join(EVENT_DIRECTIONS[event.direction] for event in eqs.events),
+        actions=", ".join(EVENT_ACTIONS[event.action] for event in eqs.events),
+        values=body(printer, block, indexed("g", block.groups["events"])),
+        cases="\n".join(impact_case(eqs, block, printer, k)
+                        for k, event in enumerate(eqs.events) if event.law),
+    )
 
 
 # ---- native integrators (issue 9): appended to every model's C -------------------------------
@@ -616,7 +663,7 @@ def native_section(eqs: Equations, prefix: str, taylor: str) -> str:
     entry = template("integrators_entry.c.tmpl").substitute(
         name=eqs.mechanism.name, prefix=prefix, jacobian=jacobian
     )
-    sections = ["integrators.c.tmpl"]
+    sections = ["run_control.c.tmpl", "integrators.c.tmpl"]
     if has_jacobian:  # Radau needs the Jacobian: built with it, on first need
         sections.append("radau.c.tmpl")
     return "\n" + "".join(read_template(name) for name in sections) + taylor + entry

@@ -102,6 +102,26 @@ class Outputs:
                     or self.expressions or self.drives)
 
 
+EventDirection = Literal["rising", "falling", "both"]
+EventAction = Literal["record", "stop", "impact"]
+
+
+@dataclass(frozen=True)
+class Event:
+    """An event of the scene: it fires where ``when`` crosses zero in ``direction``.
+
+    ``action`` record: its times and states are reported; stop: the run ends there; impact: the
+    state is replaced by ``law`` (state name "q" or "dot(q)" -> new value), every new value an
+    expression evaluated on the state just before the event."""
+
+    name: str
+    when: Expr
+    direction: EventDirection = "both"
+    action: EventAction = "record"
+    law: tuple[tuple[str, Expr], ...] = ()
+    loc: Loc | None = None
+
+
 @dataclass(frozen=True)
 class Simulation:
     t_span: tuple[float, float] | None = None
@@ -113,6 +133,10 @@ class Simulation:
     atol: float | None = None
     guess: Mapping[str, Expr] = field(default_factory=dict)  # closed loops: assembly start
     initial_loc: Loc | None = None  # where `initial` is, for messages about its values
+    events: tuple[Event, ...] = ()
+    max_step: float | None = None  # the largest step any method may take (solve_ivp's max_step)
+    tstops: tuple[float, ...] = ()  # times every method's steps land on exactly
+    max_steps: int | None = None  # the step budget (None: the runtime's default)
 
 
 AngleDisplay = Literal["rad", "deg"]

@@ -62,6 +62,15 @@ def rewrite_program(program: Program) -> Program:
     return Program(steps, tuple(rewrite(sympy.sympify(r)) for r in program.results))
 
 
+def event_groups(eqs: Equations) -> dict[str, tuple[sympy.Expr, ...]]:
+    """The events' functions ("events") and each impact law's new values ("impact.<k>", k the
+    event's index), so they share the other expressions' common subexpressions."""
+    groups = {"events": tuple(event.when for event in eqs.events)} if eqs.events else {}
+    groups.update({f"impact.{k}": tuple(expr for _, expr in event.law)
+                   for k, event in enumerate(eqs.events) if event.law})
+    return groups
+
+
 def optimize_equations(eqs: Equations) -> Block:
     loops = eqs.loops
     groups = {
@@ -70,6 +79,7 @@ def optimize_equations(eqs: Equations) -> Block:
         "initial": eqs.initial_state,
         "constraints": () if loops is None else
         (*loops.values, *(v for row in loops.jacobian for v in row), *loops.rate),
+        **event_groups(eqs),
     }
     primal = eqs.accelerations_program if eqs.jacobian is not None else None
     programs = {"dynamics": eqs.dynamics, "jacobian": eqs.jacobian,

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 from .build import Source, build_key, cached_package
 from .load import load_package
+from .runs import Progress
 from .runtime import Model
 
 if TYPE_CHECKING:  # a cache hit imports no sympy
@@ -47,7 +48,10 @@ class Compiled:
 
 
 @contextmanager
-def timed(timings: dict[str, float], stage: str) -> Iterator[None]:
+def timed(timings: dict[str, float], stage: str, progress: Progress | None = None
+          ) -> Iterator[None]:
+    if progress is not None:  # a long build shows its stage on a terminal
+        progress.update(note=stage)
     start = time.perf_counter()
     yield
     timings[stage] = time.perf_counter() - start
@@ -124,24 +128,28 @@ def generate_and_build(
     from .optimize import optimize_equations
     from .validate import validate_text
 
-    with timed(timings, "validate"):
-        mechanism = validate_text(source.data, source.path)
-        check_assembly(mechanism)  # closed loops: refused here if they cannot close
-        if energy:
-            mechanism = with_energy_output(mechanism)
-    method = mechanism.simulation.method
-    with timed(timings, "derive"):
-        equations = derive(mechanism)
-        if jacobian or (jacobian is None and method in IMPLICIT_METHODS):
-            equations = with_diagnostics(equations)
-        if taylor or (taylor is None and method == "nemc.Taylor"):
-            equations = with_taylor(equations)
-    with timed(timings, "optimize"):
-        block = optimize_equations(equations)
-    with timed(timings, "emit"), number_range(source):
-        code = emit(equations, block, chunk_steps)
-    with timed(timings, "build"):
-        return build(code, key)
+    progress = Progress(f"nemc: building {source.path}", delay=0.0)
+    try:
+        with timed(timings, "validate", progress):
+            mechanism = validate_text(source.data, source.path)
+            check_assembly(mechanism)  # closed loops: refused here if they cannot close
+            if energy:
+                mechanism = with_energy_output(mechanism)
+        method = mechanism.simulation.method
+        with timed(timings, "derive", progress):
+            equations = derive(mechanism)
+            if jacobian or (jacobian is None and method in IMPLICIT_METHODS):
+                equations = with_diagnostics(equations)
+            if taylor or (taylor is None and method == "nemc.Taylor"):
+                equations = with_taylor(equations)
+        with timed(timings, "optimize", progress):
+            block = optimize_equations(equations)
+        with timed(timings, "emit", progress), number_range(source):
+            code = emit(equations, block, chunk_steps)
+        with timed(timings, "build", progress):
+            return build(code, key)
+    finally:
+        progress.close()
 
 
 @contextmanager

@@ -33,11 +33,36 @@ def headers(model: Model, names: Sequence[str]) -> list[str]:
             for name in names]
 
 
-def table(model: Model, result: SimulationResult, outputs: Sequence[str] | None = None) -> str:
+def rows_with_events(model: Model, result: SimulationResult,
+                     outputs: Sequence[str] | None = None,
+                     ) -> tuple[list[str], list[tuple[np.ndarray, str]]]:
+    """The table's columns and rows in time order: the result's rows (label ""), and a row
+    for each event that fired (its time, the state just before it, the outputs there; label
+    its name). The label column is there only when the scene has events."""
     names, data = columns(model, result, outputs)
+    chosen = names[1 + model.n_state:]
+    rows = [(row, "") for row in data]
+    fired = [(name, t, y) for name, (times, states) in result.events.items()
+             for t, y in zip(times, states)]
+    if not result.events:
+        return names, rows
+    for name, t, y in fired:
+        there = model.outputs(t, y, result.params) if chosen else {}
+        values = [t, *y, *(there[k] for k in chosen)]
+        rows.append((np.array(values, dtype=float), name))
+    rows.sort(key=lambda item: (item[0][0] if result.t.size < 2 or result.t[-1] >= result.t[0]
+                                else -item[0][0]))
+    return [*names, "event"], rows
+
+
+def table(model: Model, result: SimulationResult, outputs: Sequence[str] | None = None) -> str:
+    names, rows = rows_with_events(model, result, outputs)
     widths = [max(12, len(n)) for n in names]
     lines = [" ".join(f"{n:>{w}}" for n, w in zip(names, widths))]
-    lines += [" ".join(f"{v:>{w}.6g}" for v, w in zip(row, widths)) for row in data]
+    lines += [" ".join([*(f"{v:>{w}.6g}" for v, w in zip(row, widths)),
+                        *([f"{'<- ' + label if label else '':<{widths[-1]}}"]
+                          if len(names) > row.size else [])]).rstrip()
+              for row, label in rows]
     lines.append(
         f"# {model.name}: {result.method}, rtol {result.rtol:g}, atol {result.atol:g}, "
         f"{result.nfev} rhs calls, {result.message}"
@@ -47,11 +72,12 @@ def table(model: Model, result: SimulationResult, outputs: Sequence[str] | None 
 
 def write_csv(model: Model, result: SimulationResult, path: Path,
               outputs: Sequence[str] | None = None) -> None:
-    names, data = columns(model, result, outputs)
+    names, rows = rows_with_events(model, result, outputs)
     with path.open("w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(headers(model, names))
-        writer.writerows([repr(float(v)) for v in row] for row in data)
+        writer.writerows([*(repr(float(v)) for v in row),
+                          *([label] if len(names) > row.size else [])] for row, label in rows)
 
 
 def matlab_name(name: str) -> str:

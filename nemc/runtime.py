@@ -16,13 +16,14 @@ import math
 import os
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from . import runs
 from .loops_runtime import LoopsMixin
 from .methods import (  # noqa: F401 (re-exported: the runtime's public names)
     DEFAULT_METHOD,
@@ -34,6 +35,7 @@ from .methods import (  # noqa: F401 (re-exported: the runtime's public names)
 )
 
 DEFAULT_T_SPAN = (0.0, 10.0)
+SERIES_NOT_FINITE = -3  # the model status NEMC_SERIES_NOT_FINITE (templates/model.h.tmpl)
 OPTIONAL_PARTS = frozenset({"jacobian", "taylor"})  # C a build has only when asked for
 KINEMATIC_POINTS = 201  # the default times of a kinematic analysis over t_span
 DEFAULT_RTOL = 1e-6
@@ -61,6 +63,10 @@ def failure_cause(y: np.ndarray, status: int, state_names: Sequence[str]) -> str
     if not np.all(np.isfinite(y)):
         return ("the state is not finite: the solution blew up before this step "
                 "(or the initial state holds inf or nan)")
+    if status == SERIES_NOT_FINITE:
+        return ("nemc.Taylor's series overflows here (a Taylor coefficient, or the series' value "
+                "at the step's end, is not finite): the solution blows up, or it moves too fast "
+                "for the series at this tolerance (try nemc.Vern9 or nemc.DOP853)")
     if status > 0:
         return (f"the articulated inertia through joint {status} (counting from 1 in file "
                 "order) is not positive: the mass matrix is singular or not positive definite "
@@ -114,6 +120,20 @@ class SimulationResult:
     rtol: float
     atol: float
     params: dict[str, float] = field(default_factory=dict)
+    # name -> (times, states just before each, shape (k, n_state)): the scene's events that
+    # fired, then simulate(events=...)'s callables by their __name__
+    events: Mapping[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+
+    @property
+    def t_events(self) -> list[np.ndarray]:
+        """As solve_ivp's: each event's times, in res.events' order."""
+        return [times for times, _ in self.events.values()]
+
+    @property
+    def y_events(self) -> list[np.ndarray]:
+        """As solve_ivp's: each event's states, (k, n_state) each."""
+        return [states for _, states in self.events.values()]
+
     # the model that ran it, and the same run at other times (dense curves for figures)
     model: Any = field(default=None, repr=False, compare=False)
     rerun: Callable[[Any], SimulationResult] | None = field(default=None, repr=False,
@@ -526,10 +546,21 @@ class Model(LoopsMixin):
         rtol: float | None = None,
         atol: float | None = None,
         params: Mapping[str, float] | None = None,
+        events: Any = None,
+        max_step: float | None = None,
+        tstops: Sequence[float] | None = None,
+        max_steps: int | None = None,
     ) -> SimulationResult:
         """Integrate the scene. Arguments left None take the YAML scene's values, then defaults
         (t_span (0, 10), method nemc.DOP853, rtol 1e-6, atol 1e-9, t_eval: the solver's steps).
-        Methods: scipy's solve_ivp methods (SCIPY_METHODS) and nemc's own (NATIVE_METHODS)."""
+        Methods: scipy's solve_ivp methods (SCIPY_METHODS) and nemc's own (NATIVE_METHODS).
+
+        The scene's events are located by every method (res.events); events: more, as
+        solve_ivp's callables event(t, y) with .terminal and .direction (scipy's methods only).
+        max_step: the largest step; tstops: times the steps land on exactly (where a load
+        switches); max_steps: the step budget (default 1,000,000 accepted steps; 0: none).
+        A run that ends early (budget, stiffness, Ctrl-C, ...) returns what it has, success
+        False and a message saying why (docs/decisions.md, "Runs that end")."""
         p = self.parameter_vector(params)
         span = checked_span(self.scene["t_span"] or DEFAULT_T_SPAN if t_span is None else t_span)
         method = checked_method(self.scene["method"] or DEFAULT_METHOD if method is None
@@ -537,42 +568,118 @@ class Model(LoopsMixin):
         rtol, atol = self._tolerances(rtol, atol)
         times = self._times(span, t_eval)
         state0 = self._initial(y0, params)
+        settings = self._run_settings(span, max_step, tstops, max_steps)
+        user_events = self._user_events(events)
         if self.has_loops:
             state0, freedom = self._assembled(span[0], state0, self._given_mask(y0), p)
             if freedom == 0:
                 return self._kinematic_run(span, state0, times, rtol, atol, p)
-            result = self._integrate(method, span, state0, times, rtol, atol, p, params)
+            result = self._integrate(method, span, state0, times, rtol, atol, p, settings,
+                                     user_events)
             result.y = self._projected(result.t, result.y, p)
             return result
-        return self._integrate(method, span, state0, times, rtol, atol, p, params)
+        return self._integrate(method, span, state0, times, rtol, atol, p, settings, user_events)
 
     def _integrate(self, method: str, span: tuple[float, ...], state0: np.ndarray, times: Any,
-                   rtol: float, atol: float, p: np.ndarray,
-                   params: Mapping[str, float] | None) -> SimulationResult:
+                   rtol: float, atol: float, p: np.ndarray, settings: runs.RunSettings,
+                   user_events: list[Callable]) -> SimulationResult:
         """One run from state0 with the method: nemc's own, or scipy's solve_ivp."""
         if method in NATIVE_METHODS:
+            if user_events:
+                raise ModelError(
+                    f"events= callables need one of scipy's methods ({', '.join(SCIPY_METHODS)})"
+                    f": {method} runs in C and locates only the scene's events "
+                    "(simulation.events in the YAML, compiled into the model)")
             model = self._native_model(method)
-            return model._simulate_native(method, span, state0, times, rtol, atol, p)
+            return model._simulate_native(method, span, state0, times, rtol, atol, p, settings)
         if span[0] == span[1]:  # solve_ivp returns nothing; the native methods return y0
             return self._at_start(method, span, state0, times, rtol, atol, p)
+        return self._simulate_scipy(method, span, state0, times, rtol, atol, p, settings,
+                                    user_events)
+
+    def _run_settings(self, span: tuple[float, ...], max_step: Any, tstops: Any,
+                      max_steps: Any) -> runs.RunSettings:
+        try:
+            return runs.run_settings(self.scene, span, max_step, tstops, max_steps)
+        except runs.SettingsError as error:
+            raise ModelError(str(error)) from None
+
+    @staticmethod
+    def _user_events(events: Any) -> list[Callable]:
+        """simulate's events=: None, one callable or a sequence of them (as solve_ivp)."""
+        if events is None:
+            return []
+        listed = [events] if callable(events) else list(events)
+        for event in listed:
+            if not callable(event):
+                raise ModelError(f"events must be callables event(t, y), got {event!r}")
+        return listed
+
+    def _model_events(self, p: np.ndarray) -> runs.ModelEvents | None:
+        """The scene's events for scipy's methods at parameters p: the compiled functions
+        (every event's value at (t, y); an impact law's new state) and their table."""
+        table = self.metadata.get("events") or []
+        if not table:
+            return None
+        prefix, buffer, names = self.metadata["c_prefix"], self._buffer, self.state_names
+        c_values = getattr(self._lib, prefix + "events")
+        c_impact = getattr(self._lib, prefix + "impact")
+        p_buffer = buffer(p)
+
+        def values(t: float, y: np.ndarray) -> np.ndarray:
+            y = np.ascontiguousarray(y, dtype=np.float64)
+            g = np.empty(len(table))
+            status = c_values(t, buffer(y), p_buffer, buffer(g))
+            if status:
+                raise IntegrationFailure(t, y, status, names)
+            return g
+
+        def impact(k: int, t: float, y: np.ndarray) -> np.ndarray:
+            new = np.array(y, dtype=np.float64)
+            status = c_impact(k, t, buffer(new), p_buffer)
+            if status:
+                raise IntegrationFailure(t, y, status, names)
+            return new
+
+        return runs.ModelEvents(tuple(e["name"] for e in table),
+                                tuple(runs.DIRECTIONS[e["direction"]] for e in table),
+                                tuple(e["action"] for e in table), values, impact)
+
+    def _simulate_scipy(
+        self, method: str, span: tuple[float, ...], state0: np.ndarray, times: Any,
+        rtol: float, atol: float, p: np.ndarray, settings: runs.RunSettings,
+        user_events: list[Callable],
+    ) -> SimulationResult:
+        """simulate() with scipy's solve_ivp, under the run settings and the events."""
         from scipy.integrate import solve_ivp  # here: importing scipy costs more than a load
 
         rhs = self._rhs_function(p)
+        model_events = self._model_events(p)
         try:
             jac = self._jacobian_function(p) if method in IMPLICIT_METHODS else None
-            extra = {"jac": jac} if jac is not None else {}
-            sol = solve_ivp(
-                rhs, span, state0, method=method, t_eval=times,
-                rtol=rtol, atol=atol, **extra,
-            )
+            options = {"rtol": rtol, "atol": atol, **({"jac": jac} if jac is not None else {})}
+            with runs.interrupt_flag() as flag:
+                outcome, control = runs.simulate_scipy(
+                    solve_ivp, rhs, method, span, state0,
+                    None if times is None else np.asarray(times, dtype=float), options,
+                    model_events, user_events, settings, flag)
         except IntegrationFailure as failure:
-            return self._failed(failure, method, rtol, atol, params)
+            return self._failed(failure, method, rtol, atol, self.parameters_at(p))
+        status, message = outcome.status, outcome.message
+        if control.stop:  # the budget, the pace, the stiffness test or Ctrl-C ended it
+            status = control.stop
+            message = runs.ending_message(runs.Ending(
+                status, control.t, span, control.steps, method, settings.max_steps,
+                control.y, control.h_recent, control.stiff_from, control.stiffness))
+        elif status == -1 and rhs.last[1] is not None:  # scipy gave up
+            message = self._gave_up(message, *rhs.last, p)
+        elif status == runs.REACHED_END and not math.isnan(control.stiff_from):
+            message += runs.stiffness_note(control.stiff_from)
         return SimulationResult(
-            t=sol.t, y=sol.y, outputs=self._lazy_outputs(sol.t, sol.y, p),
-            nfev=int(sol.nfev), njev=int(sol.njev), nlu=int(sol.nlu), status=int(sol.status),
-            message=self._message(sol, rhs.last, p),
-            success=bool(sol.success), method=method, rtol=rtol, atol=atol,
-            params=dict(zip(self.parameter_names, p.tolist())),
+            t=outcome.t, y=outcome.y, outputs=self._lazy_outputs(outcome.t, outcome.y, p),
+            nfev=outcome.nfev, njev=outcome.njev, nlu=outcome.nlu, status=status,
+            message=message, success=status >= 0, method=method, rtol=rtol, atol=atol,
+            params=self.parameters_at(p), events=outcome.events,
         )
 
     def _kinematic_run(self, span: tuple[float, ...], state0: np.ndarray, times: Any,
@@ -634,12 +741,6 @@ class Model(LoopsMixin):
             params=self.parameters_at(p),
         )
 
-    def _message(self, sol: Any, last: list, p: np.ndarray) -> str:
-        """scipy's message; when the solver gave up, also where, the state and the likely cause."""
-        if sol.success or last[1] is None:
-            return str(sol.message)
-        return self._gave_up(str(sol.message), *last, p)
-
     def _gave_up(self, message: str, t: float, y: np.ndarray, p: np.ndarray) -> str:
         state = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.state_names, y))
         singular = self._singularity_note(t, y, p)
@@ -694,9 +795,11 @@ class Model(LoopsMixin):
         return entry
 
     def _native_run(
-        self, span: tuple[float, ...], times: np.ndarray | None, rtol: float, atol: float
+        self, span: tuple[float, ...], times: np.ndarray | None, rtol: float, atol: float,
+        settings: runs.RunSettings | None = None,
     ) -> tuple[Any, list]:
         """A nemc_run with the settings of one integration, and the buffers it points into."""
+        settings = settings or runs.RunSettings()
         run = self._ffi.new("nemc_run *")
         run.t0, run.t_end = span
         run.rtol, run.atol = native_tolerances(rtol, atol)
@@ -707,43 +810,84 @@ class Model(LoopsMixin):
             times = checked_times(times, span)
             run.n_eval, run.t_eval = len(times), self._buffer(times)
             keep.append(times)
+        run.max_step = settings.max_step if math.isfinite(settings.max_step) else 0.0
+        run.max_steps = settings.max_steps
+        if settings.tstops.size:
+            run.n_tstops, run.tstops = settings.tstops.size, self._buffer(settings.tstops)
+            keep.append(settings.tstops)
         return run, keep
+
+    def _interrupt_pointer(self, flag: np.ndarray) -> Any:
+        """The C int* of an interrupt flag (runs.interrupt_flag) for nemc_run.interrupt."""
+        return self._ffi.cast("int *", self._ffi.from_buffer("int[]", flag))
 
     def _simulate_native(
         self, method: str, span: tuple[float, ...], y0: np.ndarray, times: Any,
-        rtol: float, atol: float, p: np.ndarray,
+        rtol: float, atol: float, p: np.ndarray, settings: runs.RunSettings | None = None,
     ) -> SimulationResult:
         """simulate() with a native method: the same result as scipy's solve_ivp would give."""
         integrate = self._native(method)
+        settings = settings or runs.RunSettings()
         run, keep = self._native_run(span, None if times is None else np.asarray(times), rtol,
-                                     atol)
+                                     atol, settings)
         n, buffer = self.n_state, self._buffer
         y_eval = np.empty((max(run.n_eval, 0), n))
         y_fail = np.empty(n)
         run.y_eval, run.y_fail = buffer(y_eval), buffer(y_fail)
-        status = integrate(self._method_id(method), run, buffer(y0), buffer(p))
-        if run.n_eval < 0:
-            t, y = self._take_steps(run)
-        else:
-            t, y = keep[0][: run.n_out], y_eval[: run.n_out].T
+        try:
+            with runs.interrupt_flag() as flag:
+                run.interrupt = self._interrupt_pointer(flag)
+                status = integrate(self._method_id(method), run, buffer(y0), buffer(p))
+            if run.n_eval < 0:
+                t, y = self._take_steps(run)
+            else:
+                t, y = keep[0][: run.n_out], y_eval[: run.n_out].T
+            events = self._take_events(run)
+        finally:
+            getattr(self._lib, self.metadata["c_prefix"] + "free_steps")(run)
         lib = self._lib
         if status == lib.NEMC_RHS_FAILED:
             failure = IntegrationFailure(run.t_fail, y_fail, run.rhs_status, self.state_names,
                                          self._loop_failure(run.rhs_status))
             return self._failed(failure, method, run.rtol, run.atol, self.parameters_at(p))
-        messages = {  # scipy's messages for the same outcomes
-            lib.NEMC_REACHED_END: SUCCESS_MESSAGE,
-            lib.NEMC_STEP_TOO_SMALL: "Required step size is less than spacing between numbers.",
-        }
-        if status not in messages:
-            raise RuntimeError(f"{method}: the native integrator failed (status {status})")
         return SimulationResult(
             t=t, y=y, outputs=self._lazy_outputs(t, y, p), nfev=int(run.nfev),
-            njev=int(run.njev), nlu=int(run.nlu), status=status, success=status == 0, method=method,
-            message=messages[status] if status == lib.NEMC_REACHED_END
-            else self._gave_up(messages[status], run.t_fail, y_fail, p),
-            rtol=run.rtol, atol=run.atol, params=self.parameters_at(p),
+            njev=int(run.njev), nlu=int(run.nlu), status=status, success=status >= 0,
+            method=method, message=self._native_message(method, run, span, settings, y_fail, p),
+            rtol=run.rtol, atol=run.atol, params=self.parameters_at(p), events=events,
         )
+
+    def _native_message(self, method: str, run: Any, span: tuple[float, ...],
+                        settings: runs.RunSettings, y_fail: np.ndarray, p: np.ndarray) -> str:
+        """scipy's messages for the outcomes scipy has; nemc's for the others (runs.py)."""
+        lib, status = self._lib, run.status
+        if status == lib.NEMC_REACHED_END:
+            note = "" if math.isnan(run.stiff_from) else runs.stiffness_note(run.stiff_from)
+            return SUCCESS_MESSAGE + note
+        if status == lib.NEMC_STEP_TOO_SMALL:
+            return self._gave_up("Required step size is less than spacing between numbers.",
+                                 run.t_fail, y_fail, p)
+        if status not in (lib.NEMC_STOPPED_BY_EVENT, lib.NEMC_STEP_BUDGET, lib.NEMC_TOO_SLOW,
+                          lib.NEMC_STIFF, lib.NEMC_CHATTERING, lib.NEMC_INTERRUPTED):
+            raise RuntimeError(f"{method}: the native integrator failed (status {status})")
+        events = self.metadata.get("events") or []
+        event = events[run.event_stop]["name"] if 0 <= run.event_stop < len(events) else None
+        return runs.ending_message(runs.Ending(
+            status, run.t_fail, tuple(span), int(run.n_steps), method, settings.max_steps,
+            y_fail, run.h_recent, run.stiff_from, run.stiffness, event, run.h_recent))
+
+    def _take_events(self, run: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """The scene's events that fired in a single run, by name: (times, states before)."""
+        table = self.metadata.get("events") or []
+        count, ffi, n = run.n_event_out, self._ffi, self.n_state
+        which = np.frombuffer(ffi.buffer(run.event_which, 4 * count), dtype=np.intc) \
+            if count else np.empty(0, dtype=np.intc)
+        times = np.frombuffer(ffi.buffer(run.event_t, 8 * count), dtype=float) \
+            if count else np.empty(0)
+        states = np.frombuffer(ffi.buffer(run.event_y, 8 * count * n), dtype=float).reshape(
+            count, n) if count else np.empty((0, n))
+        return {event["name"]: (times[which == k].copy(), states[which == k].copy())
+                for k, event in enumerate(table)}
 
     def _lazy_outputs(self, t: np.ndarray, y: np.ndarray, p: np.ndarray) -> LazyOutputs:
         """The outputs along (t, y) at parameter vector p, computed when first read."""
@@ -756,14 +900,11 @@ class Model(LoopsMixin):
         return dict(zip(self.parameter_names, p.tolist()))
 
     def _take_steps(self, run: Any) -> tuple[np.ndarray, np.ndarray]:
-        """Copy the step record that C malloc'ed (n_eval -1) and release it."""
+        """Copy the step record that C malloc'ed (n_eval -1); free_steps releases it."""
         count, ffi = run.n_out, self._ffi
-        try:
-            t = np.frombuffer(ffi.buffer(run.steps_t, 8 * count), dtype=float).copy()
-            y = np.frombuffer(ffi.buffer(run.steps_y, 8 * count * self.n_state), dtype=float)
-            return t, y.reshape(count, self.n_state).T.copy()
-        finally:
-            getattr(self._lib, self.metadata["c_prefix"] + "free_steps")(run)
+        t = np.frombuffer(ffi.buffer(run.steps_t, 8 * count), dtype=float).copy()
+        y = np.frombuffer(ffi.buffer(run.steps_y, 8 * count * self.n_state), dtype=float)
+        return t, y.reshape(count, self.n_state).T.copy()
 
     def simulate_many(
         self,
@@ -776,6 +917,11 @@ class Model(LoopsMixin):
         rtol: float | None = None,
         atol: float | None = None,
         threads: int | None = None,
+        max_step: float | None = None,
+        tstops: Sequence[float] | None = None,
+        max_steps: int | None = None,
+        max_events: int = runs.DEFAULT_MAX_EVENTS,
+        progress: bool | None = None,
     ) -> EnsembleResult:
         """Integrate an ensemble with a native method, the loop over runs in C.
 
@@ -784,7 +930,12 @@ class Model(LoopsMixin):
         t_eval: the times of the returned states, default the scene's, else (t0, t_end).
         method: a native method; default the scene's when native, nemc.Radau when the scene's
         method is implicit, else nemc.DOP853. threads: how many threads share the runs
-        (default: the machine's cores); each run is independent and deterministic."""
+        (default: the machine's cores); each run is independent and deterministic.
+        max_step, tstops, max_steps: as simulate's. The scene's events are located in every
+        run; the first max_events of each run are kept (event_t, event_which; event_count
+        counts them all). progress: a line on stderr while it runs (None: only when stderr
+        is a terminal and the runs take over half a second). Ctrl-C stops every run between
+        steps: each then has the status interrupted and its states so far."""
         span = checked_span(self.scene["t_span"] or DEFAULT_T_SPAN if t_span is None else t_span)
         method = ensemble_method(self.scene["method"]) if method is None else method
         if not isinstance(method, str) or method not in NATIVE_METHODS:
@@ -793,7 +944,9 @@ class Model(LoopsMixin):
         model = self._native_model(method)
         if model is not self:  # a build with the method's part: it runs the ensemble
             return model.simulate_many(y0s, params=params, t_span=t_span, t_eval=t_eval,
-                                       method=method, rtol=rtol, atol=atol, threads=threads)
+                                       method=method, rtol=rtol, atol=atol, threads=threads,
+                                       max_step=max_step, tstops=tstops, max_steps=max_steps,
+                                       max_events=max_events, progress=progress)
         rtol, atol = self._tolerances(rtol, atol)
         threads = checked_threads(threads)
         times = self._times(span, t_eval)
@@ -803,12 +956,18 @@ class Model(LoopsMixin):
         ps, y0s = self._ensemble_inputs(y0s, params)
         if self.has_loops:  # each run from its assembled state
             y0s = self._assembled_runs(span[0], y0s, given, ps)
+        settings = self._run_settings(span, max_step, tstops, max_steps)
+        capacity = checked_max_events(max_events)
         integrate_many, method_id = self._native(method, "integrate_many"), self._method_id(method)
-        run, keep = self._native_run(span, times, rtol, atol)
+        run, keep = self._native_run(span, times, rtol, atol, settings)
+        run.event_capacity = capacity
         k, n = len(y0s), self.n_state
         y = np.empty((k, len(times), n))
         statuses = np.empty(k, dtype=np.intc)
         counts = np.empty((k, 4), dtype=np.int_)
+        event_t = np.full((k, max(capacity, 1)), np.nan)
+        event_which = np.full((k, max(capacity, 1)), -1, dtype=np.intc)
+        event_counts = np.zeros(k, dtype=np.int_)
         p_stride = ps.shape[1] if ps.shape[0] > 1 else 0
 
         def chunk(rows: slice) -> None:
@@ -817,18 +976,25 @@ class Model(LoopsMixin):
                 method_id, run, rows.stop - rows.start, f("double[]", y0s[rows]),
                 f("double[]", ps[rows] if p_stride else ps), p_stride, f("double[]", y[rows]),
                 f("int[]", statuses[rows]), f("long[]", counts[rows]),
+                f("double[]", event_t[rows]), f("int[]", event_which[rows]),
+                f("long[]", event_counts[rows]),
             )
 
         workers = max(1, min(threads or os.cpu_count() or 1, k))
-        bounds = np.linspace(0, k, workers + 1).astype(int)
-        with ThreadPoolExecutor(workers) as pool:  # cffi releases the GIL during C calls
-            list(pool.map(chunk, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]))
+        with runs.interrupt_flag() as flag:
+            run.interrupt = self._interrupt_pointer(flag)
+            run_chunks(chunk, ensemble_chunks(k, workers), workers,
+                       runs.Progress(f"{self.name}: runs", k) if progress is not False else None,
+                       progress)
         if self.has_loops:
             y = self._projected_runs(keep[0], y, ps)
         return EnsembleResult(
             t=keep[0], y=y.transpose(0, 2, 1), status=statuses.astype(int),
-            success=statuses == 0, nfev=counts[:, 0].copy(), njev=counts[:, 1].copy(),
+            success=statuses >= 0, nfev=counts[:, 0].copy(), njev=counts[:, 1].copy(),
             nlu=counts[:, 2].copy(), method=method, rtol=run.rtol, atol=run.atol,
+            event_names=tuple(e["name"] for e in self.metadata.get("events") or []),
+            event_t=event_t[:, :capacity], event_which=event_which[:, :capacity],
+            event_count=event_counts,
         )
 
     def _ensemble_inputs(self, y0s: Any, params: Mapping[str, Any] | None):
@@ -911,7 +1077,7 @@ class EnsembleResult:
 
     t: np.ndarray
     y: np.ndarray  # (k, n_state, n_t)
-    status: np.ndarray  # (k,): 0 reached the end, -1 step too small, -2 equations failed
+    status: np.ndarray  # (k,): as SimulationResult.status (0 the end, 1 a stop event, < 0 not)
     success: np.ndarray
     nfev: np.ndarray
     njev: np.ndarray
@@ -919,6 +1085,50 @@ class EnsembleResult:
     method: str
     rtol: float
     atol: float
+    event_names: tuple[str, ...] = ()  # the scene's events, in the order event_which counts
+    event_t: np.ndarray = field(default_factory=lambda: np.empty((0, 0)))  # (k, max_events)
+    event_which: np.ndarray = field(default_factory=lambda: np.empty((0, 0), dtype=np.intc))
+    event_count: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=int))  # (k,)
+
+    def event_times(self, name: str) -> list[np.ndarray]:
+        """Each run's times of event NAME (the first max_events events of each run)."""
+        if name not in self.event_names:
+            raise ModelError(f"no event {name!r}; the scene's events: {list(self.event_names)}")
+        k = self.event_names.index(name)
+        return [times[which == k] for times, which in zip(self.event_t, self.event_which)]
+
+
+def ensemble_chunks(k: int, workers: int) -> list[slice]:
+    """The runs split for the threads: a few slices per thread, so that progress shows and an
+    idle thread takes the next (results do not depend on the split)."""
+    count = min(k, workers * 8)
+    bounds = np.linspace(0, k, count + 1).astype(int)
+    return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+
+
+def run_chunks(work: Callable[[slice], None], chunks: list[slice], workers: int,
+               progress: runs.Progress | None, show: bool | None) -> None:
+    """WORK on every chunk over the threads (cffi releases the GIL during the C calls)."""
+    if progress is not None and show:
+        progress.delay = 0.0
+    done = 0
+    with ThreadPoolExecutor(workers) as pool:
+        futures = {pool.submit(work, rows): rows for rows in chunks}
+        try:
+            for future in as_completed(futures):
+                future.result()
+                done += futures[future].stop - futures[future].start
+                if progress is not None:
+                    progress.update(done)
+        finally:
+            if progress is not None:
+                progress.close()
+
+
+def checked_max_events(value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+        raise ModelError(f"max_events must be a whole number >= 0, got {value!r}")
+    return int(value)
 
 
 # enum nemc_method and enum nemc_status in templates/integrators.h.tmpl

@@ -10,7 +10,7 @@ one run that `nemc simulate --error-estimate` prints. Every run goes through `Mo
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -98,8 +98,16 @@ def measure_run(model: Model, ref: Reference, method: str, rtol: float, params: 
 
 
 def accuracy_table(model: Model, ref: Reference, method_names: Sequence[str],
-                   tolerances: Sequence[float] = TOLERANCES, params: Params = None) -> list[Run]:
-    return [measure_run(model, ref, m, tol, params) for m in method_names for tol in tolerances]
+                   tolerances: Sequence[float] = TOLERANCES, params: Params = None,
+                   done: Callable[[Run], None] | None = None) -> list[Run]:
+    """Every method at every tolerance; done(run) after each (progress, partial reports)."""
+    runs = []
+    for m in method_names:
+        for tol in tolerances:
+            runs.append(measure_run(model, ref, m, tol, params))
+            if done:
+                done(runs[-1])
+    return runs
 
 
 def loosest_tolerance(runs: Sequence[Run], method: str, target: float = TRUST_ERROR

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import runs
 from . import stress as s
 from .runtime import Model, SimulationResult
 
@@ -53,32 +54,77 @@ class Study:
         return self.power_ratio < s.CONSERVED
 
 
+class Finished:
+    """A study's measurements as they finish: a progress line on a terminal, and the lines of
+    the partial report written when Ctrl-C comes first (partial_markdown)."""
+
+    def __init__(self, name: str):
+        self.name = name
+        self.lines: list[str] = []
+        self.progress = runs.Progress(f"nemc stress {name}", delay=0.0)
+
+    def start(self, what: str) -> None:
+        self.progress.update(note=what)
+
+    def done(self, line: str) -> None:
+        self.lines.append(line)
+
+    def run(self, run: s.Run) -> None:
+        self.done(f"accuracy: {run.method} at rtol {run.rtol:g}, atol {run.atol:g}: max error "
+                  f"{run.max_error:.2g}, {run.nfev} rhs calls")
+        self.start(f"accuracy, {run.method} done at rtol {run.rtol:g}")
+
+
 def study(path: str | Path, horizon: float = 1000.0, lyapunov_time: float = 300.0,
-          params: Mapping[str, float] | None = None, contrast: dict | None = None) -> Study:
-    """Measure the scene in PATH (energy outputs added when the YAML has none)."""
+          params: Mapping[str, float] | None = None, contrast: dict | None = None,
+          finished: Finished | None = None) -> Study:
+    """Measure the scene in PATH (energy outputs added when the YAML has none). finished: what
+    is done so far (progress on a terminal; a partial report after Ctrl-C, which raises
+    KeyboardInterrupt here, runs included)."""
     from .pipeline import compile_mechanism
 
     start = time.perf_counter()
+    finished = finished or Finished(Path(path).stem)
+    try:
+        with runs.interrupts_raise():
+            return measure(path, horizon, lyapunov_time, dict(params or {}), contrast, finished,
+                           compile_mechanism, start)
+    finally:
+        finished.progress.close()
+
+
+def measure(path: str | Path, horizon: float, lyapunov_time: float, params: dict,
+            contrast: dict | None, finished: Finished, compile_mechanism, start: float) -> Study:
+    """study()'s measurements, in order, each reported to `finished`."""
+    finished.start("compiling")
     model = compile_mechanism(path, True, energy=True).model
-    params = dict(params or {})
+    finished.start("the scene's own run")
     own = model.simulate(params=params)
     if not own.success:
         raise s.runtime.ModelError(f"the scene's own run failed: {own.message}")
+    finished.done(f"the scene's run: {own.method}, {own.nfev} rhs calls, {own.message}")
     span = (float(own.t[0]), float(own.t[-1]))
+    finished.start("the reference")
     ref = s.reference(model, span, np.linspace(*span, SCENE_SAMPLES), params)
     power = s.energy_power_ratio(model, ref.result, params)
     conservative = power < s.CONSERVED
+    accuracy = s.accuracy_table(model, ref, s.methods(), params=params, done=finished.run)
+    finished.start("the long reference")
     long = (s.reference(model, (span[0], span[0] + horizon),
                         np.linspace(span[0], span[0] + horizon, HORIZON_SAMPLES), params)
             if conservative else ref)
-    drifts = [s.energy_drift(model, long, m, tol, params)
-              for m in s.methods(explicit_only=True) for tol in s.DRIFT_TOLERANCES
-              ] if conservative else []
+    drifts = []
+    for method in s.methods(explicit_only=True) if conservative else ():
+        for tol in s.DRIFT_TOLERANCES:
+            finished.start(f"energy drift, {method} at rtol {tol:g}")
+            drifts.append(s.energy_drift(model, long, method, tol, params))
+            finished.done(f"energy drift over {horizon:g} s: {method} at rtol {tol:g}: max "
+                          f"|dE/E| {drifts[-1].max_relative:.2g}")
     duration = min(horizon, lyapunov_time) if conservative else span[1] - span[0]
     y0 = ref.result.y[:, 0]
+    finished.start("sensitivity, stiffness, conditioning")
     result = Study(
-        name=model.name, path=str(path), model=model, reference=ref,
-        runs=s.accuracy_table(model, ref, s.methods(), params=params), own=own,
+        name=model.name, path=str(path), model=model, reference=ref, runs=accuracy, own=own,
         own_error=s.error_estimate(model, own, params),
         agreement=s.agreement(model, params), power_ratio=power, horizon=long, drifts=drifts,
         lyapunov=s.lyapunov(model, y0, duration, params),
@@ -91,6 +137,14 @@ def study(path: str | Path, horizon: float = 1000.0, lyapunov_time: float = 300.
         result.contrast = (contrast, s.lyapunov(model, start_state, duration, params))
     result.seconds = time.perf_counter() - start
     return result
+
+
+def partial_markdown(finished: Finished) -> str:
+    """What a study interrupted by Ctrl-C had measured: its finished measurements, as lines."""
+    return "\n".join([f"# {finished.name}: interrupted (partial stress report)", "",
+                      "`nemc stress` was interrupted before it finished; the measurements done "
+                      "by then, in order:", "", *(f"- {line}" for line in finished.lines),
+                      ""])
 
 
 # -- Markdown --------------------------------------------------------------------------------
@@ -420,12 +474,31 @@ def index(studies: Sequence[Study], sections: Sequence[str]) -> str:
 
 def run_suite(out: Path, horizon: float = 1000.0, lyapunov_time: float = 300.0,
               log=print) -> list[Study]:
+    """The book's systems, each written as it is done; after Ctrl-C, the index of those done
+    and the partial report of the one under way (then KeyboardInterrupt goes on up)."""
     studies = []
-    for name, (_, contrast) in BOOK_SUITE.items():
-        st = study(EXAMPLES / f"{name}.yaml", horizon, lyapunov_time, contrast=contrast)
-        log(f"{name}: measured in {st.seconds:.1f} s -> {write(st, out)}")
-        studies.append(st)
-    sections = [section for section, _ in BOOK_SUITE.values()]
-    (out / "README.md").write_text(index(studies, sections))
-    log(f"index -> {out / 'README.md'}")
+    sections = []
+    try:
+        for name, (section, contrast) in BOOK_SUITE.items():
+            finished = Finished(name)
+            try:
+                st = study(EXAMPLES / f"{name}.yaml", horizon, lyapunov_time, contrast=contrast,
+                           finished=finished)
+            except KeyboardInterrupt:
+                log(f"{name}: interrupted -> {write_partial(finished, out)}")
+                raise
+            log(f"{name}: measured in {st.seconds:.1f} s -> {write(st, out)}")
+            studies.append(st)
+            sections.append(section)
+    finally:
+        if studies:
+            (out / "README.md").write_text(index(studies, sections))
+            log(f"index -> {out / 'README.md'}")
     return studies
+
+
+def write_partial(finished: Finished, out: Path) -> Path:
+    out.mkdir(parents=True, exist_ok=True)
+    target = out / f"{finished.name}.partial.md"
+    target.write_text(partial_markdown(finished))
+    return target

@@ -38,6 +38,7 @@ from nemc.methods import METHODS  # the scene accepts exactly what simulate acce
 from nemc.model import (
     GROUND,
     Body,
+    Event,
     Loc,
     Mechanism,
     Outputs,
@@ -151,7 +152,7 @@ class _Ctx:
 
     def scope(self, kind: str) -> Scope:
         """``constants``, ``parameters``, ``fixed`` (body, joint, ...), ``motion`` (a driven
-        joint's: fixed and t) or ``load`` fields.
+        joint's: fixed and t), ``load`` or ``event`` fields.
 
         Made once per kind while the names it is made of stay the same (they only grow):
         making it costs time linear in the names, and a file may hold 20,000 expressions."""
@@ -169,14 +170,16 @@ class _Ctx:
                  "parameters": "in parameters (parameters and constants only)",
                  "fixed": FIXED_WHERE,
                  "motion": MOTION_WHERE,
-                 "load": "in loads and outputs"}[kind]
-        if kind == "load":
+                 "load": "in loads and outputs",
+                 "event": "in events"}[kind]
+        state = kind in ("load", "event")  # coordinates, their rates and t are allowed
+        if state:
             allowed += self.coordinates
         names = {name: symbol(name) for name in allowed}
         refused = {name: f"{name!r} is {_article(kind_)} {kind_}, not allowed {where}"
                    for name, (kind_, _) in self.names.items() if name not in names}
-        rates = frozenset(self.coordinates) if kind == "load" else frozenset()
-        return Scope(names, rates, kind in ("load", "motion"), refused, where, self.budget)
+        rates = frozenset(self.coordinates) if state else frozenset()
+        return Scope(names, rates, state or kind == "motion", refused, where, self.budget)
 
 
 def _article(word: str) -> str:
@@ -1180,7 +1183,7 @@ def _output_expressions(ctx: _Ctx, node: Node | None) -> tuple[tuple[str, sympy.
 
 
 def _simulation(ctx: _Ctx, node: Node) -> Simulation:
-    keys = ("t_span", "initial", "t_eval", "method", "rtol", "atol", "guess")
+    keys = ("t_span", "initial", "t_eval", "method", "rtol", "atol", "guess", *RUN_CONTROL_KEYS)
     if not _keys(ctx, node, "simulation", keys):
         return Simulation()
     entries = _entries(node)
@@ -1200,7 +1203,7 @@ def _simulation(ctx: _Ctx, node: Node) -> Simulation:
     initial_loc = (ctx.loc(entries["initial"], "simulation.initial") if "initial" in entries
                    else None)
     return Simulation(t_span, initial, t_eval, step, method, tolerances["rtol"],
-                      tolerances["atol"], guess, initial_loc)
+                      tolerances["atol"], guess, initial_loc, **_run_control(ctx, entries, t_span))
 
 
 def _positive(ctx: _Ctx, node: Node, path: str) -> float | None:
@@ -1273,19 +1276,144 @@ def _t_eval(ctx: _Ctx, node: Node, t_span: tuple[float, float] | None,
     if not node.is_list or not node.value:
         ctx.problem(node.line, path, f"expected {{step: h}} or a list of times, {_got(node)}")
         return None, None
+    return _times(ctx, node, path, t_span), None
+
+
+def _times(ctx: _Ctx, node: Node, path: str, t_span: tuple[float, float] | None
+           ) -> tuple[float, ...] | None:
+    """A non-empty list of increasing times inside t_span (when the scene gives one)."""
     times = [_number(ctx, item, _join(path, i)) for i, item in enumerate(_items(node))]
     if None in times:
-        return None, None
+        return None
     for i, (before, after) in enumerate(zip(times, times[1:])):
         if not after > before:  # type: ignore[operator]
             ctx.problem(node.line, _join(path, i + 1), "times must increase, got "
                                                        f"{after:g} after {before:g}")
-            return None, None
+            return None
     if t_span is not None and (times[0] < t_span[0] or times[-1] > t_span[1]):  # type: ignore
         ctx.problem(node.line, path, f"times must lie inside t_span [{t_span[0]:g}, "
                                      f"{t_span[1]:g}], got [{times[0]:g} .. {times[-1]:g}]")
-        return None, None
-    return tuple(times), None  # type: ignore[arg-type]
+        return None
+    return tuple(times)  # type: ignore[arg-type]
+
+
+# ----------------------------------------------------------------------------- run control
+# Format v2: events, max_step, tstops and the step budget (docs/decisions.md, "Format v2:
+# events, max_step, tstops").
+
+RUN_CONTROL_KEYS = ("events", "max_step", "tstops", "max_steps")
+EVENT_KEYS = ("when", "direction", "action")
+EVENT_DIRECTIONS = ("rising", "falling", "both")
+EVENT_ACTIONS = ("record", "stop")  # or a mapping: an impact law
+MAX_STEPS_LIMIT = 2**62  # a C long
+
+
+def _run_control(ctx: _Ctx, entries: Mapping[str, Node],
+                 t_span: tuple[float, float] | None) -> dict:
+    """The scene's events, max_step, tstops and max_steps, as Simulation's keyword arguments."""
+    found: dict = {}
+    if "events" in entries:
+        found["events"] = _events(ctx, entries["events"])
+    if "max_step" in entries:
+        found["max_step"] = _positive(ctx, entries["max_step"], "simulation.max_step")
+    if "tstops" in entries:
+        found["tstops"] = _tstops(ctx, entries["tstops"], t_span)
+    if "max_steps" in entries:
+        found["max_steps"] = _max_steps(ctx, entries["max_steps"])
+    return {key: value for key, value in found.items() if value is not None}
+
+
+def _events(ctx: _Ctx, node: Node) -> tuple[Event, ...]:
+    path = "simulation.events"
+    if not node.is_map or not node.value:
+        ctx.problem(node.line, path, "expected a mapping event name -> {when, direction, "
+                                     f"action}}, {_got(node)}")
+        return ()
+    events = []
+    for name, item in _entries(node).items():
+        item_path = _join(path, name)
+        if not _register(ctx, name, node.key_lines[name], item_path, "event"):
+            continue
+        event = _event(ctx, name, item, item_path)
+        if event is not None:
+            events.append(event)
+    return tuple(events)
+
+
+def _event(ctx: _Ctx, name: str, node: Node, path: str) -> Event | None:
+    if not _keys(ctx, node, path, EVENT_KEYS, ("when",), what="{when, direction, action}"):
+        return None
+    entries = _entries(node)
+    if "when" not in entries:
+        return None
+    when = _expr(ctx, entries["when"], _join(path, "when"), ctx.scope("event"))
+    direction = "both"
+    if "direction" in entries:
+        direction = _choice(ctx, entries["direction"], _join(path, "direction"),
+                            EVENT_DIRECTIONS, "direction")
+    action, law = "record", ()
+    if "action" in entries:
+        action, law = _event_action(ctx, entries["action"], _join(path, "action"))
+    if when is None or direction is None or action is None:
+        return None
+    return Event(name, when, direction, action, law, ctx.loc(node, path))  # type: ignore
+
+
+def _event_action(ctx: _Ctx, node: Node, path: str
+                  ) -> tuple[str | None, tuple[tuple[str, sympy.Expr], ...]]:
+    """record, stop, or an impact law {q or dot(q): new value, ...} (action "impact")."""
+    if not node.is_map:
+        if not isinstance(node.value, str):
+            ctx.problem(node.line, path, "expected record, stop, or a mapping of new values "
+                                         f"{{q or dot(q): expression}} (an impact), {_got(node)}")
+            return None, ()
+        return _choice(ctx, node, path, EVENT_ACTIONS, "action"), ()
+    if not node.value:
+        ctx.problem(node.line, path, "an impact law needs at least one new value "
+                                     "{q or dot(q): expression}")
+        return None, ()
+    states = [name for q in ctx.coordinates for name in (q, f"dot({q})")]
+    law: dict[str, sympy.Expr] = {}
+    ok = True
+    for key, value in _entries(node).items():
+        match = re.fullmatch(r"dot\(\s*(\w+)\s*\)", key)
+        state = f"dot({match.group(1)})" if match else key
+        key_path, line = _join(path, key), node.key_lines[key]
+        if state not in states:
+            ctx.problem(line, key_path, f"unknown coordinate or rate {key!r}"
+                                        f"{_suggest(key, states)}; an impact law sets "
+                                        "coordinates q and rates dot(q)")
+            ok = False
+        elif state in law:
+            ctx.problem(line, key_path, f"{state} is given twice")
+            ok = False
+        else:
+            expr = _expr(ctx, value, key_path, ctx.scope("event"))
+            ok = ok and expr is not None
+            if expr is not None:
+                law[state] = expr
+    return ("impact" if ok else None), tuple(law.items())
+
+
+def _tstops(ctx: _Ctx, node: Node, t_span: tuple[float, float] | None
+            ) -> tuple[float, ...] | None:
+    path = "simulation.tstops"
+    if not node.is_list or not node.value:
+        ctx.problem(node.line, path, f"expected a list of times, {_got(node)}")
+        return None
+    return _times(ctx, node, path, t_span)
+
+
+def _max_steps(ctx: _Ctx, node: Node) -> int | None:
+    path = "simulation.max_steps"
+    value = _number(ctx, node, path)
+    if value is None:
+        return None
+    if not (0 <= value <= MAX_STEPS_LIMIT and value == int(value)):
+        ctx.problem(node.line, path, "expected a whole number of steps >= 0 (0: no budget), "
+                                     f"got {value:g}")
+        return None
+    return int(value)
 
 
 # ----------------------------------------------------------------------------- units

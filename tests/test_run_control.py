@@ -1,0 +1,340 @@
+"""Runs that end: the step budget, the pace rule and the stiffness test (the hidden blow-up of
+issue 17), max_step and tstops (a pulse narrower than a step), nemc.Taylor refusing a step
+over a blow-up, and Ctrl-C (a process sent SIGINT returns its partial run within a second)."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import nemc
+from nemc.runtime import ModelError
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+FREE_BODY = EXAMPLES / "free_body_on_spring.yaml"
+NATIVE = ["nemc.DOP853", "nemc.Vern9", "nemc.Radau", "nemc.Taylor"]
+
+# A rotor kicked by a torque pulse of width w = 1 ms at t = 1: its final rate is T w sqrt(pi).
+PULSE = """\
+name: pulse
+parameters: {T: 1000, w: 0.001}
+bodies:
+  rotor: {mass: 1, inertia: 1}
+joints:
+  A: {type: revolute, parent: ground, child: rotor, coordinate: q}
+loads:
+  - {torque: "T*exp(-((t - 1)/w)**2)", body: rotor}
+simulation:
+  t_span: [0, 2]
+  t_eval: [2]
+"""
+
+# A rod on a pivot with a stiff damper: a mode decaying at c / I_O = 3e5 /s.
+STIFF = """\
+name: stiff_damper
+parameters: {c: 1.0e5, g: 9.81}
+gravity: [0, -g]
+bodies:
+  rod: {mass: 1, inertia: 1/12, com: [0.5, 0]}
+joints:
+  A: {type: revolute, parent: ground, child: rod, coordinate: q}
+loads:
+  - joint_spring: {joint: A, k: 10, damping: c}
+simulation:
+  t_span: [0, 20]
+  initial: {q: 1}
+"""
+
+# Three links with a joint damper each (c < 0 feeds energy in: the motion runs away).
+TRIPLE = """\
+name: triple_pendulum
+parameters: {m: 1, L: 1, g: 9.81, c: 0.1}
+gravity: [0, -g]
+bodies:
+  l1: {mass: m, inertia: m*L**2/12, com: [L/2, 0], points: {E: [L, 0]}}
+  l2: {mass: m, inertia: m*L**2/12, com: [L/2, 0], points: {E: [L, 0]}}
+  l3: {mass: m, inertia: m*L**2/12, com: [L/2, 0]}
+joints:
+  A: {type: revolute, parent: ground, child: l1, coordinate: q1}
+  B: {type: revolute, parent: l1, child: l2, at: E, coordinate: q2}
+  C: {type: revolute, parent: l2, child: l3, at: E, coordinate: q3}
+loads:
+  - joint_spring: {joint: A, k: 0, damping: c}
+  - joint_spring: {joint: B, k: 0, damping: c}
+  - joint_spring: {joint: C, k: 0, damping: c}
+simulation:
+  t_span: [0, 10]
+  initial: {q1: 0.5, q2: 0.3}
+"""
+
+# The load exp(exp(10 t)) 1e-300 overflows near t = 0.66: every method must fail there.
+BLOW_UP = """\
+name: double_exponential
+bodies:
+  rotor: {mass: 1, inertia: 1}
+joints:
+  A: {type: revolute, parent: ground, child: rotor, coordinate: q}
+loads:
+  - {torque: "exp(exp(10*t))*1e-300", body: rotor}
+simulation:
+  t_span: [0, 1]
+"""
+
+
+def compiled(tmp_path: Path, name: str, text: str):
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(text)
+    return nemc.compile(path)
+
+
+@pytest.fixture(scope="module")
+def every_step(tmp_path_factory: pytest.TempPathFactory):
+    """The book's double pendulum with no t_eval: runs return every step."""
+    text = (EXAMPLES / "double_pendulum.yaml").read_text().replace(
+        "  t_eval: {step: 0.5}\n", "").replace("name: double_pendulum", "name: every_step")
+    return compiled(tmp_path_factory.mktemp("steps"), "every_step", text)
+
+
+@pytest.mark.parametrize("method", ["RK45", "nemc.DOP853", "nemc.Vern9", "DOP853", "Radau",
+                                    "nemc.Radau", "LSODA"])
+def test_the_hidden_blow_up_ends_fast_with_a_message(method: str) -> None:
+    """Issue 17: a free body on a spring with k = 1e30, m = 1e-30 over [0, 3] (oscillating at
+    1e30 rad/s) ran for ever; it now ends after 1000 steps by the pace rule."""
+    model = nemc.compile(FREE_BODY)
+    start = time.perf_counter()
+    result = model.simulate((0, 3), method=method, params={"k": 1e30, "m": 1e-30})
+    assert time.perf_counter() - start < 10
+    assert result.status == -8 and not result.success
+    assert result.message.startswith("stopped at t = ")
+    assert "The motion is too fast to follow" in result.message and "nemc.Radau" in result.message
+    assert result.t.size and np.all(np.isfinite(result.y))
+
+
+def test_taylor_refuses_the_blow_up_by_its_series() -> None:
+    model = nemc.compile(FREE_BODY)
+    result = model.simulate((0, 3), method="nemc.Taylor", params={"k": 1e30, "m": 1e-30})
+    assert not result.success and "series overflows" in result.message
+
+
+@pytest.mark.parametrize("method", ["nemc.DOP853", "nemc.Vern9", "RK45", "DOP853", "RK23"])
+def test_stiffness_is_detected_and_named(tmp_path: Path, method: str) -> None:
+    model = compiled(tmp_path, "stiff_damper", STIFF)
+    start = time.perf_counter()
+    result = model.simulate(method=method)
+    assert time.perf_counter() - start < 20
+    assert result.status == -9 and not result.success
+    assert result.message.startswith("stiff from t = ") and "try nemc.Radau" in result.message
+    stiff_from = float(result.message.split()[4].rstrip(":"))
+    assert 0 <= stiff_from < 0.05  # the fast mode is there from the start
+    assert model.simulate(method="nemc.Radau").success  # and the advice holds
+
+
+def test_a_stiff_run_within_budget_finishes_with_a_note() -> None:
+    model = nemc.compile(EXAMPLES / "two_link_robot_arm.yaml")  # the book's 5.4
+    result = model.simulate(method="nemc.DOP853")
+    assert result.success and "The problem is stiff from t = " in result.message
+
+
+def test_the_budget_ends_a_run_and_keeps_its_states(tmp_path: Path, every_step) -> None:
+    model = every_step
+    for method in ("nemc.DOP853", "nemc.Taylor", "RK45", "Radau"):
+        result = model.simulate((0, 5), method=method, max_steps=20)
+        assert result.status == -7 and not result.success, method
+        assert result.t.size == 21 and result.t[-1] < 5  # t0 and 20 steps
+        assert "after 20 steps (max_steps)" in result.message
+        whole = model.simulate((0, 5), method=method, max_steps=0)
+        np.testing.assert_array_equal(result.t, whole.t[:21])  # the same steps until then
+    text = (EXAMPLES / "double_pendulum.yaml").read_text().replace(
+        "method: RK45", "method: nemc.Vern9\n  max_steps: 10").replace(
+        "name: double_pendulum", "name: budgeted")
+    assert compiled(tmp_path, "budgeted", text).simulate().status == -7
+
+
+def test_negative_damping_ends_with_a_message(tmp_path: Path) -> None:
+    """Issue 17: the triple pendulum with c = -50 ran over 100 s printing nothing."""
+    model = compiled(tmp_path, "triple_pendulum", TRIPLE)
+    for method in ("nemc.DOP853", "nemc.Vern9"):
+        start = time.perf_counter()
+        result = model.simulate(method=method, params={"c": -50})
+        assert time.perf_counter() - start < 10
+        assert result.status in (-7, -8) and "after" in result.message
+    assert model.simulate(method="nemc.DOP853").success  # damped, it is an ordinary run
+
+
+def test_settings_are_checked() -> None:
+    model = nemc.compile(EXAMPLES / "double_pendulum.yaml")
+    for bad, match in (({"max_step": 0}, "max_step must be > 0"),
+                       ({"max_step": "1"}, "max_step must be a real number"),
+                       ({"max_steps": 2.5}, "max_steps must be a whole number"),
+                       ({"max_steps": -1}, "max_steps must be a whole number"),
+                       ({"tstops": [np.nan]}, "tstops must be a list of finite times"),
+                       ({"tstops": [[1, 2]]}, "tstops must be a list of finite times")):
+        with pytest.raises(ModelError, match=match):
+            model.simulate(**bad)
+    with pytest.raises(ModelError, match="max_events"):
+        model.simulate_many(max_events=-1)
+
+
+# scipy's DOP853 divides 0 by 0 where the error estimate vanishes (the rotor at rest)
+@pytest.mark.filterwarnings("ignore:invalid value encountered in scalar divide:RuntimeWarning")
+@pytest.mark.parametrize("method", NATIVE + ["RK45", "DOP853", "Radau", "LSODA"])
+def test_a_narrow_pulse_is_caught_with_tstops_or_max_step(tmp_path: Path, method: str) -> None:
+    model = compiled(tmp_path, "pulse", PULSE)
+    kick = 1000 * 0.001 * np.sqrt(np.pi)
+    stepped_over = model.simulate(method=method)
+    assert abs(stepped_over.y[1, -1]) < 1e-3 * kick  # the default steps miss it entirely
+    for setting in ({"tstops": [0.995, 1.005]}, {"max_step": 2e-4}):
+        caught = model.simulate(method=method, **setting)
+        assert caught.success
+        assert caught.y[1, -1] == pytest.approx(kick, rel=2e-5), setting
+
+
+def test_steps_land_on_tstops_and_max_step_takes_scipys_steps(every_step) -> None:
+    model = every_step
+    stops = [0.123456789, 1.5, 2.75]
+    for method in ("nemc.DOP853", "nemc.Radau", "nemc.Taylor", "nemc.Vern9", "DOP853", "BDF"):
+        steps = model.simulate((0, 3), method=method, tstops=stops).t
+        assert set(stops) <= set(steps.tolist()), method
+    p, y0 = model.parameter_vector(), model.initial_state()
+    native = model.simulate((0, 3), method="nemc.DOP853", max_step=0.01, rtol=1e-3,
+                            atol=1e-6)
+    scipy = solve_ivp(model._rhs_function(p), (0, 3), y0, method="DOP853", max_step=0.01,
+                      rtol=1e-3, atol=1e-6)
+    assert native.nfev == scipy.nfev and native.t.size == scipy.t.size
+    np.testing.assert_allclose(native.t, scipy.t, rtol=1e-12, atol=0)
+    assert np.diff(native.t).max() <= 0.01 * (1 + 1e-12)
+
+
+@pytest.mark.parametrize("method", NATIVE + ["RK45"])
+def test_the_double_exponential_fails_near_its_overflow(tmp_path: Path, method: str) -> None:
+    """Issue 21: nemc.Taylor took one step from 0 to 1 over exp(exp(10 t)) 1e-300 and called it
+    a success; a step now stands only once the expansion at its end is finite."""
+    result = compiled(tmp_path, "double_exponential", BLOW_UP).simulate(method=method)
+    assert not result.success
+    failed_at = float(result.message.split("at t=")[1].split(":")[0])
+    assert 0.6 < failed_at < 0.85  # exp(exp(10 t)) overflows at t = ln(709.8) / 10 = 0.656
+
+
+LONG_RUN = """\
+import sys, time, nemc
+model = nemc.compile(sys.argv[1])
+print("started", flush=True)
+result = model.simulate((0, 1e6), method=sys.argv[2], rtol=1e-12, atol=1e-12,
+                        t_eval=[0, 1, 2, 1e6], max_steps=0)
+print(result.status, result.t.size, result.message, flush=True)
+"""
+
+
+@pytest.mark.parametrize("method", ["nemc.DOP853", "nemc.Radau", "RK45"])
+def test_ctrl_c_returns_the_partial_run_within_a_second(tmp_path: Path, method: str) -> None:
+    model = nemc.compile(EXAMPLES / "double_pendulum.yaml")
+    if method == "nemc.Radau":
+        model.compiled_with("jacobian")  # built here, not in the child
+    script = tmp_path / "long_run.py"
+    script.write_text(LONG_RUN)
+    child = subprocess.Popen([sys.executable, str(script), str(EXAMPLES / "double_pendulum.yaml"),
+                              method], stdout=subprocess.PIPE, text=True)
+    assert child.stdout.readline().strip() == "started"
+    time.sleep(1.0)
+    sent = time.perf_counter()
+    child.send_signal(signal.SIGINT)
+    out, _ = child.communicate(timeout=20)
+    assert time.perf_counter() - sent < 1.0
+    status, count, message = out.split(" ", 2)
+    assert (child.returncode, int(status), int(count)) == (0, -11, 3)  # t = 0, 1, 2 kept
+    assert message.startswith("interrupted (Ctrl-C) at t = ")
+
+
+def test_ctrl_c_stops_the_cli_with_status_130(tmp_path: Path) -> None:
+    text = (EXAMPLES / "double_pendulum.yaml").read_text().replace(
+        "t_span: [0, 5]", "t_span: [0, 1.0e+6]").replace(
+        "t_eval: {step: 0.5}", "t_eval: [0, 0.5, 1.0e+6]\n  max_steps: 0").replace(
+        "rtol: 1.0e-6", "rtol: 1.0e-12").replace("method: RK45", "method: nemc.DOP853").replace(
+        "name: double_pendulum", "name: long_pendulum")
+    path = tmp_path / "long.yaml"
+    path.write_text(text)
+    nemc.compile(path)  # the child loads it from the cache
+    child = subprocess.Popen([sys.executable, "-m", "nemc.cli", "simulate", str(path)],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(2.0)
+    sent = time.perf_counter()
+    child.send_signal(signal.SIGINT)
+    out, err = child.communicate(timeout=20)
+    assert time.perf_counter() - sent < 1.0
+    assert child.returncode == 130
+    rows = [line.split()[0] for line in out.splitlines()[1:] if not line.startswith("#")]
+    assert rows == ["0", "0.5"]  # what it had
+    assert "nemc: interrupted (Ctrl-C) at t = " in err
+
+
+def test_an_interrupted_ensemble_returns_its_runs(tmp_path: Path) -> None:
+    script = tmp_path / "ensemble.py"
+    script.write_text(textwrap.dedent(f"""\
+        import numpy as np, nemc
+        model = nemc.compile({str(EXAMPLES / "double_pendulum.yaml")!r})
+        print("started", flush=True)
+        runs = model.simulate_many(np.tile(model.initial_state(), (8, 1)), t_span=(0, 1e6),
+                                   t_eval=[0, 1e6], method="nemc.DOP853", rtol=1e-12,
+                                   atol=1e-12, max_steps=0, threads=2)
+        print(sorted(set(runs.status.tolist())), int(np.isnan(runs.y[:, 0, 1]).sum()),
+              flush=True)
+        """))
+    nemc.compile(EXAMPLES / "double_pendulum.yaml")
+    child = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
+    assert child.stdout.readline().strip() == "started"
+    time.sleep(1.0)
+    sent = time.perf_counter()
+    child.send_signal(signal.SIGINT)
+    out, _ = child.communicate(timeout=20)
+    assert time.perf_counter() - sent < 1.0
+    assert out.split("]")[0] == "[-11" and out.split()[-1] == "8"
+
+
+def test_an_interrupted_stress_keeps_what_it_measured(tmp_path: Path) -> None:
+    nemc.compile(EXAMPLES / "double_pendulum.yaml")
+    child = subprocess.Popen([sys.executable, "-m", "nemc.cli", "stress",
+                              str(EXAMPLES / "double_pendulum.yaml"), "--out", str(tmp_path)],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(6.0)
+    child.send_signal(signal.SIGINT)
+    _, err = child.communicate(timeout=60)
+    assert child.returncode == 130, err
+    partial = (tmp_path / "double_pendulum.partial.md").read_text()
+    assert "interrupted" in partial and "- the scene's run: RK45" in partial
+    assert "nemc: interrupted; what was measured:" in err
+
+
+class Terminal:
+    """A stderr that says it is a terminal, keeping what is written."""
+
+    def __init__(self) -> None:
+        self.text = ""
+
+    def isatty(self) -> bool:
+        return True
+
+    def write(self, text: str) -> None:
+        self.text += text
+
+    def flush(self) -> None:
+        pass
+
+
+def test_progress_shows_only_on_a_terminal() -> None:
+    from nemc.runs import Progress
+
+    terminal = Terminal()
+    progress = Progress("runs", 10, delay=0.0, stream=terminal)
+    progress.update(4)
+    assert "runs 4/10" in terminal.text
+    progress.close()
+    assert terminal.text.endswith("\r\x1b[K")
+    assert Progress("runs", delay=0.0).enabled is sys.stderr.isatty()
