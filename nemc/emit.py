@@ -630,8 +630,10 @@ def impact_case(eqs: Equations, block: Block, printer: SymbolTablePrinter, k: in
         f"        {printer.doprint(m.symbol(name))} = value[{i}]; /* {comment_text(name)} */"
         for i, (name, _) in enumerate(event.law))
     values = body(printer, block, indexed("value", block.groups[f"impact.{k}"]))
+    given = "\n".join(f"        given[{eqs.state.index(m.symbol(name))}] = 1;"
+                      for name, _ in event.law)
     return template("impact_case.c.tmpl").substitute(
-        k=k, name=comment_text(event.name), count=len(event.law),
+        k=k, name=comment_text(event.name), count=len(event.law), given=given,
         values="\n".join("    " + line for line in values.splitlines()), writes=writes)
 
 

@@ -260,3 +260,32 @@ def test_bad_events_are_refused_with_file_and_line(tmp_path: Path,
         "bad.yaml:19: simulation.max_step: must be a number > 0, got 0",
     ):
         assert line in err, line
+
+
+def test_an_impact_on_a_closed_loop_is_projected_onto_its_constraints(tmp_path: Path) -> None:
+    """The spec: with constraints, an impact law's new rates are projected onto them. A bumper
+    reverses the four-bar's crank at half its speed; the coupler's and rocker's rates follow
+    from the constraints, and the impact loses kinetic energy."""
+    law = '{when: q1 - 2.5, direction: rising, action: {dot(q1): "-0.5*dot(q1)"}}'
+    text = (EXAMPLES / "fourbar.yaml").read_text().replace(
+        "  t_eval: {step: 0.05}", f"  t_eval: {{step: 0.05}}\n  events:\n    bumper: {law}")
+    path = tmp_path / "fourbar_bumper.yaml"
+    path.write_text(text)
+    model = nemc.compile(path)
+    result = model.simulate(t_span=(0, 0.2), method="nemc.DOP853")  # one impact (at 0.098)
+    times, before = result.events["bumper"]
+    assert result.success and len(times) >= 1
+    p = model.parameter_vector(None)
+    after = model._model_events(p).impact(0, times[0], before[0])  # what the run went on from
+    rates = after[1::2]
+    assert after[1] == pytest.approx(-0.5 * before[0][1], rel=1e-12)
+    assert model.constraint_residual(before[0], times[0])[1] < 1e-8
+    assert model.constraint_residual(after, times[0])[1] < 1e-8  # rates on the constraints
+    naive = before[0].copy()
+    naive[1] = -0.5 * naive[1]  # the law alone leaves the loop's rates inconsistent
+    assert model.constraint_residual(naive, times[0])[1] > 1e-2
+    assert not np.allclose(rates[1:], before[0][3::2])  # the other links' rates changed too
+    energy = result.outputs["energy.total"]
+    k = np.searchsorted(result.t, times[0])
+    assert energy[k] < energy[k - 1] - 1e-3  # the bumper took energy out
+    np.testing.assert_allclose(energy[k:], energy[k], rtol=1e-6)  # conserved again after it
