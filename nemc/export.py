@@ -159,7 +159,7 @@ def foreign_entries(folder: Path) -> list[str]:
         return [f"it cannot be listed ({error.strerror})"]
     foreign = []
     for entry in entries:
-        if entry.name == marker:
+        if entry.name == marker or (marker == LEGACY_MARKER and is_legacy_runtime(entry)):
             continue
         if entry.name == "__pycache__" and entry.is_dir(follow_symlinks=False):
             foreign += [f"__pycache__/{name}" for name in foreign_in_pycache(Path(entry.path))]
@@ -169,6 +169,14 @@ def foreign_entries(folder: Path) -> list[str]:
         return [f"it holds {', '.join(foreign)}, which nemc did not write (or which changed "
                 "since)"]
     return []
+
+
+def is_legacy_runtime(entry: os.DirEntry) -> bool:
+    """A runtime module nemc copied into a package exported before MARKER (BUILD_OK, the
+    cache's manifest, does not list them)."""
+    from .build import RUNTIME_FILES
+
+    return entry.name in RUNTIME_FILES.values() and entry.is_file(follow_symlinks=False)
 
 
 def is_listed(entry: os.DirEntry, listed: dict | None) -> bool:

@@ -670,7 +670,8 @@ class Model(LoopsMixin):
             status = control.stop
             message = runs.ending_message(runs.Ending(
                 status, control.t, span, control.steps, method, settings.max_steps,
-                control.y, control.h_recent, control.stiff_from, control.stiffness))
+                control.y, control.h_recent, control.stiff_from, control.stiffness)
+            ) + self._singularity_note(control.t, control.y, p)
         elif status == -1 and rhs.last[1] is not None:  # scipy gave up
             message = self._gave_up(message, *rhs.last, p)
         elif status == runs.REACHED_END and not math.isnan(control.stiff_from):
@@ -874,7 +875,8 @@ class Model(LoopsMixin):
         event = events[run.event_stop]["name"] if 0 <= run.event_stop < len(events) else None
         return runs.ending_message(runs.Ending(
             status, run.t_fail, tuple(span), int(run.n_steps), method, settings.max_steps,
-            y_fail, run.h_recent, run.stiff_from, run.stiffness, event, run.h_recent))
+            y_fail, run.h_recent, run.stiff_from, run.stiffness, event, run.h_recent)
+        ) + self._singularity_note(run.t_fail, y_fail, p)
 
     def _take_events(self, run: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """The scene's events that fired in a single run, by name: (times, states before)."""

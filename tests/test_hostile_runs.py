@@ -614,7 +614,7 @@ def test_plot_writes_exactly_the_file_it_names(tmp_path: Path, nemc_cache: Path)
 
 def test_a_failed_write_names_its_file_and_leaves_no_part(tmp_path: Path, capsys,
                                                           monkeypatch: pytest.MonkeyPatch) -> None:
-    def full_disk(model, result, path: Path) -> None:
+    def full_disk(model, result, path: Path, outputs=None) -> None:
         path.write_text("t,q1\n0,")
         raise OSError(errno.ENOSPC, "No space left on device")  # as a full disk: no file name
 

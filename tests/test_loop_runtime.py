@@ -137,8 +137,11 @@ def test_a_stop_at_a_singular_position_says_where_and_why(parallelogram) -> None
         assert np.abs(result.y[0] - result.y[4]).max() < 1e-8
         return
     assert "constraint 'C' is at a singular configuration" in result.message
-    crank = float(result.message.split("q1=")[1].split(",")[0])
-    assert abs(np.sin(crank)) < 1e-3  # where the linkage lies flat
+    if "q1=" in result.message:  # the step size collapsed: the message gives the state
+        crank = float(result.message.split("q1=")[1].split(",")[0])
+        assert abs(np.sin(crank)) < 1e-3  # where the linkage lies flat
+    else:  # the pace rule stopped it first: its last state, at most one t_eval step before
+        assert abs(np.sin(result.y[0, -1])) < 5e-2
 
 
 def test_a_full_initial_state_must_hold_the_constraints(fourbar) -> None:

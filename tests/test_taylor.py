@@ -120,8 +120,8 @@ def test_backwards_empty_interval_and_every_step(pendulum) -> None:
     back = pendulum.simulate((3.0, 0.0), forward.y[:, -1], method="nemc.Taylor", rtol=1e-12,
                              atol=1e-15, t_eval=[3.0, 1.5, 0.0])
     np.testing.assert_allclose(back.y[:, -1], y0, atol=1e-9)
-    empty = pendulum.simulate((1.0, 1.0), y0, method="nemc.Taylor", t_eval=[1.0, 1.0])
-    assert empty.success and np.array_equal(empty.y, np.column_stack([y0, y0]))
+    empty = pendulum.simulate((1.0, 1.0), y0, method="nemc.Taylor", t_eval=[1.0])
+    assert empty.success and np.array_equal(empty.y, y0.reshape(-1, 1))
     steps = pendulum._simulate_native("nemc.Taylor", (0.0, 3.0), y0, None, 1e-9, 1e-12,
                                       pendulum.parameter_vector())
     assert steps.t[0] == 0.0 and steps.t[-1] == 3.0 and np.all(np.diff(steps.t) > 0)
