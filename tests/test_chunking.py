@@ -54,7 +54,8 @@ def evaluate(compiled: Compiled, y: np.ndarray, p: np.ndarray) -> dict[str, tupl
         "rhs": (model._c["rhs"](0.7, buffer(y), buffer(p), buffer(dy)), dy.tolist()),
         "jacobian": (model._c["jacobian"](0.7, buffer(y), buffer(p), buffer(jac)), jac.tolist()),
         "inverse_mass_matrix": (
-            model._c["inverse_mass_matrix"](0.0, buffer(y), buffer(p), buffer(minv)), minv.tolist()),
+            model._c["inverse_mass_matrix"](0.0, buffer(y), buffer(p), buffer(minv)),
+            minv.tolist()),
     }
 
 
