@@ -55,6 +55,8 @@ wheel-check: $(STAMP)
 	$(WHEEL_CHECK)/venv/bin/pip install --quiet $(WHEEL_CHECK)/dist/nemc-*.whl
 	cd $(WHEEL_CHECK) && NEMC_CACHE=$(CURDIR)/$(WHEEL_CHECK)/cache venv/bin/nemc simulate \
 		$(CURDIR)/examples/double_pendulum.yaml --method nemc.Taylor | tail -1 | grep -q "reached the end"
+	cd $(WHEEL_CHECK) && NEMC_CACHE=$(CURDIR)/$(WHEEL_CHECK)/cache venv/bin/nemc simulate \
+		$(CURDIR)/examples/fourbar.yaml --t-end 1 | tail -1 | grep -q "reached the end"
 	cd $(WHEEL_CHECK) && NEMC_CACHE=$(CURDIR)/$(WHEEL_CHECK)/cache venv/bin/nemc compile \
 		$(CURDIR)/examples/two_link_robot_arm.yaml -o out
 	cd $(WHEEL_CHECK)/out && ../venv/bin/python -c "import two_link_robot_arm as m; \

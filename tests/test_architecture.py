@@ -243,3 +243,14 @@ def test_a_new_constraint_kind_needs_its_class_and_a_line_in_the_table(
     assert np.ptp(energy) < 1e-8 * abs(energy).max()
     tension = np.hypot(result.outputs["rod.Fx"], result.outputs["rod.Fy"])
     assert np.all(np.isfinite(tension)) and tension.max() > 0.1
+
+
+def test_every_subpackage_is_in_the_wheel() -> None:
+    """pyproject.toml lists the packages a wheel holds: a subpackage left out installs
+    nowhere but an editable checkout (nemc.constraints was, and a wheel could not compile)."""
+    tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
+    root = Path(nemc.__file__).resolve().parent
+    listed = set(tomllib.loads((root.parent / "pyproject.toml").read_text())
+                 ["tool"]["setuptools"]["packages"])
+    found = {"nemc", *(f"nemc.{init.parent.name}" for init in root.glob("*/__init__.py"))}
+    assert found <= listed, f"not in pyproject.toml's packages: {sorted(found - listed)}"
