@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import sympy
 
 from nemc.model import TIME, rate_symbol
+from nemc.program import post_order
 
 MAX_DEPTH = 100
 MAX_LENGTH = 100_000
@@ -193,17 +194,7 @@ def tree_depth(expr: sympy.Basic, leaves: Mapping[sympy.Basic, int] | None = Non
     its definition, substituted before the later stages. Iterative: any depth is measured."""
     leaves = leaves or {}
     depth: dict[sympy.Basic, int] = {}
-    stack = [expr]
-    while stack:
-        node = stack[-1]
-        if node in depth:
-            stack.pop()
-            continue
-        pending = [arg for arg in node.args if arg not in depth]
-        if pending:
-            stack.extend(pending)
-            continue
-        stack.pop()
+    for node in post_order(expr):
         depth[node] = 1 + max((depth[arg] for arg in node.args), default=leaves.get(node, 1) - 1)
     return depth[expr]
 

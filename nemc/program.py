@@ -166,17 +166,7 @@ def shallow(expr: sympy.Expr, max_depth: int, name: Callable[[sympy.Expr], sympy
     """EXPR with every subexpression that reaches MAX_DEPTH levels replaced by name(it), from
     the leaves up (post-order, without recursion: any depth is handled)."""
     done: dict[sympy.Basic, tuple[sympy.Basic, int]] = {}
-    stack = [expr]
-    while stack:
-        node = stack[-1]
-        if node in done:
-            stack.pop()
-            continue
-        pending = [arg for arg in node.args if arg not in done]
-        if pending:
-            stack.extend(pending)
-            continue
-        stack.pop()
+    for node in post_order(expr):
         if not node.args:
             done[node] = (node, 1)
             continue
@@ -186,3 +176,22 @@ def shallow(expr: sympy.Expr, max_depth: int, name: Callable[[sympy.Expr], sympy
         rebuilt = node if same else node.func(*args)
         done[node] = (name(rebuilt), 1) if depth >= max_depth else (rebuilt, depth)
     return done[expr][0]
+
+
+def post_order(expr: sympy.Basic) -> Iterator[sympy.Basic]:
+    """Each distinct node of EXPR's tree once, after all its arguments (without recursion:
+    any depth)."""
+    seen: set[sympy.Basic] = set()
+    stack = [expr]
+    while stack:
+        node = stack[-1]
+        if node in seen:
+            stack.pop()
+            continue
+        pending = [arg for arg in node.args if arg not in seen]
+        if pending:
+            stack.extend(pending)
+            continue
+        stack.pop()
+        seen.add(node)
+        yield node
