@@ -400,8 +400,13 @@ def mode_of(args: argparse.Namespace) -> str:
 
 
 def results_folder(args: argparse.Namespace, prefix: str) -> Path:
-    """Where a script writes: --out, else a temporary folder in smoke mode, else RESULTS."""
-    return args.out or (Path(tempfile.mkdtemp(prefix=prefix)) if args.smoke else RESULTS)
+    """Where a script writes: --out, else a temporary folder in smoke mode, else RESULTS
+    (RESULTS/quick in quick mode: a quick run never overwrites the full suite's results)."""
+    if args.out:
+        return args.out
+    if args.smoke:
+        return Path(tempfile.mkdtemp(prefix=prefix))
+    return RESULTS / "quick" if getattr(args, "quick", False) else RESULTS
 
 
 def write_results(result: dict[str, Any], folder: Path, stem: str, text: str) -> None:

@@ -32,7 +32,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import common  # noqa: E402 (the benchmarks folder is not a package)
-from common import RESULTS, ROOT, fmt_time  # noqa: E402
+from common import ROOT, fmt_time  # noqa: E402
 
 import nemc  # noqa: E402
 from nemc.runs import interrupts_raise  # noqa: E402
@@ -148,8 +148,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     mode = common.mode_of(args)
     print(f"nemc events benchmark, {mode} mode", flush=True)
     result = run(MODES[mode])
-    folder = args.out or (Path(tempfile.mkdtemp(prefix="nemc-bench-events-")) if args.smoke
-                          else RESULTS)
+    folder = common.results_folder(args, "nemc-bench-events-")
     folder.mkdir(parents=True, exist_ok=True)
     common.write_json(result, folder / "events-latest.json")
     text = markdown(result)

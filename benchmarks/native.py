@@ -52,7 +52,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402 (the benchmarks folder is not a package)
 import peers  # noqa: E402
 from baseline import LABELS, build_baselines  # noqa: E402
-from common import RESULTS, ROOT, fmt_time, spread  # noqa: E402
+from common import ROOT, fmt_time, spread  # noqa: E402
 
 PENDULUM = ("double_pendulum", ROOT / "examples" / "double_pendulum.yaml", (0.0, 20.0))
 ARM = ROOT / "examples" / "two_link_robot_arm.yaml"
@@ -487,8 +487,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     config = MODES[mode] if args.sizes is None else replace(MODES[mode], chain_ns=args.sizes)
     print(f"nemc native integrators benchmark, {mode} mode", flush=True)
     result = run(config)
-    folder = args.out or (Path(tempfile.mkdtemp(prefix="nemc-bench-native-")) if args.smoke
-                          else RESULTS)
+    folder = common.results_folder(args, "nemc-bench-native-")
     folder.mkdir(parents=True, exist_ok=True)
     common.write_json(result, folder / "native-latest.json")
     text = markdown(result)

@@ -215,11 +215,14 @@ def wp_runners(model, baselines: Baselines, span, y0, t_eval, method: str, rtol:
     return runners
 
 
-def warm_jacobian(model, methods: Sequence[str]) -> float:
-    """nemc builds the C Jacobian on first need: do it before any timed implicit run."""
-    if not set(methods) & set(IMPLICIT):
-        return 0.0
-    seconds, _ = timed(lambda: model._jacobian_function(model.parameter_vector()))
+def warm_parts(model, methods: Sequence[str]) -> dict[str, float]:
+    """nemc builds the C Jacobian (implicit methods) and nemc.Taylor's coefficients on first
+    need: both are built here, before any timed run (their seconds are reported apart)."""
+    seconds = {"jacobian": 0.0, "taylor": 0.0}
+    if set(methods) & set(IMPLICIT):
+        seconds["jacobian"], _ = timed(lambda: model._jacobian_function(model.parameter_vector()))
+    if "nemc.Taylor" in methods:
+        seconds["taylor"], _ = timed(lambda: model.compiled_with("taylor"))
     return seconds
 
 
@@ -277,7 +280,7 @@ def bench_work_precision(name: str, path: Path, model, baselines: Baselines,
     span = (0.0, 20.0) if name == "double_pendulum" else (0.0, 5.0)
     t_eval = np.linspace(span[0], span[1], config.wp_points)
     methods = tuple(config.wp_methods) + native_methods()
-    jac_seconds = warm_jacobian(model, methods)
+    first_need = warm_parts(model, methods)
     ref = reference(model, path, span, t_eval)
     records, skipped = work_precision_rounds(model, baselines, span, ref, methods, name, config)
     rows = []
@@ -288,7 +291,7 @@ def bench_work_precision(name: str, path: Path, model, baselines: Baselines,
     ref_summary = {k: v for k, v in ref.items() if k not in ("y", "t")}
     return {"t_span": list(span), "t_eval_points": config.wp_points, "methods": list(methods),
             "reference": ref_summary, "rows": rows, "skipped": skipped,
-            "jacobian_first_need_seconds": jac_seconds}
+            "first_need_seconds": first_need}
 
 
 def best_at(rows: Sequence[dict[str, Any]], target: float) -> dict[str, Any] | None:
@@ -349,7 +352,8 @@ def run_system(name: str, path: Path, config: Config, result: dict[str, Any]) ->
         wp_result = bench_work_precision(name, path, model, baselines, config)
         result["work_precision"][name] = wp_result
         result["notes"] += wp_result["skipped"]
-        result["setup"][name]["jacobian (first need)"] = wp_result["jacobian_first_need_seconds"]
+        for part, seconds in wp_result["first_need_seconds"].items():
+            result["setup"][name][f"{part} (first need)"] = seconds
 
 
 def compile_step(name: str, path: Path, config: Config, result: dict[str, Any]) -> str:
@@ -586,8 +590,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         folder, latest = args.out, True
     elif args.smoke:
         folder, latest = Path(tempfile.mkdtemp(prefix="nemc-bench-smoke-")), False
-    else:
-        folder, latest = RESULTS, True
+    else:  # --quick keeps its own files: the full suite's stay as committed
+        folder, latest = (RESULTS / "quick" if mode == "quick" else RESULTS), True
     folder.mkdir(parents=True, exist_ok=True)
     written = write_outputs(result, folder, latest)
     print(markdown(result))
