@@ -67,7 +67,8 @@ def models(folder: Path) -> tuple[Any, Any]:
     text = BOOK.read_text().replace("  t_eval: {step: 0.5}\n", "")
     plain, swinging = folder / "plain.yaml", folder / "swinging.yaml"
     plain.write_text(text.replace("name: double_pendulum", "name: bench_plain"))
-    swinging.write_text(text.replace("name: double_pendulum", "name: bench_swinging") + EVENT)
+    swinging.write_text(text.replace("name: double_pendulum", "name: bench_swinging").replace(
+        "\nsimulation:\n", "\nsimulation:\n" + EVENT))  # the scene may not end the file
     return nemc.compile(plain, jacobian=True, taylor=True), nemc.compile(
         swinging, jacobian=True, taylor=True)
 
