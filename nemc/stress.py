@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -36,11 +37,15 @@ def tolerance_pair(rtol: float) -> tuple[float, float]:
     return (BOOK_RTOL, BOOK_ATOL) if rtol == BOOK_RTOL else (rtol, rtol * 1e-3)
 
 
-def methods(explicit_only: bool = False) -> tuple[str, ...]:
-    """The methods compared: scipy's RK45, DOP853 and Radau, and nemc's native ones if present."""
+def methods(explicit_only: bool = False, model: Model | None = None) -> tuple[str, ...]:
+    """The methods compared: scipy's RK45, DOP853 and Radau, and nemc's native ones if present
+    (without nemc.Taylor where MODEL cannot have it: a closed loop, a load with no recurrence;
+    asking builds its coefficients, which its runs need anyway)."""
     native = tuple(getattr(runtime, "NATIVE_METHODS", ()))
     chosen = ("RK45", "DOP853") if explicit_only else ("RK45", "DOP853", "Radau")
     extra = tuple(m for m in native if not (explicit_only and "radau" in m.lower()))
+    if model is not None and not model.compiled_with("taylor").has_part("taylor"):
+        extra = tuple(m for m in extra if m not in runtime.TAYLOR_METHODS)
     return chosen + extra
 
 
@@ -215,6 +220,47 @@ def drift_exponent(drifts: Sequence[Drift], method: str) -> float:
     return float(np.polyfit(x, np.log10([d.rate for d in chosen]), 1)[0])
 
 
+# -- constraint drift (closed loops) ----------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ConstraintDrift:
+    """How well one method's run keeps a closed loop's constraints: the largest |Phi| and
+    |Phi_q q' + Phi_t| of its returned states, over the first and the second half of the run
+    (growth shows as a second half larger than the first)."""
+
+    method: str
+    rtol: float
+    nfev: int
+    t_end: float
+    position: tuple[float, float]  # max |Phi| over the first half, the second half
+    rate: tuple[float, float]  # max |Phi_q q' + Phi_t| over the same halves
+    stopped: str | None = None  # the failure message when the run did not reach the end
+
+    @property
+    def growing(self) -> bool:
+        """The second half's residual above 10x the first's and above rounding (1e-13)."""
+        return any(late > max(10 * early, 1e-13) for early, late in (self.position, self.rate))
+
+
+def constraint_drift(model: Model, span: Sequence[float], method: str, rtol: float,
+                     params: Params = None, samples: int = 2001) -> ConstraintDrift:
+    """The constraint residuals of one run over SPAN (a closed loop's scene)."""
+    rtol, atol = tolerance_pair(rtol)
+    times = np.linspace(span[0], span[1], samples)
+    run = model.simulate(tuple(span), method=method, t_eval=times, rtol=rtol, atol=atol,
+                         params=params)
+    position, rate = model.constraint_residual(run.y, run.t, params) if run.t.size else (
+        np.zeros(1), np.zeros(1))
+    half = max(1, run.t.size // 2)
+
+    def halves(values: np.ndarray) -> tuple[float, float]:
+        return float(values[:half].max(initial=0.0)), float(values[half:].max(initial=0.0))
+
+    return ConstraintDrift(method, rtol, run.nfev, float(run.t[-1]) if run.t.size else span[0],
+                           halves(position), halves(rate), None if run.success else run.message)
+
+
 # -- sensitivity -----------------------------------------------------------------------------
 
 
@@ -268,10 +314,14 @@ def lyapunov(model: Model, y0: np.ndarray, duration: float, params: Params = Non
 def divergence(model: Model, ref: Reference, delta: float = 1e-6, params: Params = None,
                rtol: float = 1e-10) -> np.ndarray:
     """|y(t) - y~(t)| for y~ started DELTA away in the first coordinate (DOP853 at RTOL, far
-    tighter than DELTA: the separation measured is the dynamics', not the integrator's)."""
+    tighter than DELTA: the separation measured is the dynamics', not the integrator's). With
+    closed loops the rest of the moved start is assembled from the constraints."""
     truth = ref.result
-    start = truth.y[:, 0].copy()
+    start: Any = truth.y[:, 0].copy()
     start[0] += delta
+    if model.has_loops:  # the other coordinates and rates follow from the constraints
+        first, rate = model.state_names[:2]
+        start = {first: start[0], rate: start[1]}
     moved = model.simulate((truth.t[0], truth.t[-1]), start, method="DOP853", t_eval=truth.t,
                            rtol=rtol, atol=rtol * 1e-2, params=params)
     return np.linalg.norm(moved.y - truth.y, axis=0)

@@ -46,6 +46,7 @@ class Study:
     stiffness: s.Stiffness
     conditioning: s.Conditioning
     contrast: tuple[dict, s.Lyapunov] | None = None
+    constraints: list[s.ConstraintDrift] = field(default_factory=list)  # closed loops only
     seconds: float = 0.0
     params: dict = field(default_factory=dict)
 
@@ -108,18 +109,28 @@ def measure(path: str | Path, horizon: float, lyapunov_time: float, params: dict
     ref = s.reference(model, span, np.linspace(*span, SCENE_SAMPLES), params)
     power = s.energy_power_ratio(model, ref.result, params)
     conservative = power < s.CONSERVED
-    accuracy = s.accuracy_table(model, ref, s.methods(), params=params, done=finished.run)
+    accuracy = s.accuracy_table(model, ref, s.methods(model=model), params=params,
+                                done=finished.run)
     finished.start("the long reference")
     long = (s.reference(model, (span[0], span[0] + horizon),
                         np.linspace(span[0], span[0] + horizon, HORIZON_SAMPLES), params)
             if conservative else ref)
     drifts = []
-    for method in s.methods(explicit_only=True) if conservative else ():
+    for method in s.methods(explicit_only=True, model=model) if conservative else ():
         for tol in s.DRIFT_TOLERANCES:
             finished.start(f"energy drift, {method} at rtol {tol:g}")
             drifts.append(s.energy_drift(model, long, method, tol, params))
             finished.done(f"energy drift over {horizon:g} s: {method} at rtol {tol:g}: max "
                           f"|dE/E| {drifts[-1].max_relative:.2g}")
+    constraints = []
+    for method in s.methods(explicit_only=True, model=model) if model.has_loops else ():
+        for tol in s.DRIFT_TOLERANCES:
+            finished.start(f"constraint drift, {method} at rtol {tol:g}")
+            constraints.append(s.constraint_drift(
+                model, (long.result.t[0], long.result.t[-1]), method, tol, params))
+            finished.done(f"constraint drift: {method} at rtol {tol:g}: max |Phi| "
+                          f"{max(constraints[-1].position):.2g}, max |Phi'| "
+                          f"{max(constraints[-1].rate):.2g}")
     duration = min(horizon, lyapunov_time) if conservative else span[1] - span[0]
     y0 = ref.result.y[:, 0]
     finished.start("sensitivity, stiffness, conditioning")
@@ -131,6 +142,7 @@ def measure(path: str | Path, horizon: float, lyapunov_time: float, params: dict
         divergence=s.divergence(model, long, 1e-6, params),
         stiffness=s.stiffness(model, ref, params),
         conditioning=s.conditioning(model, ref.result, params), params=params,
+        constraints=constraints,
     )
     if contrast:
         start_state = model.state_vector(contrast, params)
@@ -235,6 +247,26 @@ def energy_section(st: Study) -> list[str]:
     ]
 
 
+def constraint_section(st: Study) -> list[str]:
+    """Closed loops: how well each explicit method keeps the constraints over the horizon."""
+    if not st.constraints:
+        return []
+    rows = [[c.method, g(c.rtol), str(c.nfev), g(c.position[0]), g(c.position[1]),
+             g(c.rate[0]), g(c.rate[1]),
+             "**grows**" if c.growing else "no" + (f" (stopped at t = {g(c.t_end, 4)})"
+                                                    if c.stopped else "")]
+            for c in st.constraints]
+    span = st.horizon.result.t
+    return ["## Constraint drift", "",
+            f"The closed loops' constraints on the returned states over {g(span[-1] - span[0], 4)}"
+            " s (the first half, then the second): |Φ| the positions' residual, |Φ'| = "
+            "|Φ_q q' + Φ_t| the rates'. nemc projects every state onto the constraints "
+            "(docs/decisions.md, \"Closed loops\"): both stay at rounding level unless a "
+            "projection fails.", "",
+            *table(["method", "rtol", "RHS calls", "max |Φ| first half", "second half",
+                    "max |Φ'| first half", "second half", "growth"], rows), ""]
+
+
 def until(drift: s.Drift) -> str:
     if math.isinf(drift.trusted_until):
         return f"over the whole {g(drift.t[-1] - drift.t[0], 4)} s"
@@ -299,6 +331,7 @@ def stiffness_section(st: Study) -> list[str]:
 
 def markdown(st: Study, figure_name: str) -> str:
     lines = [*scene_section(st), *accuracy_section(st), *energy_section(st),
+             *constraint_section(st),
              *sensitivity_section(st), *stiffness_section(st), f"![{st.name}]({figure_name})", ""]
     return "\n".join(lines)
 

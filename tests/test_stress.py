@@ -294,3 +294,20 @@ def test_stress_command_writes_the_report(tmp_path: Path) -> None:
     assert "stiff: use an implicit method" in text and "Not conservative" in text
     assert (tmp_path / "robot_arm.png").stat().st_size > 10_000
     assert main(["stress", "--out", str(tmp_path)]) == 2
+
+
+def test_a_closed_loop_gets_its_constraint_drift(tmp_path: Path) -> None:
+    """Issue 16: `nemc stress` reports the constraints' residuals of every explicit method on a
+    closed loop (nemc.Taylor, which cannot run one, left out rather than failing the report)."""
+    text = (EXAMPLES / "fourbar.yaml").read_text().replace("t_span: [0, 10]", "t_span: [0, 2]")
+    path = tmp_path / "fourbar.yaml"
+    path.write_text(text)
+    assert main(["stress", str(path), "--out", str(tmp_path), "--horizon", "2"]) == 0
+    report = (tmp_path / "fourbar.md").read_text()
+    section = report.split("## Constraint drift")[1].split("\n## ")[0]
+    rows = [line.split("|")[1:-1] for line in section.splitlines()
+            if line.startswith("| nemc.") or line.startswith("| RK45")]
+    assert {row[0].strip() for row in rows} == {"RK45", "nemc.DOP853", "nemc.Vern9"}
+    assert "nemc.Taylor" not in report
+    for row in rows:  # at every tolerance: on the constraints to rounding, not growing
+        assert max(float(cell) for cell in row[3:7]) < 1e-12 and row[7].strip() == "no", row
