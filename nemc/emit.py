@@ -811,6 +811,7 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
                                   else "mass matrix")
     if lanes_c:
         info["generated"].append("lanes")
+        info["lane_count"] = LANE_COUNT
     if taylor_unavailable:
         info["taylor_unavailable"] = info["lanes_unavailable"] = taylor_unavailable
     interface = header(eqs, prefix)

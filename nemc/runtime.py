@@ -995,7 +995,8 @@ class Model(LoopsMixin):
         workers = max(1, min(threads or os.cpu_count() or 1, k))
         with runs.interrupt_flag() as flag:
             run.interrupt = self._interrupt_pointer(flag)
-            run_chunks(chunk, ensemble_chunks(k, workers), workers,
+            lanes_each = self.metadata.get("lane_count", 1) if in_lanes else 1
+            run_chunks(chunk, ensemble_chunks(k, workers, lanes_each), workers,
                        runs.Progress(f"{self.name}: runs", k) if progress is not False else None,
                        progress)
         if self.has_loops:
@@ -1110,10 +1111,11 @@ class EnsembleResult:
         return [times[which == k] for times, which in zip(self.event_t, self.event_which)]
 
 
-def ensemble_chunks(k: int, workers: int) -> list[slice]:
+def ensemble_chunks(k: int, workers: int, lanes: int = 1) -> list[slice]:
     """The runs split for the threads: a few slices per thread, so that progress shows and an
-    idle thread takes the next (results do not depend on the split)."""
-    count = min(k, workers * 8)
+    idle thread takes the next (results do not depend on the split); with runs in lanes, slices
+    of at least `lanes` runs where there are enough."""
+    count = max(1, min(-(-k // lanes), workers * 8))
     bounds = np.linspace(0, k, count + 1).astype(int)
     return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
 
