@@ -6,7 +6,12 @@ events with impacts, tstops, max_step and step budgets; the generated C warning-
 
 from __future__ import annotations
 
+import os
+import signal
 import subprocess
+import sys
+import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
@@ -175,3 +180,30 @@ def test_threads_share_the_lanes(pendulum: nemc.Model) -> None:
     two = pendulum.simulate_many(y0s, threads=2, **options)
     one = pendulum.simulate_many(y0s, threads=1, lanes=False, **options)
     assert_same(two, one)
+
+
+def test_ctrl_c_stops_the_lanes_with_their_runs(pendulum: nemc.Model, tmp_path: Path) -> None:
+    """Every run in lanes stops between steps with the status interrupted and its states so far."""
+    pendulum.compiled_with("lanes")  # built here, loaded from the cache by the child
+    script = tmp_path / "lanes.py"
+    script.write_text(textwrap.dedent(f"""\
+        import numpy as np, nemc
+        model = nemc.compile({str(EXAMPLES / "double_pendulum.yaml")!r})
+        print("started", flush=True)
+        runs = model.simulate_many(np.tile(model.initial_state(), (9, 1)), t_span=(0, 1e6),
+                                   t_eval=[0, 1e6], method="nemc.Taylor", rtol=1e-12,
+                                   atol=1e-12, max_steps=0, threads=1)
+        print(sorted(set(runs.status.tolist())), int(np.isnan(runs.y[:, 0, 1]).sum()),
+              flush=True)
+        """))
+    root = str(Path(__file__).resolve().parent.parent)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
+    child = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True,
+                             env=env)
+    assert child.stdout is not None and child.stdout.readline().strip() == "started"
+    time.sleep(1.0)
+    sent = time.perf_counter()
+    child.send_signal(signal.SIGINT)
+    out, _ = child.communicate(timeout=20)
+    assert time.perf_counter() - sent < 1.0
+    assert out.split("]")[0] == "[-11" and out.split()[-1] == "9"
