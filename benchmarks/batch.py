@@ -4,15 +4,17 @@ after the other, and heyoka's batch mode when it is installed (issue 19).
 Run: `python benchmarks/batch.py [--quick | --smoke] [--out DIR]`; part of `make bench`.
 Results: benchmarks/results/batch-latest.{json,md} (smoke: a temporary folder).
 
-System: the book's double pendulum, `runs` random initial angles (seeded, uniform in
-[-1.5, 1.5] rad, at rest) over [0, 10], 101 output times, rtol 1e-8, atol 1e-10 (the ensemble
-of benchmarks/native.py and of issue 19's table). Contenders, each timed once per round,
-interleaved, the order rotating each round:
+Systems: the book's double pendulum, `runs` random initial angles (seeded, uniform in
+[-1.5, 1.5] rad, at rest) over [0, 10] (the ensemble of benchmarks/native.py and of issue 19's
+table); in full and quick mode also `chain_runs` 8-link chains (`common.chain_yaml(8)`, angles
+uniform in [-0.5, 0.5] rad, at rest) over [0, 5]. 101 output times, rtol 1e-8, atol 1e-10.
+Contenders per system, each timed once per round, interleaved, the order rotating each round:
 - lanes: simulate_many(method="nemc.Taylor") (the part "lanes", built before timing);
 - one by one: the same with lanes=False (integrate_many's loop);
 each on 1 thread and on all the machine's cores. The lanes' states are checked equal to the
 one-by-one runs bit for bit. heyoka (when importable): taylor_adaptive_batch at its
 recommended_simd_size, fed benchmarks/peers.py's straight-line program (LDL^T), tol 1e-8,
+the double pendulum only,
 propagate_grid batch by batch on 1 thread, its JIT compile untimed; its error against the lanes'
 states recorded. Reported: medians with min-max spread, ratios of medians (throughput), the
 load average before and after.
@@ -22,6 +24,7 @@ from __future__ import annotations
 
 import os
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -44,15 +47,40 @@ TIMES = np.linspace(*SPAN, 101)
 class Config:
     runs: int
     rounds: int
+    chain_runs: int
 
 
-MODES = {"full": Config(10_000, 5), "quick": Config(2_000, 3), "smoke": Config(100, 2)}
+MODES = {"full": Config(10_000, 5, 1_000), "quick": Config(2_000, 3, 200),
+         "smoke": Config(100, 2, 0)}
 
 
-def initial_states(count: int, n_state: int) -> np.ndarray:
+@dataclass(frozen=True)
+class System:
+    name: str
+    path: Path
+    span: tuple[float, float]
+    runs: int
+    bound: float  # initial angles uniform in [-bound, bound], at rest
+
+    @property
+    def times(self) -> np.ndarray:
+        return np.linspace(*self.span, 101)
+
+
+def systems(config: Config, folder: Path) -> list[System]:
+    found = [System("double pendulum", PENDULUM, SPAN, config.runs, 1.5)]
+    if config.chain_runs:
+        path = folder / "chain8.yaml"
+        path.write_text(common.chain_yaml(8))
+        found.append(System("8-link chain", path, (0.0, 5.0), config.chain_runs, 0.5))
+    return found
+
+
+def initial_states(count: int, n_state: int, bound: float = 1.5) -> np.ndarray:
+    """Random angles (seeded), rates 0."""
     rng = np.random.default_rng(0)
     y0s = np.zeros((count, n_state))
-    y0s[:, 0], y0s[:, 2] = rng.uniform(-1.5, 1.5, count), rng.uniform(-1.5, 1.5, count)
+    y0s[:, 0::2] = rng.uniform(-bound, bound, (count, n_state // 2))
     return y0s
 
 
@@ -104,20 +132,21 @@ def threads_label(threads: int) -> str:
     return f"{threads} thread" + ("s" if threads > 1 else "")
 
 
-def contenders(config: Config) -> tuple[dict[str, Callable[[], Any]], dict[str, Any]]:
+def contenders(system: System) -> tuple[dict[str, Callable[[], Any]], dict[str, Any]]:
     import nemc
 
-    model = nemc.compile(PENDULUM).compiled_with("lanes")  # the part built before timing
-    y0s = initial_states(config.runs, model.n_state)
+    model = nemc.compile(system.path).compiled_with("lanes")  # the part built before timing
+    y0s = initial_states(system.runs, model.n_state, system.bound)
     cores = os.cpu_count() or 1
     calls: dict[str, Callable[[], Any]] = {}
     for threads in sorted({1, cores}):
         for lanes in (True, False):
             name = f"{'lanes' if lanes else 'one by one'}, {threads_label(threads)}"
             calls[name] = lambda lanes=lanes, threads=threads: model.simulate_many(
-                y0s, t_span=SPAN, t_eval=TIMES, method="nemc.Taylor", rtol=RTOL, atol=ATOL,
-                threads=threads, lanes=lanes, progress=False)
-    heyoka, note = heyoka_batch(y0s)
+                y0s, t_span=system.span, t_eval=system.times, method="nemc.Taylor", rtol=RTOL,
+                atol=ATOL, threads=threads, lanes=lanes, progress=False)
+    heyoka, note = (heyoka_batch(y0s) if system.path == PENDULUM
+                    else (None, "not measured on this system"))
     if heyoka is not None:
         calls["heyoka batch, 1 thread"] = heyoka
     lanes_result, one_by_one = calls["lanes, 1 thread"](), calls["one by one, 1 thread"]()
@@ -158,8 +187,17 @@ def ratio(times: dict[str, dict[str, Any]], slower: str, faster: str) -> dict[st
 def run(config: Config) -> dict[str, Any]:
     started = time.perf_counter()
     env = common.environment("")
-    calls, checks = contenders(config)
-    times = measure(calls, config.rounds)
+    with tempfile.TemporaryDirectory(prefix="nemc-batch-") as folder:
+        results = {system.name: run_system(system, config.rounds)
+                   for system in systems(config, Path(folder))}
+    common.finish_environment(env, started)
+    return {"environment": env, "config": vars(config), "systems": results}
+
+
+def run_system(system: System, rounds: int) -> dict[str, Any]:
+    print(f"{system.name}, {system.runs:,} runs:", flush=True)
+    calls, checks = contenders(system)
+    times = measure(calls, rounds)
     cores = os.cpu_count() or 1
     ratios = {"lanes vs one by one, 1 thread": ratio(times, "one by one, 1 thread",
                                                       "lanes, 1 thread")}
@@ -171,18 +209,24 @@ def run(config: Config) -> dict[str, Any]:
     if "heyoka batch, 1 thread" in times:
         ratios["lanes vs heyoka batch, 1 thread"] = ratio(times, "heyoka batch, 1 thread",
                                                          "lanes, 1 thread")
-    common.finish_environment(env, started)
-    return {"environment": env, "config": vars(config), "checks": checks, "times": times,
+    return {"runs": system.runs, "t_span": list(system.span), "checks": checks, "times": times,
             "ratios": ratios}
 
 
 def markdown(result: dict[str, Any]) -> str:
-    config, checks = result["config"], result["checks"]
     lines = ["# Ensembles in SIMD lanes: nemc.Taylor", "",
-             *common.md_environment(result["environment"]), "",
-             f"{config['runs']:,} double pendulums over [0, 10], 101 output times, rtol "
-             f"{RTOL:g}, atol {ATOL:g}; {config['rounds']} interleaved rounds; "
-             f"{checks['steps_per_run']:.0f} expansions per run.", "",
+             *common.md_environment(result["environment"])]
+    for name, system in result["systems"].items():
+        lines += md_system(name, system, result["config"]["rounds"])
+    return "\n".join(lines) + "\n"
+
+
+def md_system(name: str, result: dict[str, Any], rounds: int) -> list[str]:
+    checks, runs = result["checks"], result["runs"]
+    lines = ["", f"## {name}", "",
+             f"{runs:,} runs over {result['t_span']}, 101 output times, rtol {RTOL:g}, atol "
+             f"{ATOL:g}; {rounds} interleaved rounds; {checks['steps_per_run']:.0f} expansions "
+             "per run.", "",
              f"- lanes equal to the one-by-one runs bit for bit: "
              f"{checks['lanes_equal_one_by_one']}; all succeeded: {checks['all_succeeded']}",
              f"- heyoka: {checks['heyoka']}"
@@ -190,17 +234,18 @@ def markdown(result: dict[str, Any]) -> str:
                 f"{checks['heyoka_max_difference_to_lanes']:.1e}"
                 if "heyoka_max_difference_to_lanes" in checks else ""), "",
              "| contender | time, median (min–max) | runs/s |", "| --- | --- | --- |"]
-    for name, t in result["times"].items():
-        lines.append(f"| {name} | {spread(t)} | {config['runs'] / t['median']:,.0f} |")
+    for contender, t in result["times"].items():
+        lines.append(f"| {contender} | {spread(t)} | {runs / t['median']:,.0f} |")
     lines += ["", "| ratio (throughput) | median | range over rounds |", "| --- | --- | --- |"]
-    for name, r in result["ratios"].items():
-        lines.append(f"| {name} | {r['median']:.2f}x | {r['min']:.2f}–{r['max']:.2f}x |")
-    return "\n".join(lines) + "\n"
+    for ratio_name, r in result["ratios"].items():
+        lines.append(f"| {ratio_name} | {r['median']:.2f}x | {r['min']:.2f}–{r['max']:.2f}x |")
+    return lines
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = common.mode_parser(__doc__.splitlines()[0], "2,000 runs, 3 rounds",
-                                "100 runs, 2 rounds (seconds); a temporary folder")
+    parser = common.mode_parser(__doc__.splitlines()[0],
+                                "2,000 double pendulums, 200 8-link chains, 3 rounds",
+                                "100 double pendulums, 2 rounds (seconds); a temporary folder")
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
     mode = common.mode_of(args)
     print(f"nemc ensembles in lanes benchmark, {mode} mode", flush=True)
