@@ -72,6 +72,7 @@ bench: $(PEERS_STAMP)
 	$(BIN)/python benchmarks/scaling.py
 	$(BIN)/python benchmarks/stiff.py
 	$(BIN)/python benchmarks/native.py
+	$(BIN)/python benchmarks/batch.py
 	$(BIN)/python benchmarks/loops.py
 	$(BIN)/python benchmarks/sweep.py
 	$(BIN)/python benchmarks/events.py

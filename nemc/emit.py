@@ -28,7 +28,15 @@ from .derive import DynamicsLayout, Equations
 from .optimize import Block
 from .program import Guard, Program
 from .resources import read_template
-from .taylor import TAYLOR_MAX_ORDER, TaylorUnsupported, series_code
+from .taylor import (
+    LANES,
+    SCALAR,
+    TAYLOR_MAX_ORDER,
+    Dialect,
+    SeriesCode,
+    TaylorUnsupported,
+    series_code,
+)
 from .units import unit_metadata
 
 
@@ -656,10 +664,11 @@ def events_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, pr
 # ---- native integrators (issue 9): appended to every model's C -------------------------------
 
 
-def native_section(eqs: Equations, prefix: str, taylor: str) -> str:
+def native_section(eqs: Equations, prefix: str, taylor: str, lanes: str = "") -> str:
     """The model-independent integrators and the model's thin entry points to them. Radau only
     in builds with the Jacobian: it halves the compile time the integrators add elsewhere;
-    Taylor (the model's own coefficients) only in builds that ask for it."""
+    Taylor (the model's own coefficients) only in builds that ask for it, and its ensembles in
+    SIMD lanes (lanes: templates/batch.c.tmpl, else batch_absent.c.tmpl) only when asked."""
     has_jacobian = eqs.inverse_mass is not None  # built with the diagnostics (exact or not)
     jacobian = f"{prefix}jacobian" if has_jacobian else "NULL"
     entry = template("integrators_entry.c.tmpl").substitute(
@@ -668,7 +677,8 @@ def native_section(eqs: Equations, prefix: str, taylor: str) -> str:
     sections = ["run_control.c.tmpl", "integrators.c.tmpl"]
     if has_jacobian:  # Radau needs the Jacobian: built with it, on first need
         sections.append("radau.c.tmpl")
-    return "\n" + "".join(read_template(name) for name in sections) + taylor + entry
+    batch = lanes or template("batch_absent.c.tmpl").substitute(prefix=prefix)
+    return "\n" + "".join(read_template(name) for name in sections) + taylor + entry + batch
 
 
 # Taylor loops of at most this many lines are also written out for order 0 alone, where the
@@ -684,10 +694,30 @@ def taylor_rows(eqs: Equations) -> dict[sympy.Symbol, str]:
     return rows
 
 
-def taylor_declarations(eqs: Equations) -> list[str]:
+def taylor_declarations(eqs: Equations, dialect: Dialect = SCALAR) -> list[str]:
     return [line for i in range(eqs.n) for line in (
-        f"double *xq{i} = TAYLOR_ROW(x, STATE_Q({i}));",
-        f"double *xdq{i} = TAYLOR_ROW(x, STATE_DQ({i}));")]
+        f"{dialect.value_type} *xq{i} = TAYLOR_ROW(x, STATE_Q({i}));",
+        f"{dialect.value_type} *xdq{i} = TAYLOR_ROW(x, STATE_DQ({i}));")]
+
+
+def block_lines(lines: Iterable[str], indent: str) -> str:
+    return "\n".join(indent + line for line in lines)
+
+
+def coefficient_fields(eqs: Equations, code: SeriesCode, constants: list[str],
+                       dialect: Dialect) -> dict[str, object]:
+    """The fields of the coefficients' function, shared by taylor.c.tmpl and batch.c.tmpl."""
+    peel = len(code.loop) <= PEEL_MAX_LINES
+    order_zero = ["{", "    const int k = 0; /* order 0 apart: its branches fold away */",
+                  *("    " + line for line in code.loop), "}"] if peel else []
+    return dict(
+        n_series=max(code.n_series, 1),
+        declarations=block_lines(taylor_declarations(eqs, dialect) + list(code.declarations),
+                                 "    "),
+        constants=block_lines(constants, "    "), start=block_lines(code.start, "    "),
+        order_zero=block_lines(order_zero, "    "), first_order=1 if peel else 0,
+        loop=block_lines(code.loop, "        "),
+    )
 
 
 def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, str | None]:
@@ -701,20 +731,40 @@ def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, st
                            printer.doprint)
     except TaylorUnsupported as why:
         return "", str(why)
-
-    def block(lines: Iterable[str], indent: str) -> str:
-        return "\n".join(indent + line for line in lines)
-
-    peel = len(code.loop) <= PEEL_MAX_LINES
-    order_zero = ["{", "    const int k = 0; /* order 0 apart: its branches fold away */",
-                  *("    " + line for line in code.loop), "}"] if peel else []
     return template("taylor.c.tmpl").substitute(
-        max_order=TAYLOR_MAX_ORDER, n_series=max(code.n_series, 1),
-        declarations=block(taylor_declarations(eqs) + list(code.declarations), "    "),
-        constants=block(code.constants, "    "), start=block(code.start, "    "),
-        order_zero=block(order_zero, "    "), first_order=1 if peel else 0,
-        loop=block(code.loop, "        "),
+        max_order=TAYLOR_MAX_ORDER, **coefficient_fields(eqs, code, list(code.constants), SCALAR)
     ), None
+
+
+# Lanes per batch: GCC's vector extension of 4 doubles, one AVX2 register (the coefficients'
+# function is cloned for AVX2; docs/decisions.md, "Ensembles in SIMD lanes").
+LANE_COUNT = 4
+
+
+def lanes_section(eqs: Equations, printer: SymbolTablePrinter, prefix: str) -> str:
+    """nemc.Taylor's ensembles in SIMD lanes (templates/batch.c.tmpl): the same coefficient code
+    in the lanes dialect. Called only with Taylor's code built (taylor_section succeeded)."""
+    assert eqs.taylor is not None
+    code = series_code(eqs.taylor, eqs.coordinates, eqs.speeds, taylor_rows(eqs), m.TIME,
+                       printer.doprint, LANES)
+    return template("batch.c.tmpl").substitute(
+        prefix=prefix, lanes=LANE_COUNT,
+        **coefficient_fields(eqs, code, lane_constants(code), LANES))
+
+
+def lane_constants(code: SeriesCode) -> list[str]:
+    """The parameter-only values of each lane: the scalar lines in a loop over the lanes, each
+    lane with its own p, then as lanes values under the same names (those the loop reads)."""
+    if not code.constants:
+        return []
+    read = set(re.findall(r"\b\w+\b", "\n".join(code.loop)))
+    kept = [name for name in code.constant_names if name in read]
+    lines = [f"lanes constant_lanes[{max(len(kept), 1)}];",
+             "for (int l = 0; l < NEMC_LANES; ++l) {",
+             "    const double *p = lane_p[l];", "    (void)p;",
+             *("    " + line for line in code.constants),
+             *(f"    constant_lanes[{j}][l] = {name};" for j, name in enumerate(kept)), "}"]
+    return lines + [f"const lanes {name} = constant_lanes[{j}];" for j, name in enumerate(kept)]
 
 
 # ---- the drawing's point positions (issue 20): appended to every model's C ------------------
@@ -746,10 +796,14 @@ def positions_part(eqs: Equations, block: Block, prefix: str) -> tuple[str, dict
     return source, picture.metadata()
 
 
-def emit(eqs: Equations, block: Block, chunk_steps: int | None = None) -> Emitted:
-    """chunk_steps: the most steps of a program printed as one function (CHUNK_STEPS)."""
+def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
+         lanes: bool = False) -> Emitted:
+    """chunk_steps: the most steps of a program printed as one function (CHUNK_STEPS);
+    lanes: also nemc.Taylor's ensembles in SIMD lanes (when Taylor's code is built)."""
     prefix = f"{eqs.mechanism.name}_"
-    taylor, taylor_unavailable = taylor_section(eqs, SymbolTablePrinter(symbol_table(eqs, block)))
+    printer = SymbolTablePrinter(symbol_table(eqs, block))
+    taylor, taylor_unavailable = taylor_section(eqs, printer)
+    lanes_c = lanes_section(eqs, printer, prefix) if lanes and taylor else ""
     info = metadata(eqs, prefix)
     info.update(unit_metadata(eqs.mechanism, info["output_names"]))
     positions_c, info["drawing"] = positions_part(eqs, block, prefix)
@@ -757,13 +811,16 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None) -> Emitte
         info["generated"].append("taylor")
         info["taylor_program"] = ("articulated body" if eqs.taylor is eqs.dynamics
                                   else "mass matrix")
+    if lanes_c:
+        info["generated"].append("lanes")
+        info["lane_count"] = LANE_COUNT
     if taylor_unavailable:
-        info["taylor_unavailable"] = taylor_unavailable
+        info["taylor_unavailable"] = info["lanes_unavailable"] = taylor_unavailable
     interface = header(eqs, prefix)
     return Emitted(
         name=eqs.mechanism.name,
         c_source=c_source(eqs, block, prefix, chunk_steps or CHUNK_STEPS)
-        + native_section(eqs, prefix, taylor) + positions_c,
+        + native_section(eqs, prefix, taylor, lanes_c) + positions_c,
         header=interface,
         cdef=cdef(interface),
         package_init=template("package_init.py.tmpl").substitute(

@@ -86,14 +86,17 @@ def compile_mechanism(
 
 def compile_source(
     source: Source, jacobian: bool | None, *, energy: bool = False,
-    taylor: bool | None = None, chunk_steps: int | None = None,
+    taylor: bool | None = None, chunk_steps: int | None = None, lanes: bool = False,
 ) -> Compiled:
+    """lanes: also nemc.Taylor's ensembles in SIMD lanes (with taylor: the part "lanes")."""
     timings: dict[str, float] = {}
     options: dict = {"jacobian": "auto" if jacobian is None else bool(jacobian)}
     if energy:
         options["energy"] = True
     if taylor is not None:
         options["taylor"] = bool(taylor)
+    if lanes:
+        options["lanes"] = True
     if chunk_steps is not None:
         options["chunk_steps"] = chunk_steps
     key = build_key(source, options)
@@ -101,14 +104,16 @@ def compile_source(
         package = cached_package(key)
     cached = package is not None
     if package is None:
-        package = generate_and_build(source, key, jacobian, timings, energy, taylor, chunk_steps)
+        package = generate_and_build(source, key, jacobian, timings, energy, taylor, chunk_steps,
+                                     lanes)
     with timed(timings, "load"):
         model = load_package(package)
 
     def compile_parts(parts: frozenset[str]) -> Model:
         """This mechanism built with these optional parts (Model.compiled_with)."""
         return compile_source(source, "jacobian" in parts, energy=energy,
-                              taylor="taylor" in parts, chunk_steps=chunk_steps).model
+                              taylor=bool(parts & {"taylor", "lanes"}), chunk_steps=chunk_steps,
+                              lanes="lanes" in parts).model
 
     model.part_compiler = compile_parts
     model.recipe = Recipe(source, jacobian, taylor, energy, chunk_steps,
@@ -119,6 +124,7 @@ def compile_source(
 def generate_and_build(
     source: Source, key: str, jacobian: bool | None, timings: dict[str, float],
     energy: bool = False, taylor: bool | None = None, chunk_steps: int | None = None,
+    lanes: bool = False,
 ) -> Path:
     from .assembly import check_assembly
     from .build import build
@@ -145,7 +151,7 @@ def generate_and_build(
         with timed(timings, "optimize", progress):
             block = optimize_equations(equations)
         with timed(timings, "emit", progress), number_range(source):
-            code = emit(equations, block, chunk_steps)
+            code = emit(equations, block, chunk_steps, lanes=lanes)
         with timed(timings, "build", progress):
             return build(code, key)
     finally:

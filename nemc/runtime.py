@@ -36,7 +36,7 @@ from .methods import (  # noqa: F401 (re-exported: the runtime's public names)
 
 DEFAULT_T_SPAN = (0.0, 10.0)
 SERIES_NOT_FINITE = -3  # the model status NEMC_SERIES_NOT_FINITE (templates/model.h.tmpl)
-OPTIONAL_PARTS = frozenset({"jacobian", "taylor"})  # C a build has only when asked for
+OPTIONAL_PARTS = frozenset({"jacobian", "taylor", "lanes"})  # C a build has only when asked for
 KINEMATIC_POINTS = 201  # the default times of a kinematic analysis over t_span
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-9
@@ -451,12 +451,14 @@ class Model(LoopsMixin):
         return self._finite_difference_jacobian(self._time(t), self._state(y), params)
 
     def has_part(self, part: str) -> bool:
-        """Whether this build has the optional part "jacobian" or "taylor" (a query only)."""
+        """Whether this build has the optional part "jacobian", "taylor" or "lanes" (a query
+        only)."""
         return part in self.metadata["generated"]
 
     def compiled_with(self, part: str) -> Model:
         """This mechanism's model with the optional part "jacobian" (the exact Jacobian, also
-        needed by nemc.Radau and mass_matrix) or "taylor" (nemc.Taylor's coefficients): this
+        needed by nemc.Radau and mass_matrix), "taylor" (nemc.Taylor's coefficients) or "lanes"
+        (nemc.Taylor's coefficients also in SIMD lanes, for simulate_many): this
         model when its build has it; otherwise the build that adds it to this one's parts,
         compiled now (sympy and the C compiler: seconds) or loaded from the cache, and kept for
         later calls. A standalone package compiles nothing: it returns itself."""
@@ -924,6 +926,7 @@ class Model(LoopsMixin):
         max_steps: int | None = None,
         max_events: int = runs.DEFAULT_MAX_EVENTS,
         progress: bool | None = None,
+        lanes: bool = True,
     ) -> EnsembleResult:
         """Integrate an ensemble with a native method, the loop over runs in C.
 
@@ -937,18 +940,26 @@ class Model(LoopsMixin):
         run; the first max_events of each run are kept (event_t, event_which; event_count
         counts them all). progress: a line on stderr while it runs (None: only when stderr
         is a terminal and the runs take over half a second). Ctrl-C stops every run between
-        steps: each then has the status interrupted and its states so far."""
+        steps: each then has the status interrupted and its states so far.
+        lanes: nemc.Taylor integrates NEMC_LANES runs at once in SIMD lanes (the part "lanes",
+        compiled on first use; templates/batch.c.tmpl), with every setting above and the same
+        results to the last bit as one run after the other (lanes=False); the other methods
+        always run one after the other."""
         span = checked_span(self.scene["t_span"] or DEFAULT_T_SPAN if t_span is None else t_span)
         method = ensemble_method(self.scene["method"]) if method is None else method
         if not isinstance(method, str) or method not in NATIVE_METHODS:
             raise ModelError(f"simulate_many: method must be one of {', '.join(NATIVE_METHODS)},"
                              f" got {method!r}")
-        model = self._native_model(method)
+        in_lanes = method in TAYLOR_METHODS and bool(lanes)
+        model = self.compiled_with("lanes") if in_lanes else self
+        in_lanes = in_lanes and model.has_part("lanes")
+        if not in_lanes:  # (a lanes build that could not have them says why Taylor cannot)
+            model = model._native_model(method)
         if model is not self:  # a build with the method's part: it runs the ensemble
             return model.simulate_many(y0s, params=params, t_span=t_span, t_eval=t_eval,
                                        method=method, rtol=rtol, atol=atol, threads=threads,
                                        max_step=max_step, tstops=tstops, max_steps=max_steps,
-                                       max_events=max_events, progress=progress)
+                                       max_events=max_events, progress=progress, lanes=lanes)
         rtol, atol = self._tolerances(rtol, atol)
         threads = checked_threads(threads)
         times = self._times(span, t_eval)
@@ -960,7 +971,8 @@ class Model(LoopsMixin):
             y0s = self._assembled_runs(span[0], y0s, given, ps)
         settings = self._run_settings(span, max_step, tstops, max_steps)
         capacity = checked_max_events(max_events)
-        integrate_many, method_id = self._native(method, "integrate_many"), self._method_id(method)
+        integrate_many = self._native(method, "integrate_lanes" if in_lanes else "integrate_many")
+        method_id = self._method_id(method)
         run, keep = self._native_run(span, times, rtol, atol, settings)
         run.event_capacity = capacity
         k, n = len(y0s), self.n_state
@@ -985,7 +997,8 @@ class Model(LoopsMixin):
         workers = max(1, min(threads or os.cpu_count() or 1, k))
         with runs.interrupt_flag() as flag:
             run.interrupt = self._interrupt_pointer(flag)
-            run_chunks(chunk, ensemble_chunks(k, workers), workers,
+            lanes_each = self.metadata.get("lane_count", 1) if in_lanes else 1
+            run_chunks(chunk, ensemble_chunks(k, workers, lanes_each), workers,
                        runs.Progress(f"{self.name}: runs", k) if progress is not False else None,
                        progress)
         if self.has_loops:
@@ -1100,10 +1113,11 @@ class EnsembleResult:
         return [times[which == k] for times, which in zip(self.event_t, self.event_which)]
 
 
-def ensemble_chunks(k: int, workers: int) -> list[slice]:
+def ensemble_chunks(k: int, workers: int, lanes: int = 1) -> list[slice]:
     """The runs split for the threads: a few slices per thread, so that progress shows and an
-    idle thread takes the next (results do not depend on the split)."""
-    count = min(k, workers * 8)
+    idle thread takes the next (results do not depend on the split); with runs in lanes, slices
+    of at least `lanes` runs where there are enough."""
+    count = max(1, min(-(-k // lanes), workers * 8))
     bounds = np.linspace(0, k, count + 1).astype(int)
     return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
 

@@ -35,12 +35,55 @@ class TaylorUnsupported(ValueError):
 
 
 @dataclass(frozen=True)
+class Dialect:
+    """How the coefficient code is written: of one run (a coefficient is a double, the
+    recurrences of templates/taylor.c.tmpl), or of SIMD lanes (a coefficient is a vector of
+    runs, `lanes`, the recurrences of templates/batch.c.tmpl, which take the same arguments).
+    The operations are the same; only the types, the helpers' names and what a failed guard
+    does differ: one run returns its status, a lane records it in status[l] and the others go
+    on. Lanes' parameter-only values are computed lane by lane, each with its own p (the
+    constants are the scalar lines, in a loop over the lanes: see emit.lanes_section)."""
+
+    value_type: str  # the type of a coefficient
+    prefix: str  # the recurrences' prefix, for "series_"
+
+    @property
+    def lanes(self) -> bool:
+        return self.value_type != "double"
+
+    def helper(self, name: str) -> str:
+        return self.prefix + name.removeprefix("series_")
+
+    def broadcast(self, value: str) -> str:
+        """A scalar's C as a coefficient (lanes: the same value in every lane)."""
+        return f"LANES({value})" if self.lanes else value
+
+    def argument(self, value: str) -> str:
+        """A value handed to a recurrence (lanes: by address, as a one-vector array: a vector
+        argument's ABI would depend on the -m flags)."""
+        return f"(const lanes[1]){{{value}}}" if self.lanes else value
+
+    def guard(self, test: str, status: str, loop: bool) -> list[str]:
+        """A singular articulated inertia: in the loop at coefficient 0, or before it."""
+        if self.lanes and loop:
+            return ["if (k == 0)", f"    lanes_guard({self.argument(test)}, {status}, status);"]
+        if self.lanes:  # in the loop over the lanes, with its p (emit.lanes_section)
+            return [f"if (!({test} > 0.0) && !status[l])", f"    status[l] = {status};"]
+        return [f"if ({'k == 0 && ' if loop else ''}!({test} > 0.0))", f"    return {status};"]
+
+
+SCALAR = Dialect("double", "series_")
+LANES = Dialect("lanes", "lanes_")
+
+
+@dataclass(frozen=True)
 class SeriesCode:
     """The C of the Taylor coefficients: declarations, scalar constants, the loop body."""
 
     n_series: int  # rows of the work array
     declarations: tuple[str, ...]  # `double *name = work + j * TAYLOR_STRIDE;`
     constants: tuple[str, ...]  # before the loop: parameter-only values, constant guards
+    constant_names: tuple[str, ...]  # the names those lines define (scalars, in order)
     start: tuple[str, ...]  # before the loop: the time series
     loop: tuple[str, ...]  # inside `for (k = 0; k < order; ++k)`
     cost: float  # Cauchy sums per order (SERIES_WEIGHTS): what the program costs per order
@@ -50,13 +93,15 @@ class SeriesWriter:
     """Writes the coefficient-k code of expressions, naming series rows as it needs them."""
 
     def __init__(self, scalar: Callable[[sympy.Expr], str], state: dict[sympy.Symbol, str],
-                 time: sympy.Symbol):
+                 time: sympy.Symbol, dialect: Dialect = SCALAR):
         self.scalar = scalar  # prints a parameter-only expression as C
+        self.dialect = dialect
         self.series: dict[sympy.Expr, str] = dict(state)  # expression -> its row's name
         self.varying: set[sympy.Symbol] = {*state, time}  # symbols that change with time
         self.time = time
         self.declarations: list[str] = []
         self.constants: list[str] = []
+        self.constant_names: list[str] = []
         self.loop: list[str] = []
         self.uses_time = False
         self.cost = 0.0  # Cauchy sums per order of the recurrences written (SERIES_WEIGHTS)
@@ -70,19 +115,29 @@ class SeriesWriter:
             return self.scalar(expr)
         if expr not in self._scalars:
             name = f"c{len(self._scalars)}"
-            self.constants.append(f"const double {name} = {self.scalar(expr)};")
+            self.constant(name, self.scalar(expr))
             self._scalars[expr] = name
         return self._scalars[expr]
 
+    def constant(self, name: str, value: str) -> None:
+        self.constants.append(f"const double {name} = {value};")
+        self.constant_names.append(name)
+
+    def at_order_zero(self, value: str) -> str:
+        """C for coefficient k of a parameter-only value: the value at k = 0, else 0."""
+        return f"(k == 0 ? {self.dialect.broadcast(value)} : {self.dialect.broadcast('0.0')})"
+
     def recurrence(self, helper: str, line: str) -> None:
-        """A line of the loop that calls a Taylor recurrence of templates/taylor.c.tmpl."""
-        self.loop.append(line)
+        """A line of the loop that calls a Taylor recurrence of templates/taylor.c.tmpl (in
+        the dialect's name: `line` names it {helper})."""
+        self.loop.append(line.replace("{helper}", self.dialect.helper(helper)))
         self.cost += SERIES_WEIGHTS[helper]
 
     # -- rows -------------------------------------------------------------------------------
 
     def new_row(self, name: str) -> str:
-        self.declarations.append(f"double *{name} = TAYLOR_ROW(work, {self._rows});")
+        self.declarations.append(
+            f"{self.dialect.value_type} *{name} = TAYLOR_ROW(work, {self._rows});")
         self._rows += 1
         return name
 
@@ -136,7 +191,7 @@ class SeriesWriter:
         constant = sympy.Add(*[a for a in args if self.is_constant(a)])
         terms = [self.coefficient(a) for a in varying]
         if constant != 0:
-            terms.append(f"(k == 0 ? {self.scalar_value(constant)} : 0.0)")
+            terms.append(self.at_order_zero(self.scalar_value(constant)))
         return "(" + " + ".join(terms) + ")"
 
     def product(self, args: Sequence[sympy.Expr]) -> str:
@@ -170,10 +225,9 @@ class SeriesWriter:
             other = self.row_of(factors[count - 1])
             name = self.temporary()
             if other == row:
-                self.recurrence("series_square", f"{name}[k] = series_square({row}, k);")
+                self.recurrence("series_square", f"{name}[k] = {{helper}}({row}, k);")
             else:
-                self.recurrence("series_product",
-                                f"{name}[k] = series_product({row}, {other}, k);")
+                self.recurrence("series_product", f"{name}[k] = {{helper}}({row}, {other}, k);")
             self.series[partial] = row = name
         return row
 
@@ -186,11 +240,10 @@ class SeriesWriter:
         bottom = self.cauchy(denominator)
         name = self.temporary()
         if top is None:
-            self.recurrence("series_reciprocal",
-                            f"{name}[k] = series_reciprocal({bottom}, {name}, k);")
+            self.recurrence("series_reciprocal", f"{name}[k] = {{helper}}({bottom}, {name}, k);")
         else:
             self.recurrence("series_quotient",
-                            f"{name}[k] = series_quotient({top}, {bottom}, {name}, k);")
+                            f"{name}[k] = {{helper}}({top}, {bottom}, {name}, k);")
         self.series[sympy.Mul(*numerator) / sympy.Mul(*denominator)] = name
         return name
 
@@ -208,9 +261,8 @@ class SeriesWriter:
             return self.quotient([], [base**-exponent])
         row = self.row_of(base)
         name = self.temporary()
-        self.recurrence(
-            "series_power",
-            f"{name}[k] = series_power({row}, {name}, {self.scalar_value(exponent)}, k);")
+        alpha = self.dialect.argument(self.dialect.broadcast(self.scalar_value(exponent)))
+        self.recurrence("series_power", f"{name}[k] = {{helper}}({row}, {name}, {alpha}, k);")
         self.series[expr] = name
         return name
 
@@ -221,7 +273,7 @@ class SeriesWriter:
         if expr not in self.series:
             row = self.row_of(argument)
             derivative, a, b = self.temporary(), self.temporary(), self.temporary()
-            self.recurrence(helper, f"{helper}({row}, {derivative}, {a}, {b}, k);")
+            self.recurrence(helper, f"{{helper}}({row}, {derivative}, {a}, {b}, k);")
             self.series[first], self.series[second] = a, b
         return self.series[expr]
 
@@ -237,7 +289,7 @@ class SeriesWriter:
             derivative = [self.temporary()] if helper in DERIVATIVE_ROW else []
             name = self.temporary()
             self.recurrence(helper,
-                            f"{name}[k] = {helper}({', '.join([row, *derivative, name])}, k);")
+                            f"{name}[k] = {{helper}}({', '.join([row, *derivative, name])}, k);")
             self.series[expr] = name
         return self.series[expr]
 
@@ -270,17 +322,18 @@ def is_reciprocal(expr: sympy.Expr) -> bool:
 
 def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
                 speeds: Sequence[sympy.Symbol], rows: Mapping[sympy.Symbol, str],
-                time: sympy.Symbol, scalar: Callable[[sympy.Expr], str]) -> SeriesCode:
+                time: sympy.Symbol, scalar: Callable[[sympy.Expr], str],
+                dialect: Dialect = SCALAR) -> SeriesCode:
     """The Taylor-coefficient code of the accelerations' program (one result per coordinate);
     rows: the name of each coordinate's and speed's row. Raises TaylorUnsupported."""
-    writer = SeriesWriter(scalar, dict(rows), time)
+    writer = SeriesWriter(scalar, dict(rows), time, dialect)
     for step in program.steps:
         if isinstance(step, Guard):
             guard(writer, step)
             continue
         name, expr = step
         if writer.is_constant(expr):
-            writer.constants.append(f"const double {name.name} = {scalar(expr)};")
+            writer.constant(name.name, scalar(expr))
             continue
         value = writer.coefficient(expr)
         same = re.fullmatch(r"(\w+)\[k\]", value)  # already a row (sin, a product...): alias it
@@ -292,17 +345,19 @@ def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
         writer.varying.add(name)
     for q, dq, result in zip(coordinates, speeds, program.results):
         q_row, dq_row = rows[q], rows[dq]
-        value = (f"(k == 0 ? {writer.scalar_value(result)} : 0.0)" if writer.is_constant(result)
+        value = (writer.at_order_zero(writer.scalar_value(result)) if writer.is_constant(result)
                  else writer.coefficient(result))
         writer.loop.append(f"{q_row}[k + 1] = {dq_row}[k] * (1.0 / (k + 1));")
         writer.loop.append(f"{dq_row}[k + 1] = {value} * (1.0 / (k + 1));")
-    start = ("tt[0] = t;", "for (int j = 1; j <= order; ++j)", "    tt[j] = j == 1 ? 1.0 : 0.0;")
+    start = ("tt[0] = t;", "for (int j = 1; j <= order; ++j)",
+             f"    tt[j] = {dialect.broadcast('j == 1 ? 1.0 : 0.0')};")
     # lines are relative to the block they sit in: "    " marks one more level
     if writer.uses_time:
-        writer.declarations.append(f"double *tt = TAYLOR_ROW(work, {writer._rows});")
+        writer.declarations.append(f"{dialect.value_type} *tt = TAYLOR_ROW(work, {writer._rows});")
         writer._rows += 1
     return SeriesCode(writer._rows, tuple(writer.declarations), tuple(writer.constants),
-                      start if writer.uses_time else (), tuple(writer.loop), writer.cost)
+                      tuple(writer.constant_names), start if writer.uses_time else (),
+                      tuple(writer.loop), writer.cost)
 
 
 # Cauchy sums per order of each recurrence: what a program costs nemc.Taylor (sums and constant
@@ -326,8 +381,7 @@ def series_cost(program: Program, coordinates: Sequence[sympy.Symbol],
 def guard(writer: SeriesWriter, step: Guard) -> None:
     """A singular articulated inertia is checked at the expansion point (coefficient 0)."""
     if writer.is_constant(step.value):
-        writer.constants += [f"if (!({writer.scalar(step.value)} > 0.0))",
-                             f"    return {step.status};"]
+        writer.constants += writer.dialect.guard(writer.scalar(step.value), step.status, False)
         return
     value = writer.coefficient(step.value)
-    writer.loop += [f"if (k == 0 && !({value} > 0.0))", f"    return {step.status};"]
+    writer.loop += writer.dialect.guard(value, step.status, True)

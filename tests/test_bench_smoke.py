@@ -98,3 +98,13 @@ def test_sweep_smoke_mode_compares_clusters_and_machinery(tmp_path: Path) -> Non
     assert all(result["identical_to_simulate_many"].values()), result
     assert set(result["ratios"]) >= {"2 workers vs 1 (throughput)", "sweep (zarr) / simulate_many"}
     assert all(math.isfinite(r["median"]) for r in result["ratios"].values())
+
+
+def test_batch_smoke_mode_compares_lanes_with_one_by_one(tmp_path: Path) -> None:
+    out = run_script("batch.py", tmp_path)
+    result = json.loads((out / "batch-latest.json").read_text())
+    pendulum = result["systems"]["double pendulum"]
+    assert pendulum["checks"]["lanes_equal_one_by_one"] and pendulum["checks"]["all_succeeded"]
+    assert pendulum["checks"]["heyoka"]  # its contender, or why it is absent
+    assert all(math.isfinite(r["median"]) for r in pendulum["ratios"].values())
+    assert result["environment"]["loadavg_start"] is not None

@@ -1,0 +1,209 @@
+"""nemc.Taylor's ensembles in SIMD lanes (templates/batch.c.tmpl, the part "lanes"): the same
+results to the last bit as the runs one after the other (simulate_many(lanes=False), and
+simulate(method="nemc.Taylor") run by run), on several models, with per-run parameters, runs of
+different lengths, failures in one lane, ensembles whose size is not a multiple of the lanes,
+events with impacts, tstops, max_step and step budgets; the generated C warning-free."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from reference import random_mechanism_yaml
+from test_taylor import FUNCTIONS, OVERFLOW
+
+import nemc
+from nemc.build import Source
+from nemc.pipeline import compile_source, read_source
+from nemc.runtime import EnsembleResult
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+LANES = 4  # nemc.emit.LANE_COUNT
+
+# The overflowing slider of test_taylor with the growth rate a parameter: c = 1000 fails near
+# t = 0.71, c = 1 runs to the end.
+OVERFLOW_RATE = OVERFLOW.replace("parameters: {m: 1}", "parameters: {m: 1, c: 1000}").replace(
+    "exp(1000*t)", "exp(c*t)").replace("name: overflow", "name: overflow_rate")
+
+
+def compiled(tmp_path_factory: pytest.TempPathFactory, name: str, text: str) -> nemc.Model:
+    path = tmp_path_factory.mktemp("batch") / f"{name}.yaml"
+    path.write_text(text)
+    return nemc.compile(path)
+
+
+@pytest.fixture(scope="module")
+def pendulum() -> nemc.Model:
+    return nemc.compile(EXAMPLES / "double_pendulum.yaml")
+
+
+@pytest.fixture(scope="module")
+def chain(tmp_path_factory: pytest.TempPathFactory) -> nemc.Model:
+    return compiled(tmp_path_factory, "chain",
+                    random_mechanism_yaml(np.random.default_rng(7), 4, False, "chain"))
+
+
+@pytest.fixture(scope="module")
+def functions(tmp_path_factory: pytest.TempPathFactory) -> nemc.Model:
+    return compiled(tmp_path_factory, "functions", FUNCTIONS)
+
+
+@pytest.fixture(scope="module")
+def overflow(tmp_path_factory: pytest.TempPathFactory) -> nemc.Model:
+    return compiled(tmp_path_factory, "overflow_rate", OVERFLOW_RATE)
+
+
+def both(model: nemc.Model, y0s, **options) -> tuple[EnsembleResult, EnsembleResult]:
+    """The ensemble in lanes and one run after the other."""
+    options = {"method": "nemc.Taylor", "threads": 1, "progress": False, **options}
+    return (model.simulate_many(y0s, lanes=True, **options),
+            model.simulate_many(y0s, lanes=False, **options))
+
+
+def assert_same(lanes: EnsembleResult, one_by_one: EnsembleResult) -> None:
+    """Bit for bit: states (NaN where a run stopped), statuses, counts, events."""
+    np.testing.assert_array_equal(lanes.y, one_by_one.y)
+    for field in ("status", "nfev", "njev", "nlu", "event_t", "event_which", "event_count"):
+        np.testing.assert_array_equal(getattr(lanes, field), getattr(one_by_one, field),
+                                      err_msg=field)
+
+
+def random_states(model: nemc.Model, k: int, seed: int, spread: float = 1.0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return model.initial_state() + rng.uniform(-spread, spread, (k, model.n_state))
+
+
+def test_the_lanes_part_is_built_on_first_use_only(pendulum: nemc.Model) -> None:
+    assert not pendulum.has_part("lanes")
+    lanes = pendulum.compiled_with("lanes")
+    assert lanes.has_part("lanes") and lanes.has_part("taylor")
+    assert lanes.compiled_with("lanes") is lanes
+
+
+def test_lanes_compile_warning_free(tmp_path: Path) -> None:
+    pendulum = read_source(EXAMPLES / "double_pendulum.yaml")
+    functions = Source("functions.yaml", FUNCTIONS.encode())  # every recurrence, t, a real power
+    for source in (pendulum, functions):
+        package = compile_source(source, None, taylor=True, lanes=True).package
+        c_file = next(package.glob("*.c"))
+        assert "taylor_coefficients_lanes" in c_file.read_text()
+        done = subprocess.run(
+            ["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-c", str(c_file),
+             "-o", str(tmp_path / "lanes.o")], capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+        assert "warning" not in done.stderr and "note" not in done.stderr, done.stderr
+
+
+@pytest.mark.parametrize("k", [1, 3, 4, 11])
+def test_pendulum_runs_equal_the_scalar_runs_bit_for_bit(pendulum: nemc.Model, k: int) -> None:
+    y0s = random_states(pendulum, k, seed=k)
+    lengths = np.linspace(0.5, 1.5, k)  # per-run parameters: runs of different step counts
+    lanes, one_by_one = both(pendulum, y0s, params={"L1": lengths}, t_span=(0, 3),
+                             t_eval=np.linspace(0, 3, 31), rtol=1e-10, atol=1e-12)
+    assert_same(lanes, one_by_one)
+    assert lanes.success.all()
+    if k > 1:
+        assert len(set(lanes.nfev.tolist())) > 1  # the lanes took different numbers of steps
+
+
+def test_single_runs_equal_the_lanes(pendulum: nemc.Model) -> None:
+    y0s, times = random_states(pendulum, 6, seed=3), np.linspace(0, 2, 9)
+    masses = np.linspace(0.5, 2.0, 6)
+    lanes = pendulum.simulate_many(y0s, params={"m2": masses}, t_span=(0, 2), t_eval=times,
+                                   method="nemc.Taylor", rtol=1e-8, atol=1e-8, threads=1)
+    for r in (0, 4, 5):
+        single = pendulum.simulate((0, 2), y0s[r], method="nemc.Taylor", t_eval=times,
+                                   rtol=1e-8, atol=1e-8, params={"m2": masses[r]})
+        np.testing.assert_array_equal(lanes.y[r], single.y)
+        assert lanes.nfev[r] == single.nfev
+
+
+@pytest.mark.parametrize("case", ["chain", "functions"])
+def test_other_models_equal_the_scalar_runs(case: str, request: pytest.FixtureRequest) -> None:
+    model = request.getfixturevalue(case)
+    y0s = random_states(model, 7, seed=11, spread=0.3)
+    lanes, one_by_one = both(model, y0s, t_span=(0, 2), t_eval=np.linspace(0, 2, 5),
+                             rtol=1e-9, atol=1e-9)
+    assert_same(lanes, one_by_one)
+    assert lanes.success.all()
+
+
+def test_a_lane_fails_alone(overflow: nemc.Model) -> None:
+    """Runs 1 and 4 overflow near t = 0.71; the runs beside them in the lanes go on."""
+    rates = np.array([1.0, 1000.0, 1.0, 2.0, 1000.0, 1.0])
+    y0s = np.tile(overflow.initial_state(), (6, 1))
+    lanes, one_by_one = both(overflow, y0s, params={"c": rates}, t_span=(0, 2),
+                             t_eval=np.linspace(0, 2, 21), rtol=1e-8, atol=1e-8)
+    assert_same(lanes, one_by_one)
+    failed = rates == 1000.0
+    assert (lanes.success == ~failed).all()
+    assert np.isnan(lanes.y[failed][:, :, -1]).all() and np.isfinite(lanes.y[~failed]).all()
+
+
+def test_run_settings_in_lanes(pendulum: nemc.Model) -> None:
+    y0s = random_states(pendulum, 5, seed=5)
+    times = np.linspace(0, 4, 9)
+    for settings in ({"tstops": [0.3, 1.7]}, {"max_step": 0.05}, {"max_steps": 40}):
+        lanes, one_by_one = both(pendulum, y0s, t_span=(0, 4), t_eval=times, rtol=1e-9,
+                                 atol=1e-9, **settings)
+        assert_same(lanes, one_by_one)
+    assert (lanes.status == -7).all()  # the step budget ended every run, in lanes too
+
+
+def test_events_with_impacts_in_lanes() -> None:
+    ball = nemc.compile(EXAMPLES / "bouncing_ball.yaml")
+    restitution = np.array([0.5, 0.6, 0.7, 0.8, 0.9])
+    y0s = np.tile(ball.initial_state(), (5, 1))
+    lanes, one_by_one = both(ball, y0s, params={"e": restitution}, t_span=(0, 2))
+    assert_same(lanes, one_by_one)
+    assert (lanes.event_count > 2).all()
+
+
+def test_backwards_and_empty_intervals(pendulum: nemc.Model) -> None:
+    y0s = random_states(pendulum, 3, seed=2)
+    for span in ((2.0, 0.0), (1.0, 1.0)):
+        lanes, one_by_one = both(pendulum, y0s, t_span=span, rtol=1e-8, atol=1e-8)
+        assert_same(lanes, one_by_one)
+
+
+def test_threads_share_the_lanes(pendulum: nemc.Model) -> None:
+    y0s = random_states(pendulum, 37, seed=9)
+    options = {"t_span": (0, 2), "rtol": 1e-8, "atol": 1e-8, "method": "nemc.Taylor",
+               "progress": False}
+    two = pendulum.simulate_many(y0s, threads=2, **options)
+    one = pendulum.simulate_many(y0s, threads=1, lanes=False, **options)
+    assert_same(two, one)
+
+
+def test_ctrl_c_stops_the_lanes_with_their_runs(pendulum: nemc.Model, tmp_path: Path) -> None:
+    """Every run in lanes stops between steps with the status interrupted and its states so far."""
+    pendulum.compiled_with("lanes")  # built here, loaded from the cache by the child
+    script = tmp_path / "lanes.py"
+    script.write_text(textwrap.dedent(f"""\
+        import numpy as np, nemc
+        model = nemc.compile({str(EXAMPLES / "double_pendulum.yaml")!r})
+        print("started", flush=True)
+        runs = model.simulate_many(np.tile(model.initial_state(), (9, 1)), t_span=(0, 1e6),
+                                   t_eval=[0, 1e6], method="nemc.Taylor", rtol=1e-12,
+                                   atol=1e-12, max_steps=0, threads=1)
+        print(sorted(set(runs.status.tolist())), int(np.isnan(runs.y[:, 0, 1]).sum()),
+              flush=True)
+        """))
+    root = str(Path(__file__).resolve().parent.parent)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
+    child = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True,
+                             env=env)
+    assert child.stdout is not None and child.stdout.readline().strip() == "started"
+    time.sleep(1.0)
+    sent = time.perf_counter()
+    child.send_signal(signal.SIGINT)
+    out, _ = child.communicate(timeout=20)
+    assert time.perf_counter() - sent < 1.0
+    assert out.split("]")[0] == "[-11" and out.split()[-1] == "9"
