@@ -13,7 +13,7 @@ OTHER_VENV := .venv-abi3
 OTHER_STAMP := $(OTHER_VENV)/.installed
 export NEMC_CACHE ?= $(CURDIR)/.nemc-cache
 
-.PHONY: run figures test wheel-check bench bench-quick stress lint docs other-python clean
+.PHONY: run figures test test-slow wheel-check bench bench-quick stress lint docs other-python clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -36,6 +36,10 @@ figures: $(STAMP)
 
 test: $(STAMP) other-python
 	$(BIN)/python -m pytest -q
+
+# The tests marked slow (over 20 s each), left out of `make test`; CI runs them too.
+test-slow: $(STAMP)
+	$(BIN)/python -m pytest -q -m slow
 
 # Another CPython (the newest >= 3.10 found that is not the .venv's) with cffi and numpy, for the
 # test that loads a standalone package's stable-ABI extension in it; without one it is skipped.

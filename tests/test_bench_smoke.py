@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -74,6 +76,7 @@ def test_native_smoke_mode_writes_the_equal_error_table(tmp_path: Path) -> None:
     assert "speed-up vs lambdify(cse)" in text
 
 
+@pytest.mark.slow
 def test_loops_smoke_mode_writes_its_tables(tmp_path: Path) -> None:
     """The closed-loop benchmark: the baseline reaches its target against the extended-precision
     reference; nemc's rows are measured or marked "not supported yet" with a reason."""

@@ -110,6 +110,7 @@ def test_random_mechanism_rhs_matches_reference(seed: int, random_dir: Path) -> 
 LARGE_CASES = [(3, 12, True), (7, 12, True), (6, 9, False)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("seed", "n_bodies", "tree"), LARGE_CASES)
 def test_large_random_mechanism_matches_reference(
     seed: int, n_bodies: int, tree: bool, random_dir: Path

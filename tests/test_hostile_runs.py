@@ -795,6 +795,7 @@ OPERATIONS = st.one_of(
 )
 
 
+@pytest.mark.slow
 @settings(SLOW, max_examples=10)
 @given(st.lists(OPERATIONS, min_size=1, max_size=4))
 def test_compile_kill_corrupt_compile_ends_with_a_good_build(
