@@ -85,8 +85,13 @@ def checked_max_steps(value: Any) -> int:
     return steps
 
 
+NO_TSTOPS = np.empty(0)
+
+
 def checked_tstops(value: Any, span: Sequence[float]) -> np.ndarray:
     """The finite times strictly inside the interval, in the direction of integration."""
+    if isinstance(value, (tuple, list)) and not value:  # the usual case: none, at no cost
+        return NO_TSTOPS
     try:
         times = np.asarray(value, dtype=float)
     except (TypeError, ValueError):

@@ -801,7 +801,8 @@ class Model(LoopsMixin):
         self, span: tuple[float, ...], times: np.ndarray | None, rtol: float, atol: float,
         settings: runs.RunSettings | None = None,
     ) -> tuple[Any, list]:
-        """A nemc_run with the settings of one integration, and the buffers it points into."""
+        """A nemc_run with the settings of one integration, and the buffers it points into.
+        times: checked already (checked_times), or None for the solver's own steps."""
         settings = settings or runs.RunSettings()
         run = self._ffi.new("nemc_run *")
         run.t0, run.t_end = span
@@ -810,7 +811,7 @@ class Model(LoopsMixin):
         if times is None:
             run.n_eval = -1
         else:
-            times = checked_times(times, span)
+            times = np.ascontiguousarray(times, dtype=float)
             run.n_eval, run.t_eval = len(times), self._buffer(times)
             keep.append(times)
         run.max_step = settings.max_step if math.isfinite(settings.max_step) else 0.0
@@ -883,6 +884,8 @@ class Model(LoopsMixin):
     def _take_events(self, run: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """The scene's events that fired in a single run, by name: (times, states before)."""
         table = self.metadata.get("events") or []
+        if not table:
+            return {}
         count, ffi, n = run.n_event_out, self._ffi, self.n_state
         which = np.frombuffer(ffi.buffer(run.event_which, 4 * count), dtype=np.intc) \
             if count else np.empty(0, dtype=np.intc)
