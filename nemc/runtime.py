@@ -271,6 +271,7 @@ class Model(LoopsMixin):
         self.part_compiler: Callable[[frozenset[str]], Model] | None = None
         self._variants: dict[str, Model] = {}
         self._checked: tuple[tuple, np.ndarray] = ((), self._default_p)
+        self._rhs_cache: tuple[Any, Any] = (None, None)  # rhs(): (p, its closure)
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -343,6 +344,9 @@ class Model(LoopsMixin):
 
     def _state(self, y: Any) -> np.ndarray:
         """One state as a new-or-checked contiguous float64 array of shape (n_state,)."""
+        if (type(y) is np.ndarray and y.dtype == np.float64 and y.shape == (self.n_state,)
+                and y.flags.c_contiguous):  # already what C takes
+            return y
         array = _real_array(y, "state")
         if array.shape != (self.n_state,):
             raise ModelError(f"state must have shape ({self.n_state},), got {array.shape}")
@@ -351,6 +355,8 @@ class Model(LoopsMixin):
     @staticmethod
     def _time(t: Any) -> float:
         """One time: a real scalar."""
+        if type(t) is float and math.isfinite(t):
+            return t
         array = _real_array(t, "time t")
         if array.ndim != 0:
             raise ModelError(f"time t must be a scalar, got shape {array.shape}")
@@ -399,7 +405,10 @@ class Model(LoopsMixin):
 
     def rhs(self, t: float, y: Any, params: Mapping[str, float] | None = None) -> np.ndarray:
         """dy/dt at (t, y)."""
-        return self._rhs_function(self.parameter_vector(params))(self._time(t), self._state(y))
+        p = self.parameter_vector(params)
+        if self._rhs_cache[0] is not p:  # the closure of the latest parameters, kept
+            self._rhs_cache = (p, self._rhs_function(p))
+        return self._rhs_cache[1](self._time(t), self._state(y))
 
     def _rhs_function(self, p: np.ndarray):
         """A fast closure for integrators: buffers for p prepared once, checks done in C."""
