@@ -47,9 +47,12 @@ def quantities(mech: m.Mechanism, output_names: list[str]) -> dict[str, str]:
     for q, kind in coordinate_kinds(mech).items():
         found |= {q: kind, f"dot({q})": rate[kind], f"ddot({q})": second[kind]}
     joints = {joint.name: joint for joint in mech.joints}
+    constraints = {constraint.name for constraint in mech.constraints}  # their reactions
     for name in output_names:
         head, _, last = name.rpartition(".")
-        if head in joints and last in ("Fx", "Fy", "Fn", "Ft"):
+        if head in constraints and last in ("Fx", "Fy", "Fn", "Ft", "M"):
+            found[name] = "couple" if last == "M" else "joint force"
+        elif head in joints and last in ("Fx", "Fy", "Fn", "Ft"):
             found[name] = "joint force"
         elif head in joints and last == "M":
             found[name] = "couple"

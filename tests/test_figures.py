@@ -50,6 +50,18 @@ def test_several_coordinates_each_against_time_then_outputs_by_kind() -> None:
         assert ax.get_xlabel() == "t (s)"
 
 
+def test_constraint_reactions_join_the_joint_reactions() -> None:
+    """A closed loop's constraint reactions are reactions: in the same panels as the joints'
+    (they had a panel each), with the units of a force."""
+    res = model_of("fourbar_driven").simulate()
+    fig = figure(res)
+    ground = next(ax for ax in fig.axes if ax.get_ylabel().startswith("reaction, ground"))
+    assert [line.get_label() for line in ground.lines] == ["A.Fx", "A.Fy", "D.Fx", "D.Fy",
+                                                           "C.Fx", "C.Fy"]
+    assert not any(ax.get_ylabel().startswith("C.") for ax in fig.axes)
+    assert res.model.metadata["quantities"]["C.Fn"] == "joint force"
+
+
 def test_legends_sit_above_their_panels_not_on_the_data() -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
