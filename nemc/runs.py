@@ -86,6 +86,7 @@ def checked_max_steps(value: Any) -> int:
 
 
 NO_TSTOPS = np.empty(0)
+NO_TSTOPS.flags.writeable = False  # shared by every run without tstops
 
 
 def checked_tstops(value: Any, span: Sequence[float]) -> np.ndarray:

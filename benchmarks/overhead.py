@@ -1,0 +1,51 @@
+"""What a call from Python costs beyond the C it runs (issue 19, the lean driver): model.rhs
+against the C right-hand side itself (rhs_many over 1,000 states, per state), and simulate()
+over a step-sized interval (its fixed cost: checks, settings, the interrupt flag, the result),
+each native method, on the book's double pendulum. Interleaved calibrated loops.
+
+Run: `python benchmarks/overhead.py [--rounds 5]` (about 20 s). Prints a Markdown table
+(median (min-max) per call) and the load average; writes nothing. The README quotes one run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import ROOT, interleaved, native_methods, random_states, spread  # noqa: E402
+
+import nemc  # noqa: E402
+
+STATES = 1000
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=5)
+    args = parser.parse_args()
+    model = nemc.compile(ROOT / "examples" / "double_pendulum.yaml")
+    y0 = model.initial_state()
+    states = random_states(model.n_state, STATES)  # (n_state, STATES)
+    calls = {
+        "C right-hand side (rhs_many, per state)": (lambda: model.rhs_many(0.0, states), STATES),
+        "model.rhs(t, y)": (lambda: model.rhs(0.0, y0), 1),
+    }
+    for method in native_methods():
+        model.simulate((0.0, 1e-3), y0, method=method, t_eval=[1e-3])  # its parts built here
+        calls[f"simulate over [0, 1e-3], {method}"] = (
+            lambda method=method: model.simulate((0.0, 1e-3), y0, method=method,
+                                                 t_eval=[1e-3]), 1)
+    print(f"load average at start: {os.getloadavg()}")
+    times = interleaved(calls, args.rounds, target=0.2)
+    print("| call | time per call, median (min-max) |\n| --- | --- |")
+    for name, summary in times.items():
+        print(f"| {name} | {spread(summary)} |")
+    print(f"load average at end: {os.getloadavg()}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
