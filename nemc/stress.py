@@ -44,7 +44,8 @@ def methods(explicit_only: bool = False, model: Model | None = None) -> tuple[st
     native = tuple(getattr(runtime, "NATIVE_METHODS", ()))
     chosen = ("RK45", "DOP853") if explicit_only else ("RK45", "DOP853", "Radau")
     extra = tuple(m for m in native if not (explicit_only and "radau" in m.lower()))
-    if model is not None and not model.compiled_with("taylor").has_part("taylor"):
+    if model is not None and (model.has_loops  # refused at once, no build needed
+                              or not model.compiled_with("taylor").has_part("taylor")):
         extra = tuple(m for m in extra if m not in runtime.TAYLOR_METHODS)
     return chosen + extra
 
