@@ -162,13 +162,22 @@ def is_plain_name(name: object) -> bool:
         and "\0" not in name
 
 
-def discard(path: Path) -> None:
-    """Remove a broken cache entry: first renamed aside (atomic), so no process can load it."""
+def discard(path: Path, key: str | None = None) -> None:
+    """Remove a broken cache entry: first renamed aside (atomic), so no process can load it.
+
+    With KEY, what was moved aside is checked again: another process may have published a good
+    build of KEY in its place after this one found the entry broken. That build goes back
+    (unless yet another one took the place meanwhile), so no process loses the entry it just
+    published."""
     aside = path.with_name(f"{BROKEN_PREFIX}{path.name}-{os.getpid()}-{time.time_ns()}")
     try:
         os.rename(path, aside)
     except OSError:  # gone already, or another process moved it first
         return
+    if key is not None and is_intact(aside, key):
+        with contextlib.suppress(OSError):  # the place was taken again: ours is a spare
+            os.rename(aside, path)
+            return
     remove(aside)
 
 
@@ -183,10 +192,11 @@ def remove(path: Path) -> None:
 def cached_package(key: str) -> Path | None:
     """The intact cache entry of KEY, or None; a broken entry is discarded (and so rebuilt)."""
     path = cache_root() / key
+    if not os.path.lexists(path):  # checked first: an entry published after this is not broken
+        return None
     if is_intact(path, key):
         return path
-    if os.path.lexists(path):  # anything at all, a dangling symbolic link included
-        discard(path)
+    discard(path, key)  # anything at all, a dangling symbolic link included
     return None
 
 
@@ -315,7 +325,7 @@ def publish(package: Path, final: Path, key: str) -> None:
     if is_intact(final, key):
         return
     if os.path.lexists(final):  # a broken leftover of any kind: move it aside first
-        discard(final)
+        discard(final, key)
     try:
         os.rename(package, final)
     except OSError:  # another process published between our check and our rename

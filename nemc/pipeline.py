@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .build import Source, build_key, cached_package
+from .build import Source, build_key, cached_package, is_intact
 from .load import load_package
 from .runs import Progress
 from .runtime import Model
@@ -100,14 +100,20 @@ def compile_source(
     if chunk_steps is not None:
         options["chunk_steps"] = chunk_steps
     key = build_key(source, options)
-    with timed(timings, "lookup"):
-        package = cached_package(key)
-    cached = package is not None
-    if package is None:
-        package = generate_and_build(source, key, jacobian, timings, energy, taylor, chunk_steps,
-                                     lanes)
-    with timed(timings, "load"):
-        model = load_package(package)
+    for attempt in range(2):  # a second look if a concurrent process moved the entry meanwhile
+        with timed(timings, "lookup"):
+            package = cached_package(key)
+        cached = package is not None
+        if package is None:
+            package = generate_and_build(source, key, jacobian, timings, energy, taylor,
+                                         chunk_steps, lanes)
+        try:
+            with timed(timings, "load"):
+                model = load_package(package)
+            break
+        except ImportError:
+            if attempt or is_intact(package, key):
+                raise
 
     def compile_parts(parts: frozenset[str]) -> Model:
         """This mechanism built with these optional parts (Model.compiled_with)."""

@@ -207,6 +207,28 @@ def test_a_broken_entry_is_replaced_by_the_next_build(cache: Path,
     assert entries(cache) == [package] and leftovers(cache) == []
 
 
+def test_an_entry_published_while_another_process_judged_it_stays(
+        cache: Path, pristine: tuple[str, Path], monkeypatch: pytest.MonkeyPatch) -> None:
+    """The race CI met: process A finds the entry broken (it was being replaced), process B
+    publishes a good build, A moves the entry aside. A puts B's good build back; before, A
+    deleted it and B's load found no extension."""
+    key, good = pristine
+    cache.mkdir()
+    shutil.copytree(good, cache / key)
+    looks = []
+    real = build.is_intact
+
+    def first_look_sees_the_old_broken_entry(path: Path, key: str) -> bool:
+        looks.append(path)
+        return len(looks) > 1 and real(path, key)
+
+    monkeypatch.setattr(build, "is_intact", first_look_sees_the_old_broken_entry)
+    assert cached_package(key) is None  # A rebuilds (harmless: its publish keeps B's)
+    monkeypatch.setattr(build, "is_intact", real)
+    assert entries(cache) == [cache / key] and is_intact(cache / key, key)
+    assert leftovers(cache) == []
+
+
 def test_a_truncated_extension_is_never_loaded(cache: Path) -> None:
     """In a fresh process (nothing imported yet): rebuilt, and the right numbers come out."""
     env = environment(cache)
