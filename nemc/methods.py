@@ -8,7 +8,41 @@ Plain constants, no imports: the runtime of a standalone package imports this mo
 SCIPY_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 # Integrators in the model's own C (templates/integrators.c.tmpl), no Python in the loop.
 NATIVE_METHODS = ("nemc.DOP853", "nemc.Radau", "nemc.Vern9", "nemc.Taylor")
-METHODS = SCIPY_METHODS + NATIVE_METHODS
+AUTO = "auto"  # nemc chooses, by the rules below (Model.simulate's default)
+METHODS = SCIPY_METHODS + NATIVE_METHODS + (AUTO,)
 IMPLICIT_METHODS = ("Radau", "BDF", "LSODA", "nemc.Radau")  # these get the analytic Jacobian
 TAYLOR_METHODS = ("nemc.Taylor",)  # these need the build's Taylor coefficients
-DEFAULT_METHOD = "nemc.DOP853"
+DEFAULT_METHOD = AUTO
+
+# -- method "auto" ------------------------------------------------------------------------------
+# Measured with benchmarks/auto.py (docs/decisions.md, "method auto"): each native method's time
+# to the same final error on the double pendulum, 4- and 8-link chains and the book's stiff arm.
+AUTO_TAYLOR_MAX_COORDINATES = 3  # nemc.Taylor up to this many coordinates (2: 2-3x Vern9's
+#                                  speed; 4: even; 8: 3-4x slower), when the build has its code
+AUTO_VERN9_BELOW_RTOL = 1e-4  # nemc.Vern9 below (the same error as nemc.DOP853 in as much or
+#                               less time: 1.3x on the double pendulum), nemc.DOP853 above
+AUTO_STIFF_STEPS = 200  # nemc.Radau from the start when the decaying modes at y0 alone would
+#                        hold an explicit method to more steps than this; an explicit start goes
+#                        on with nemc.Radau once Hairer's stiffness test holds and the rest of the
+#                        interval would take more steps than this
+AUTO_LANES_MIN_RUNS = 100  # simulate_many: nemc.Taylor in SIMD lanes (a build of seconds) from
+#                            this many runs, or when the build has them
+AUTO_SPECTRUM_MAX_STATES = 40  # the start's eigenvalues are computed up to this many states
+EXPLICIT_STABILITY = 6.0  # h |lambda| nemc.DOP853 stays stable to on a decaying mode (-6.1)
+
+
+def auto_builds_taylor(method: str | None, coordinates: int) -> bool:
+    """Whether a build whose scene names METHOD (None: none) carries nemc.Taylor's code for
+    "auto" to choose: small mechanisms, where it is the fastest and costs little to build."""
+    return method in (None, AUTO) and coordinates <= AUTO_TAYLOR_MAX_COORDINATES
+
+
+def auto_method(coordinates: int, rtol: float, has_taylor: bool, stiff_steps: float) -> str:
+    """The native method "auto" starts with. stiff_steps: the steps an explicit method would
+    need over the interval for stability alone, from the decaying modes at the start (0: none
+    or not computed)."""
+    if stiff_steps > AUTO_STIFF_STEPS:
+        return "nemc.Radau"
+    if has_taylor and coordinates <= AUTO_TAYLOR_MAX_COORDINATES:
+        return "nemc.Taylor"
+    return "nemc.Vern9" if rtol < AUTO_VERN9_BELOW_RTOL else "nemc.DOP853"

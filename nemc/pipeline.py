@@ -136,7 +136,7 @@ def generate_and_build(
     from .build import build
     from .derive import derive, with_diagnostics, with_taylor
     from .emit import emit
-    from .methods import IMPLICIT_METHODS
+    from .methods import IMPLICIT_METHODS, auto_builds_taylor
     from .optimize import optimize_equations
     from .validate import validate_text
 
@@ -152,7 +152,8 @@ def generate_and_build(
             equations = derive(mechanism)
             if jacobian or (jacobian is None and method in IMPLICIT_METHODS):
                 equations = with_diagnostics(equations)
-            if taylor or (taylor is None and method == "nemc.Taylor"):
+            if taylor or (taylor is None and (method == "nemc.Taylor" or auto_builds_taylor(
+                    method, equations.n))):
                 equations = with_taylor(equations)
         with timed(timings, "optimize", progress):
             block = optimize_equations(equations)

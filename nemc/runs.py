@@ -53,6 +53,7 @@ class RunSettings:
     max_step: float = math.inf
     tstops: np.ndarray = field(default_factory=lambda: np.empty(0))
     max_steps: int = DEFAULT_MAX_STEPS
+    stiff_switch: int = 0  # native explicit methods: stop once stiff with this many steps left
 
 
 def run_settings(scene: Mapping[str, Any], span: Sequence[float], max_step: Any = None,

@@ -17,7 +17,7 @@ import os
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor, as_completed
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -26,12 +26,18 @@ import numpy as np
 from . import runs
 from .loops_runtime import LoopsMixin
 from .methods import (  # noqa: F401 (re-exported: the runtime's public names)
+    AUTO,
+    AUTO_LANES_MIN_RUNS,
+    AUTO_SPECTRUM_MAX_STATES,
+    AUTO_STIFF_STEPS,
     DEFAULT_METHOD,
+    EXPLICIT_STABILITY,
     IMPLICIT_METHODS,
     METHODS,
     NATIVE_METHODS,
     SCIPY_METHODS,
     TAYLOR_METHODS,
+    auto_method,
 )
 
 DEFAULT_T_SPAN = (0.0, 10.0)
@@ -563,8 +569,11 @@ class Model(LoopsMixin):
         max_steps: int | None = None,
     ) -> SimulationResult:
         """Integrate the scene. Arguments left None take the YAML scene's values, then defaults
-        (t_span (0, 10), method nemc.DOP853, rtol 1e-6, atol 1e-9, t_eval: the solver's steps).
-        Methods: scipy's solve_ivp methods (SCIPY_METHODS) and nemc's own (NATIVE_METHODS).
+        (t_span (0, 10), method "auto", rtol 1e-6, atol 1e-9, t_eval: the solver's steps).
+        Methods: scipy's solve_ivp methods (SCIPY_METHODS), nemc's own (NATIVE_METHODS), and
+        "auto": nemc chooses one of its own from the size, the stiffness at the start and the
+        tolerance, and goes on with nemc.Radau if the problem turns stiff (methods.py's rules;
+        res.method names what ran, e.g. "nemc.DOP853 then nemc.Radau").
 
         The scene's events are located by every method (res.events); events: more, as
         solve_ivp's callables event(t, y) with .terminal and .direction (scipy's methods only).
@@ -595,6 +604,9 @@ class Model(LoopsMixin):
                    rtol: float, atol: float, p: np.ndarray, settings: runs.RunSettings,
                    user_events: list[Callable]) -> SimulationResult:
         """One run from state0 with the method: nemc's own, or scipy's solve_ivp."""
+        if method == AUTO:
+            return self._integrate_auto(span, state0, times, rtol, atol, p, settings,
+                                        user_events)
         if method in NATIVE_METHODS:
             if user_events:
                 raise ModelError(
@@ -607,6 +619,105 @@ class Model(LoopsMixin):
             return self._at_start(method, span, state0, times, rtol, atol, p)
         return self._simulate_scipy(method, span, state0, times, rtol, atol, p, settings,
                                     user_events)
+
+    # -- method "auto" (methods.py's rules) --------------------------------------------------
+
+    def _integrate_auto(self, span: tuple[float, ...], state0: np.ndarray, times: Any,
+                        rtol: float, atol: float, p: np.ndarray, settings: runs.RunSettings,
+                        user_events: list[Callable]) -> SimulationResult:
+        """The method "auto" chooses; an explicit start that turns stiff goes on with
+        nemc.Radau from where the stiffness test stopped it (as LSODA switches)."""
+        if user_events:  # callables run in Python: scipy's LSODA switches by itself
+            return self._integrate("LSODA", span, state0, times, rtol, atol, p, settings,
+                                   user_events)
+        method = self.auto_method(span, state0, rtol, p)
+        if method not in ("nemc.DOP853", "nemc.Vern9"):
+            return self._integrate(method, span, state0, times, rtol, atol, p, settings, [])
+        switch = replace(settings, stiff_switch=AUTO_STIFF_STEPS)
+        ending: list = []
+        first = self._simulate_native(method, span, state0, times, rtol, atol, p, switch,
+                                      ending)
+        if first.status != self._lib.NEMC_STIFF or span[0] == span[1]:
+            return first
+        t_switch, y_switch, steps, stiff_from = ending[0]
+        rest_settings = replace(
+            settings, max_steps=max(settings.max_steps - steps, 1) if settings.max_steps else 0)
+        rest = self._integrate("nemc.Radau", (t_switch, span[1]), y_switch,
+                               self._times_after(times, t_switch, span), rtol, atol, p,
+                               rest_settings, [])
+        return self._joined_runs(first, rest, t_switch, stiff_from, p)
+
+    def _joined_runs(self, first: SimulationResult, rest: SimulationResult, t_switch: float,
+                     stiff_from: float, p: np.ndarray) -> SimulationResult:
+        """One result of a run that switched method at t_switch: first's states before it,
+        rest's from it (the switch's state once), their events and counts together."""
+        t_rest, y_rest = rest.t, rest.y
+        if first.t.size and t_rest.size and t_rest[0] == first.t[-1]:
+            t_rest, y_rest = t_rest[1:], y_rest[:, 1:]
+        t, y = np.concatenate([first.t, t_rest]), np.concatenate([first.y, y_rest], axis=1)
+        events = {name: tuple(np.concatenate([part.events[name][k] for part in (first, rest)
+                                              if name in part.events]) for k in (0, 1))
+                  for name in {**first.events, **rest.events}}
+        note = (f" {first.method} ran until t = {t_switch:.6g}, where the problem had turned"
+                f" stiff (Hairer's test held from t = {stiff_from:.6g}); {rest.method} went on"
+                " from there.")
+        return SimulationResult(
+            t=t, y=y, outputs=self._lazy_outputs(t, y, p), nfev=first.nfev + rest.nfev,
+            njev=first.njev + rest.njev, nlu=first.nlu + rest.nlu, status=rest.status,
+            message=rest.message + note, success=rest.success,
+            method=f"{first.method} then {rest.method}", rtol=first.rtol, atol=first.atol,
+            params=first.params, events=events)
+
+    def auto_method(self, span: Sequence[float], y0: Any, rtol: float,
+                    params: Any = None) -> str:
+        """The native method "auto" starts a run with (methods.auto_method): from the size,
+        the tolerance, whether the build has nemc.Taylor's code, and the stiff modes at y0."""
+        p = params if isinstance(params, np.ndarray) else self.parameter_vector(params)
+        return auto_method(len(self.coordinate_names), rtol,
+                           self.has_part("taylor") and not self.has_loops,
+                           self._start_stiffness(tuple(span), np.asarray(y0, dtype=float), p))
+
+    def _start_stiffness(self, span: tuple[float, ...], y0: np.ndarray, p: np.ndarray) -> float:
+        """The steps an explicit method would need over the span for stability alone, from the
+        Jacobian at y0 (forward differences of the RHS, one C call): the fastest decaying mode
+        (its real part beyond its imaginary one: damped, not an oscillation to resolve), less
+        the fastest growing one (which the steps must resolve anyway), x the span /
+        EXPLICIT_STABILITY. The eigenvalues are computed only when the dissipation (minus
+        the trace: the decay rates' sum) is large enough to make that many steps; else it is
+        returned, an estimate that a stiffness it misses is still caught by the run's test.
+        0 when not computed (loops, large systems, a start the RHS cannot evaluate)."""
+        n = self.n_state
+        if self.has_loops or n > AUTO_SPECTRUM_MAX_STATES:
+            return 0.0
+        h = 6e-6 * np.maximum(1.0, np.abs(y0))
+        ys = np.tile(y0, (n + 1, 1))
+        ys[1:] += np.diag(h)
+        dys = np.empty_like(ys)
+        ts, buffer = np.full(n + 1, float(span[0])), self._buffer
+        if self._c["rhs_many"](n + 1, buffer(ts), buffer(ys), buffer(p), buffer(dys)):
+            return 0.0  # the run itself will say why
+        transposed = (dys[1:] - dys[0]) / h[:, None]  # row j: d rhs / d y_j (same eigenvalues)
+        per_step = abs(span[1] - span[0]) / EXPLICIT_STABILITY
+        dissipation = -float(np.trace(transposed)) * per_step
+        if not math.isfinite(dissipation):
+            return 0.0
+        if dissipation <= AUTO_STIFF_STEPS:
+            return max(dissipation, 0.0)
+        eigenvalues = np.linalg.eigvals(transposed)
+        decay = -eigenvalues.real
+        damped = decay[decay > np.abs(eigenvalues.imag)]
+        if not damped.size:
+            return 0.0
+        return max(float(damped.max()) - max(float(-decay.min()), 0.0), 0.0) * per_step
+
+    @staticmethod
+    def _times_after(times: Any, t_switch: float, span: tuple[float, ...]) -> Any:
+        """The requested times still ahead after a switch at t_switch."""
+        if times is None:
+            return None
+        times = np.asarray(times, dtype=float)
+        ahead = times > t_switch if span[1] >= span[0] else times < t_switch
+        return times[ahead]
 
     def _run_settings(self, span: tuple[float, ...], max_step: Any, tstops: Any,
                       max_steps: Any) -> runs.RunSettings:
@@ -825,6 +936,7 @@ class Model(LoopsMixin):
             keep.append(times)
         run.max_step = settings.max_step if math.isfinite(settings.max_step) else 0.0
         run.max_steps = settings.max_steps
+        run.stiff_switch = settings.stiff_switch
         if settings.tstops.size:
             run.n_tstops, run.tstops = settings.tstops.size, self._buffer(settings.tstops)
             keep.append(settings.tstops)
@@ -837,8 +949,10 @@ class Model(LoopsMixin):
     def _simulate_native(
         self, method: str, span: tuple[float, ...], y0: np.ndarray, times: Any,
         rtol: float, atol: float, p: np.ndarray, settings: runs.RunSettings | None = None,
+        ending: list | None = None,
     ) -> SimulationResult:
-        """simulate() with a native method: the same result as scipy's solve_ivp would give."""
+        """simulate() with a native method: the same result as scipy's solve_ivp would give.
+        ending: a list that gets (t, state, accepted steps, stiff_from) where the run ended."""
         integrate = self._native(method)
         settings = settings or runs.RunSettings()
         run, keep = self._native_run(span, None if times is None else np.asarray(times), rtol,
@@ -858,6 +972,9 @@ class Model(LoopsMixin):
             events = self._take_events(run)
         finally:
             getattr(self._lib, self.metadata["c_prefix"] + "free_steps")(run)
+        if ending is not None:
+            ending.append((float(run.t_fail), y_fail.copy(), int(run.n_steps),
+                           float(run.stiff_from)))
         lib = self._lib
         if status == lib.NEMC_RHS_FAILED:
             failure = IntegrationFailure(run.t_fail, y_fail, run.rhs_status, self.state_names,
@@ -958,10 +1075,13 @@ class Model(LoopsMixin):
         results to the last bit as one run after the other (lanes=False); the other methods
         always run one after the other."""
         span = checked_span(self.scene["t_span"] or DEFAULT_T_SPAN if t_span is None else t_span)
-        method = ensemble_method(self.scene["method"]) if method is None else method
+        if method is None or method == AUTO:
+            ps, starts = self._ensemble_inputs(y0s, params)
+            method = self.ensemble_method(span, starts[0], ps[0], rtol)
+            lanes = lanes and (len(starts) >= AUTO_LANES_MIN_RUNS or self.has_part("lanes"))
         if not isinstance(method, str) or method not in NATIVE_METHODS:
-            raise ModelError(f"simulate_many: method must be one of {', '.join(NATIVE_METHODS)},"
-                             f" got {method!r}")
+            raise ModelError(f"simulate_many: method must be one of {', '.join(NATIVE_METHODS)}"
+                             f" or auto, got {method!r}")
         in_lanes = method in TAYLOR_METHODS and bool(lanes)
         model = self.compiled_with("lanes") if in_lanes else self
         in_lanes = in_lanes and model.has_part("lanes")
@@ -1023,6 +1143,23 @@ class Model(LoopsMixin):
             event_t=event_t[:, :capacity], event_which=event_which[:, :capacity],
             event_count=event_counts,
         )
+
+    def ensemble_method(self, span: Sequence[float], y0: Any = None, params: Any = None,
+                        rtol: float | None = None) -> str:
+        """simulate_many's (and nemc.sweep's) default: the scene's native method; nemc.Radau
+        for an implicit scene; else "auto"'s choice for a run from y0 (default the scene's),
+        without the switch to nemc.Radau a single run can make. nemc.Taylor runs in SIMD lanes
+        only for ensembles of AUTO_LANES_MIN_RUNS runs or more (the lanes are a build of
+        seconds), or when the build has them."""
+        scene = self.scene["method"]
+        if scene in NATIVE_METHODS:
+            return scene
+        if scene in IMPLICIT_METHODS:
+            return "nemc.Radau"
+        p = params if isinstance(params, np.ndarray) else self.parameter_vector(params)
+        y0 = self._initial(None, params if isinstance(params, Mapping) else None) \
+            if y0 is None else y0
+        return self.auto_method(span, y0, self._tolerances(rtol, None)[0], p)
 
     def _ensemble_inputs(self, y0s: Any, params: Mapping[str, Any] | None):
         """(parameter vectors (k or 1, n_p), initial states (k, n_state)), checked."""
@@ -1281,7 +1418,3 @@ def ensemble_columns(params: Any) -> dict[str, np.ndarray]:
     return columns
 
 
-def ensemble_method(scene_method: str | None) -> str:
-    if scene_method in NATIVE_METHODS:
-        return scene_method
-    return "nemc.Radau" if scene_method in IMPLICIT_METHODS else "nemc.DOP853"

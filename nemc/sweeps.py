@@ -40,7 +40,6 @@ from .runtime import (
     DEFAULT_T_SPAN,
     Model,
     ModelError,
-    ensemble_method,
 )
 from .sweep_store import NOT_RUN, ChunkOutput, Layout, SweepStoreError, open_store, require
 
@@ -77,7 +76,8 @@ class Settings:
         times = np.array(span if times is None else times, dtype=float).reshape(-1)
         return cls(
             t_span=(span[0], span[1]), t_eval=tuple(times.tolist()),
-            method=method or ensemble_method(scene["method"]),
+            method=model.ensemble_method(span, rtol=rtol) if method in (None, "auto")
+            else method,
             rtol=float(rtol if rtol is not None else scene["rtol"] or DEFAULT_RTOL),
             atol=float(atol if atol is not None else scene["atol"] or DEFAULT_ATOL),
         )

@@ -1,0 +1,145 @@
+"""method="auto", the default: its rules, its estimate of the stiffness at the start (against
+the analytic Jacobian's eigenvalues), its switch to nemc.Radau when a run turns stiff (against a
+tight solution and scipy's Radau), and the defaults of simulate_many and nemc.sweep."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import nemc
+from nemc import methods, runtime
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+PENDULUM = EXAMPLES / "double_pendulum.yaml"
+TWO_LINK_ARM = EXAMPLES / "two_link_robot_arm.yaml"  # the book's stiff 5.4 (scene: nemc.Radau)
+CHAIN5 = "\n".join([
+    "name: chain5", "parameters: {m: 1, L: 1, g: 9.81}", "gravity: [0, -g]", "bodies:",
+    *[f"  l{i}: {{mass: m, inertia: m*L**2/12, com: [L/2, 0], points: {{tip: [L, 0]}}}}"
+      for i in range(1, 6)],
+    "joints:",
+    *[f"  J{i}: {{type: revolute, parent: {'ground' if i == 1 else f'l{i - 1}'}, child: l{i}, "
+      f"at: {'[0, 0]' if i == 1 else 'tip'}, coordinate: q{i}, angle: relative}}"
+      for i in range(1, 6)],
+    "simulation: {t_span: [0, 3], initial: {q1: -0.8, q2: 0.2}}", ""])
+
+
+def no_method(path: Path) -> nemc.Model:
+    """The example with its scene's method removed: simulate() then runs "auto"."""
+    text = "".join(line for line in path.read_text().splitlines(keepends=True)
+                   if not line.strip().startswith("method:"))
+    return nemc.compile(text=text, name=path.name)
+
+
+def test_the_rules() -> None:
+    assert methods.DEFAULT_METHOD == "auto" and "auto" in methods.METHODS
+    choose = methods.auto_method
+    assert choose(2, 1e-6, True, 0.0) == "nemc.Taylor"
+    assert choose(2, 1e-6, False, 0.0) == "nemc.Vern9"  # no Taylor code in the build
+    assert choose(8, 1e-9, True, 0.0) == "nemc.Vern9"
+    assert choose(8, 1e-3, True, 0.0) == "nemc.DOP853"
+    assert choose(2, 1e-6, True, methods.AUTO_STIFF_STEPS + 1) == "nemc.Radau"
+    assert methods.auto_builds_taylor(None, 2) and methods.auto_builds_taylor("auto", 3)
+    assert not methods.auto_builds_taylor("RK45", 2) and not methods.auto_builds_taylor(None, 4)
+
+
+def test_a_scene_naming_no_method_runs_taylor_on_a_small_mechanism() -> None:
+    model = no_method(PENDULUM)
+    assert model.scene["method"] is None and model.has_part("taylor")  # built for auto
+    times = np.linspace(0, 5, 11)
+    res = model.simulate((0, 5), t_eval=times, rtol=1e-10, atol=1e-12)
+    assert res.success and res.method == "nemc.Taylor"
+    tight = solve_ivp(model.rhs, (0, 5), model.initial_state(), method="DOP853", rtol=1e-12,
+                      atol=1e-14, t_eval=times)
+    assert np.abs(res.y - tight.y).max() < 1e-8
+
+
+def test_larger_mechanisms_get_vern9_or_dop853_by_the_tolerance() -> None:
+    model = nemc.compile(text=CHAIN5)
+    assert not model.has_part("taylor")  # five coordinates: no Taylor code built for auto
+    assert model.simulate(rtol=1e-8).method == "nemc.Vern9"
+    assert model.simulate(rtol=1e-3).method == "nemc.DOP853"
+
+
+def test_the_start_stiffness_agrees_with_the_analytic_jacobian() -> None:
+    """Forward differences of the RHS (one C call) against the Jacobian's own eigenvalues."""
+    arm = nemc.compile(TWO_LINK_ARM)
+    y0, p, span = arm.initial_state(), arm.parameter_vector(), (0.0, 15.0)
+    eigenvalues = np.linalg.eigvals(arm.jacobian(0.0, y0))
+    decay = -eigenvalues.real
+    expected = decay[decay > np.abs(eigenvalues.imag)].max() * 15.0 / methods.EXPLICIT_STABILITY
+    assert arm._start_stiffness(span, y0, p) == pytest.approx(expected, rel=1e-3)
+    assert expected > methods.AUTO_STIFF_STEPS  # so auto starts this arm with nemc.Radau
+    assert arm.simulate(span, method="auto").method == "nemc.Radau"
+
+
+def test_an_oscillation_or_an_unstable_start_is_not_stiffness() -> None:
+    """The double pendulum's modes are undamped oscillations, the compound pendulum starts
+    near its top (eigenvalues +-3.4): nothing there for Radau to step over."""
+    for path in (PENDULUM, EXAMPLES / "compound_pendulum.yaml"):
+        model = nemc.compile(path)
+        assert model._start_stiffness((0.0, 1e6), model.initial_state(),
+                                      model.parameter_vector()) < 1e-3
+
+
+@pytest.fixture
+def explicit_start(monkeypatch: pytest.MonkeyPatch) -> None:
+    """auto starts explicit whatever the start's stiffness: the switch has to do the work."""
+    monkeypatch.setattr(runtime, "auto_method", lambda *args: "nemc.DOP853")
+
+
+@pytest.mark.usefixtures("explicit_start")
+def test_a_run_that_turns_stiff_goes_on_with_radau() -> None:
+    arm = nemc.compile(TWO_LINK_ARM)
+    times = np.linspace(0, 15, 151)
+    res = arm.simulate((0, 15), method="auto", t_eval=times, rtol=1e-8, atol=1e-10)
+    assert res.success and res.method == "nemc.DOP853 then nemc.Radau"
+    assert "turned stiff" in res.message and "nemc.Radau went on" in res.message
+    assert np.array_equal(res.t, times) and res.y.shape == (arm.n_state, len(times))
+    tight = solve_ivp(arm.rhs, (0, 15), arm.initial_state(), method="Radau", rtol=1e-12,
+                      atol=1e-14, t_eval=times, jac=arm.jacobian)
+    assert np.abs(res.y - tight.y).max() < 1e-6
+    alone = arm.simulate((0, 15), method="nemc.DOP853", t_eval=times, rtol=1e-8, atol=1e-10)
+    assert res.nfev < alone.nfev / 5  # the switch paid: DOP853 alone is held by stability
+    assert res.outputs.keys() == alone.outputs.keys()
+    for name in res.outputs:
+        assert np.allclose(res.outputs[name], alone.outputs[name], rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.usefixtures("explicit_start")
+def test_a_switched_run_at_the_solver_steps_has_each_time_once() -> None:
+    arm = nemc.compile(TWO_LINK_ARM)
+    res = arm.simulate((0, 15), method="auto", t_eval="steps")
+    assert res.success and res.method == "nemc.DOP853 then nemc.Radau"
+    assert res.t[0] == 0.0 and res.t[-1] == 15.0 and np.all(np.diff(res.t) > 0)
+    assert np.allclose(res.y[:, 0], arm.initial_state())
+
+
+@pytest.mark.usefixtures("explicit_start")
+def test_a_switched_run_keeps_the_step_budget() -> None:
+    arm = nemc.compile(TWO_LINK_ARM)
+    res = arm.simulate((0, 15), method="auto", max_steps=100)  # 32 explicit, 68 Radau
+    assert not res.success and res.method == "nemc.DOP853 then nemc.Radau"
+    assert "budget" in res.message
+
+
+def test_ensembles_default_to_the_choice_of_auto() -> None:
+    model = no_method(PENDULUM)
+    y0s = np.tile(model.initial_state(), (3, 1))
+    y0s[:, 0] += [0.0, 0.1, 0.2]
+    runs = model.simulate_many(y0s, t_span=(0, 2), t_eval=[0, 1, 2], rtol=1e-9)
+    assert runs.method == "nemc.Taylor" and runs.success.all()
+    single = model.simulate((0, 2), y0s[2], t_eval=[0, 1, 2], rtol=1e-9)
+    assert np.allclose(runs.y[2], single.y, rtol=0, atol=1e-12)
+    arm = nemc.compile(TWO_LINK_ARM)  # a scene that names an implicit method keeps it
+    assert arm.simulate_many(t_span=(0, 1), t_eval=[1.0]).method == "nemc.Radau"
+
+
+def test_a_scene_may_name_auto() -> None:
+    text = PENDULUM.read_text().replace("method: RK45", "method: auto")
+    model = nemc.compile(text=text)
+    assert model.scene["method"] == "auto" and model.has_part("taylor")
+    assert model.simulate((0, 1)).method == "nemc.Taylor"
