@@ -690,19 +690,21 @@ class Model(LoopsMixin):
         if self.has_loops or n > AUTO_SPECTRUM_MAX_STATES:
             return 0.0
         h = 6e-6 * np.maximum(1.0, np.abs(y0))
-        ys = np.tile(y0, (n + 1, 1))
-        ys[1:] += np.diag(h)
+        ys = np.empty((n + 1, n))
+        ys[:] = y0
+        ys.reshape(-1)[n::n + 1] += h  # row j + 1: y0 moved along y_j
         dys = np.empty_like(ys)
         ts, buffer = np.full(n + 1, float(span[0])), self._buffer
         if self._c["rhs_many"](n + 1, buffer(ts), buffer(ys), buffer(p), buffer(dys)):
             return 0.0  # the run itself will say why
-        transposed = (dys[1:] - dys[0]) / h[:, None]  # row j: d rhs / d y_j (same eigenvalues)
         per_step = abs(span[1] - span[0]) / EXPLICIT_STABILITY
-        dissipation = -float(np.trace(transposed)) * per_step
+        trace = float(((dys.reshape(-1)[n::n + 1] - dys[0]) / h).sum())
+        dissipation = -trace * per_step
         if not math.isfinite(dissipation):
             return 0.0
         if dissipation <= AUTO_STIFF_STEPS:
             return max(dissipation, 0.0)
+        transposed = (dys[1:] - dys[0]) / h[:, None]  # row j: d rhs / d y_j (same eigenvalues)
         eigenvalues = np.linalg.eigvals(transposed)
         decay = -eigenvalues.real
         damped = decay[decay > np.abs(eigenvalues.imag)]
