@@ -80,6 +80,7 @@ bench: $(PEERS_STAMP)
 	$(BIN)/python benchmarks/loops.py
 	$(BIN)/python benchmarks/sweep.py
 	$(BIN)/python benchmarks/events.py
+	$(BIN)/python benchmarks/auto.py
 
 bench-quick: $(STAMP)
 	$(BIN)/nemc bench --quick

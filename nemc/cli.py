@@ -212,8 +212,8 @@ def add_sweep_parser(commands: argparse._SubParsersAction) -> None:
     sweep.add_argument("--t-end", type=finite_number, help="end time (the scene's by default)")
     sweep.add_argument("--times", type=positive_int, metavar="N", help="N output times equally"
                        " spaced up to the end, the last at the end (default: the scene's)")
-    sweep.add_argument("--method", help="nemc.DOP853 nemc.Vern9 nemc.Taylor nemc.Radau "
-                       "(default: the scene's if native, else nemc.DOP853)")
+    sweep.add_argument("--method", help="nemc.DOP853 nemc.Vern9 nemc.Taylor nemc.Radau or auto "
+                       "(default: the scene's if native, else auto's choice)")
     sweep.add_argument("--rtol", type=positive_number)
     sweep.add_argument("--atol", type=positive_number)
     sweep.add_argument("--dask", metavar="ADDRESS", help="a Dask scheduler (tcp://host:8786), "
@@ -349,8 +349,8 @@ def add_run_options(command: argparse.ArgumentParser) -> None:
     command.add_argument("--t-end", type=finite_number,
                          help="end time (the scene's t_span end by default)")
     command.add_argument("--method", help="nemc.DOP853 nemc.Radau nemc.Vern9 nemc.Taylor "
-                         "(native), or scipy's RK45 RK23 DOP853 Radau BDF LSODA (default: the "
-                         "scene's, else nemc.DOP853)")
+                         "(native), scipy's RK45 RK23 DOP853 Radau BDF LSODA, or auto (default: "
+                         "the scene's, else auto: nemc chooses, named in the output)")
     command.add_argument("--rtol", type=relative_tolerance)
     command.add_argument("--atol", type=positive_number)
     command.add_argument("--set", dest="params", type=parse_assignment, action="append",
