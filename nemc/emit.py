@@ -15,7 +15,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from string import Template
 
@@ -25,7 +25,7 @@ from sympy.printing.c import C99CodePrinter
 from . import __version__
 from . import model as m
 from .derive import DynamicsLayout, Equations
-from .optimize import Block
+from .optimize import Block, rewrite
 from .program import Guard, Program
 from .resources import read_template
 from .taylor import (
@@ -720,6 +720,12 @@ def coefficient_fields(eqs: Equations, code: SeriesCode, constants: list[str],
     )
 
 
+def series_printer(printer: SymbolTablePrinter) -> Callable[[sympy.Expr], str]:
+    """C of the series' parameter-only values, small integer powers as products (as the
+    other code's, optimize.rewrite)."""
+    return lambda expr: printer.doprint(rewrite(expr))
+
+
 def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, str | None]:
     """nemc.Taylor's C when the build asks for it: (source, None), or ("", why it cannot be)."""
     if eqs.taylor_unavailable is not None:
@@ -728,7 +734,7 @@ def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, st
         return "", None
     try:
         code = series_code(eqs.taylor, eqs.coordinates, eqs.speeds, taylor_rows(eqs), m.TIME,
-                           printer.doprint)
+                           series_printer(printer))
     except TaylorUnsupported as why:
         return "", str(why)
     return template("taylor.c.tmpl").substitute(
@@ -746,7 +752,7 @@ def lanes_section(eqs: Equations, printer: SymbolTablePrinter, prefix: str) -> s
     in the lanes dialect. Called only with Taylor's code built (taylor_section succeeded)."""
     assert eqs.taylor is not None
     code = series_code(eqs.taylor, eqs.coordinates, eqs.speeds, taylor_rows(eqs), m.TIME,
-                       printer.doprint, LANES)
+                       series_printer(printer), LANES)
     return template("batch.c.tmpl").substitute(
         prefix=prefix, lanes=LANE_COUNT,
         **coefficient_fields(eqs, code, lane_constants(code), LANES))

@@ -979,8 +979,10 @@ class Model(LoopsMixin):
                            float(run.stiff_from)))
         lib = self._lib
         if status == lib.NEMC_RHS_FAILED:
+            cause = self._loop_failure(run.rhs_status) or (
+                self._series_failure(run.rhs_status) if method in TAYLOR_METHODS else None)
             failure = IntegrationFailure(run.t_fail, y_fail, run.rhs_status, self.state_names,
-                                         self._loop_failure(run.rhs_status))
+                                         cause)
             return self._failed(failure, method, run.rtol, run.atol, self.parameters_at(p))
         return SimulationResult(
             t=t, y=y, outputs=self._lazy_outputs(t, y, p), nfev=int(run.nfev),
@@ -1008,6 +1010,16 @@ class Model(LoopsMixin):
             status, run.t_fail, tuple(span), int(run.n_steps), method, settings.max_steps,
             y_fail, run.h_recent, run.stiff_from, run.stiffness, event, run.h_recent)
         ) + self._singularity_note(run.t_fail, y_fail, p)
+
+    def _series_failure(self, status: int) -> str | None:
+        """What a positive status of nemc.Taylor's series means when its program is the
+        mass-matrix form (mass_form.py: pivot k of M's LDL^T), not the articulated-body one."""
+        if status <= 0 or self.metadata.get("taylor_program") != "mass matrix":
+            return None
+        return (f"the mass matrix is singular or not positive definite here (pivot {status} of"
+                " its LDL^T factorization, in nemc.Taylor's series, is not positive): likely a "
+                "mass or inertia near zero or a configuration where the coordinates lose a "
+                "degree of freedom")
 
     def _take_events(self, run: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """The scene's events that fired in a single run, by name: (times, states before)."""

@@ -163,7 +163,8 @@ def test_validate_text_accepts_str_and_bytes() -> None:
 def test_methods_table() -> None:
     from nemc import runtime
 
-    assert METHODS == ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA", *runtime.NATIVE_METHODS)
+    assert METHODS == ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA",
+                       *runtime.NATIVE_METHODS, "auto")
     assert METHODS == runtime.METHODS  # the scene accepts what simulate accepts
 
 

@@ -236,7 +236,7 @@ def test_default_method_is_native_when_the_scene_names_none(tmp_path: Path) -> N
     path.write_text(PENDULUM.read_text().replace("  method: RK45\n", ""))
     model = nemc.compile(path)
     assert model.scene["method"] is None
-    assert model.simulate().method == "nemc.DOP853"
+    assert model.simulate().method == "nemc.Taylor"  # auto's choice (tests/test_auto.py)
 
 
 def test_ensemble_equals_single_runs(pendulum) -> None:
@@ -246,7 +246,7 @@ def test_ensemble_equals_single_runs(pendulum) -> None:
     lengths = np.linspace(0.3, 1.0, 6)
     times = np.linspace(0, 3, 7)
     ensemble = pendulum.simulate_many(y0s, params={"L2": lengths}, t_span=(0, 3), t_eval=times,
-                                      rtol=1e-8, atol=1e-10, threads=2)
+                                      method="nemc.DOP853", rtol=1e-8, atol=1e-10, threads=2)
     assert ensemble.y.shape == (6, 4, 7) and ensemble.success.all()
     for i in range(6):
         single = pendulum.simulate((0, 3), y0s[i], method="nemc.DOP853", t_eval=times,
@@ -254,7 +254,8 @@ def test_ensemble_equals_single_runs(pendulum) -> None:
         np.testing.assert_array_equal(ensemble.y[i], single.y)  # same C, same arithmetic
         assert ensemble.nfev[i] == single.nfev
     one_thread = pendulum.simulate_many(y0s, params={"L2": lengths}, t_span=(0, 3),
-                                        t_eval=times, rtol=1e-8, atol=1e-10, threads=1)
+                                        t_eval=times, method="nemc.DOP853", rtol=1e-8,
+                                        atol=1e-10, threads=1)
     np.testing.assert_array_equal(one_thread.y, ensemble.y)
 
 
@@ -263,7 +264,8 @@ def test_ensemble_failures_and_checks(tmp_path: Path, pendulum) -> None:
     path.write_text(OVERFLOW)
     model = nemc.compile(path)
     runs = model.simulate_many(np.array([[0.5, 0.0], [0.1, 0.0]]), t_span=(0, 2),
-                               t_eval=[0.5, 1.0, 2.0], rtol=1e-3, atol=1e-6)
+                               t_eval=[0.5, 1.0, 2.0], method="nemc.DOP853", rtol=1e-3,
+                               atol=1e-6)
     np.testing.assert_array_equal(runs.status, [-2, -2])  # the equations failed in both
     assert np.isfinite(runs.y[:, :, 0]).all() and np.isnan(runs.y[:, :, 1:]).all()
     with pytest.raises(ModelError, match="disagree on the number of runs"):

@@ -271,9 +271,10 @@ def test_cli_end_to_end_on_threads_and_on_a_local_cluster(model, tmp_path):
     q1 = np.repeat(np.linspace(-2, 2, 5), 4 * 3)
     assert np.array_equal(data["q1"].values, q1)
     assert np.array_equal(data["time"].values, [0.5, 1.0, 1.5, 2.0])
+    assert data.attrs["method"] == model.ensemble_method((0.0, 2.0), rtol=1e-8) == "nemc.Vern9"
     reference = model.simulate_many(
         data["y0"].values, params={"m2": data["m2"].values}, t_span=(0.0, 2.0),
-        t_eval=data["time"].values, method="nemc.DOP853", rtol=1e-8, atol=1e-10, threads=1)
+        t_eval=data["time"].values, method="nemc.Vern9", rtol=1e-8, atol=1e-10, threads=1)
     assert np.array_equal(data["y"].values, reference.y)
     assert np.all(data["status"].values == 0)
     on_cluster = cli(*grid, "--out", str(tmp_path / "b.zarr"), "--dask", "local:2",
