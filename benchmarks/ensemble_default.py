@@ -1,5 +1,6 @@
 """Which native method is fastest for an ensemble (issue 19, the default method): nemc.DOP853,
-nemc.Vern9 and nemc.Taylor (in SIMD lanes) on the same runs, 1 thread, interleaved rounds.
+nemc.Vern9, nemc.Taylor (in SIMD lanes) and the default ("auto", whose choice is printed) on the
+same runs, 1 thread, interleaved rounds.
 
 Run: `python benchmarks/ensemble_default.py [--rounds 3]` (about 1 minute). Prints a Markdown
 table (median (min-max) seconds per ensemble) and the load average; writes nothing.
@@ -21,7 +22,7 @@ from common import ROOT, chain_yaml  # noqa: E402
 
 import nemc  # noqa: E402
 
-METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Taylor")
+METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Taylor", "auto")  # auto: simulate_many's default
 TOLERANCES = (1e-4, 1e-6, 1e-9)
 
 
@@ -39,6 +40,11 @@ def ensembles() -> list[tuple[str, object, np.ndarray, tuple[float, float]]]:
         starts[:, 0] += rng.uniform(-0.5, 0.5, 400)
         cases.append((f"400 {n}-link chains, ±0.5 rad, [0, 5]", chain, starts, (0.0, 5.0)))
     return cases
+
+
+def runs_of_auto(model, y0s: np.ndarray, span, rtol: float) -> str:
+    """The method simulate_many's default chooses for these runs."""
+    return model.ensemble_method(span, y0s[0], rtol=rtol, runs=len(y0s))
 
 
 def main() -> int:
@@ -63,6 +69,7 @@ def main() -> int:
                         print(f"{label}: {method} at rtol {rtol:g}: a run failed")
             cells = [f"{np.median(v):.3f} s ({min(v):.3f}-{max(v):.3f})"
                      for v in seconds.values()]
+            cells[-1] += f" ({runs_of_auto(model, y0s, span, rtol)})"
             print(f"| {label} | {rtol:g} | " + " | ".join(cells) + " |", flush=True)
     print(f"load average at end: {os.getloadavg()}")
     return 0

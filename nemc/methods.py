@@ -25,6 +25,9 @@ AUTO_STIFF_STEPS = 200  # nemc.Radau from the start when the decaying modes at y
 #                        hold an explicit method to more steps than this; an explicit start goes
 #                        on with nemc.Radau once Hairer's stiffness test holds and the rest of the
 #                        interval would take more steps than this
+AUTO_TAYLOR_BUILD_RUNS = 1_000  # an ensemble this large builds nemc.Taylor's code when the
+#                                build lacks it (1-2 s once; 2,000 double pendulums: 1.1 s with
+#                                nemc.DOP853, 0.3 s with nemc.Taylor in lanes)
 AUTO_LANES_MIN_RUNS = 100  # simulate_many: nemc.Taylor in SIMD lanes (a build of seconds) from
 #                            this many runs, or when the build has them
 AUTO_SPECTRUM_MAX_STATES = 40  # the start's eigenvalues are computed up to this many states

@@ -30,6 +30,7 @@ from .methods import (  # noqa: F401 (re-exported: the runtime's public names)
     AUTO_LANES_MIN_RUNS,
     AUTO_SPECTRUM_MAX_STATES,
     AUTO_STIFF_STEPS,
+    AUTO_TAYLOR_BUILD_RUNS,
     DEFAULT_METHOD,
     EXPLICIT_STABILITY,
     IMPLICIT_METHODS,
@@ -669,13 +670,20 @@ class Model(LoopsMixin):
             params=first.params, events=events)
 
     def auto_method(self, span: Sequence[float], y0: Any, rtol: float,
-                    params: Any = None) -> str:
+                    params: Any = None, runs: int = 1) -> str:
         """The native method "auto" starts a run with (methods.auto_method): from the size,
-        the tolerance, whether the build has nemc.Taylor's code, and the stiff modes at y0."""
+        the tolerance, whether nemc.Taylor's code is at hand, and the stiff modes at y0.
+        runs: an ensemble this large may build nemc.Taylor's code (AUTO_TAYLOR_BUILD_RUNS)."""
         p = params if isinstance(params, np.ndarray) else self.parameter_vector(params)
-        return auto_method(len(self.coordinate_names), rtol,
-                           self.has_part("taylor") and not self.has_loops,
+        return auto_method(len(self.coordinate_names), rtol, self._taylor_at_hand(runs),
                            self._start_stiffness(tuple(span), np.asarray(y0, dtype=float), p))
+
+    def _taylor_at_hand(self, runs: int) -> bool:
+        """nemc.Taylor's code is in the build, or worth building for this many runs."""
+        if self.has_loops or "taylor_unavailable" in self.metadata:
+            return False
+        return self.has_part("taylor") or (runs >= AUTO_TAYLOR_BUILD_RUNS
+                                           and self.part_compiler is not None)
 
     def _start_stiffness(self, span: tuple[float, ...], y0: np.ndarray, p: np.ndarray) -> float:
         """The steps an explicit method would need over the span for stability alone, from the
@@ -1091,7 +1099,7 @@ class Model(LoopsMixin):
         span = checked_span(self.scene["t_span"] or DEFAULT_T_SPAN if t_span is None else t_span)
         if method is None or method == AUTO:
             ps, starts = self._ensemble_inputs(y0s, params)
-            method = self.ensemble_method(span, starts[0], ps[0], rtol)
+            method = self.ensemble_method(span, starts[0], ps[0], rtol, len(starts))
             lanes = lanes and (len(starts) >= AUTO_LANES_MIN_RUNS or self.has_part("lanes"))
         if not isinstance(method, str) or method not in NATIVE_METHODS:
             raise ModelError(f"simulate_many: method must be one of {', '.join(NATIVE_METHODS)}"
@@ -1159,12 +1167,13 @@ class Model(LoopsMixin):
         )
 
     def ensemble_method(self, span: Sequence[float], y0: Any = None, params: Any = None,
-                        rtol: float | None = None) -> str:
-        """simulate_many's (and nemc.sweep's) default: the scene's native method; nemc.Radau
-        for an implicit scene; else "auto"'s choice for a run from y0 (default the scene's),
-        without the switch to nemc.Radau a single run can make. nemc.Taylor runs in SIMD lanes
-        only for ensembles of AUTO_LANES_MIN_RUNS runs or more (the lanes are a build of
-        seconds), or when the build has them."""
+                        rtol: float | None = None, runs: int = 1) -> str:
+        """simulate_many's (and nemc.sweep's) default for RUNS runs: the scene's native
+        method; nemc.Radau for an implicit scene; else "auto"'s choice for a run from y0
+        (default the scene's), without the switch to nemc.Radau a single run can make, and
+        with nemc.Taylor's code built for it from AUTO_TAYLOR_BUILD_RUNS runs on. nemc.Taylor
+        runs in SIMD lanes for ensembles of AUTO_LANES_MIN_RUNS runs or more (the lanes are
+        a build of seconds), or when the build has them."""
         scene = self.scene["method"]
         if scene in NATIVE_METHODS:
             return scene
@@ -1173,7 +1182,7 @@ class Model(LoopsMixin):
         p = params if isinstance(params, np.ndarray) else self.parameter_vector(params)
         y0 = self._initial(None, params if isinstance(params, Mapping) else None) \
             if y0 is None else y0
-        return self.auto_method(span, y0, self._tolerances(rtol, None)[0], p)
+        return self.auto_method(span, y0, self._tolerances(rtol, None)[0], p, runs)
 
     def _ensemble_inputs(self, y0s: Any, params: Mapping[str, Any] | None):
         """(parameter vectors (k or 1, n_p), initial states (k, n_state)), checked."""

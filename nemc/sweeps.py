@@ -68,7 +68,7 @@ class Settings:
 
     @classmethod
     def resolve(cls, model: Model, t_span: Any, t_eval: Any, method: str | None,
-                rtol: float | None, atol: float | None) -> Settings:
+                rtol: float | None, atol: float | None, runs: int = 1) -> Settings:
         scene = model.scene
         span = tuple(float(v) for v in (t_span if t_span is not None else
                                         scene["t_span"] or DEFAULT_T_SPAN))
@@ -76,7 +76,7 @@ class Settings:
         times = np.array(span if times is None else times, dtype=float).reshape(-1)
         return cls(
             t_span=(span[0], span[1]), t_eval=tuple(times.tolist()),
-            method=model.ensemble_method(span, rtol=rtol) if method in (None, "auto")
+            method=model.ensemble_method(span, rtol=rtol, runs=runs) if method in (None, "auto")
             else method,
             rtol=float(rtol if rtol is not None else scene["rtol"] or DEFAULT_RTOL),
             atol=float(atol if atol is not None else scene["atol"] or DEFAULT_ATOL),
@@ -436,8 +436,8 @@ def sweep(
     a ChunkReport after each chunk is stored.
     """
     started = time.perf_counter()
-    settings = Settings.resolve(model, t_span, t_eval, method, rtol, atol)
     inputs = Inputs.of(model, y0s, params)
+    settings = Settings.resolve(model, t_span, t_eval, method, rtol, atol, inputs.runs)
     run_chunk(model, settings, inputs.chunk(0, 1))  # settings errors here, before any output
     ref = model_ref(model) if client is not None else None
     layout = sweep_layout(model, settings, inputs, chunk_runs, attrs)

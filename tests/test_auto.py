@@ -143,3 +143,20 @@ def test_a_scene_may_name_auto() -> None:
     model = nemc.compile(text=text)
     assert model.scene["method"] == "auto" and model.has_part("taylor")
     assert model.simulate((0, 1)).method == "nemc.Taylor"
+
+
+def test_a_large_ensemble_builds_taylor_for_auto() -> None:
+    """The book's double pendulum names RK45: its build has no Taylor code. 1,000 runs are
+    worth building it (methods.AUTO_TAYLOR_BUILD_RUNS), in SIMD lanes; 10 runs are not."""
+    model = nemc.compile(PENDULUM)
+    assert not model.has_part("taylor")
+    rng = np.random.default_rng(7)
+    y0s = np.zeros((methods.AUTO_TAYLOR_BUILD_RUNS, 4))
+    y0s[:, 0], y0s[:, 2] = rng.uniform(-1, 1, len(y0s)), rng.uniform(-1, 1, len(y0s))
+    assert model.simulate_many(y0s[:10], t_span=(0, 0.5), t_eval=[0.5]).method == "nemc.Vern9"
+    runs = model.simulate_many(y0s, t_span=(0, 0.5), t_eval=[0.5], rtol=1e-9, atol=1e-12)
+    assert runs.method == "nemc.Taylor" and runs.success.all()
+    for i in (0, 499, 999):  # against another method at a tight tolerance
+        tight = model.simulate((0, 0.5), y0s[i], method="nemc.Vern9", t_eval=[0.5],
+                               rtol=1e-12, atol=1e-14)
+        assert np.abs(runs.y[i] - tight.y).max() < 1e-8
