@@ -7,16 +7,13 @@ verbatim into every standalone package as `_runtime.py`. It must not import nemc
 
 from __future__ import annotations
 
-import difflib
 import functools
-import html
 import importlib
 import json
 import math
 import os
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -174,6 +171,8 @@ class SimulationResult:
         return _user_view("animate", "animate()").animate_result(self, path, **options)
 
     def _repr_html_(self) -> str:
+        import html  # here, as difflib and concurrent.futures: a cached load imports neither
+
         name = self.model.name if self.model is not None else "simulation"
         status = "success" if self.success else "failed"
         head = (f"<p><b>{html.escape(name)}</b>: {html.escape(self.method)}, rtol {self.rtol:g},"
@@ -214,6 +213,8 @@ def _preview_rows(count: int, head: int = 5) -> list[int]:
 
 def _html_table(columns: Mapping[str, np.ndarray], rows: list[int]) -> str:
     """An HTML table of the columns at these rows (-1: an ellipsis row)."""
+    import html
+
     names = list(columns)
     head = "".join(f"<th>{html.escape(n)}</th>" for n in names)
     body = []
@@ -318,6 +319,8 @@ class Model(LoopsMixin):
                 f"parameter {name!r} is derived ({name} = {self.derived_parameters[name]}):"
                 " set its inputs instead"
             )
+        import difflib
+
         close = difflib.get_close_matches(name, self.parameter_names, n=1)
         hint = f"; did you mean {close[0]!r}?" if close else ""
         raise ModelError(f"unknown parameter {name!r}{hint} (known: {list(self.parameter_names)})")
@@ -394,6 +397,8 @@ class Model(LoopsMixin):
             state = self.initial_state(params) if self.has_loops else np.zeros(self.n_state)
             for name, value in y0.items():
                 if name not in self.state_names:
+                    import difflib
+
                     close = difflib.get_close_matches(str(name), self.state_names, n=1)
                     hint = f"; did you mean {close[0]!r}?" if close else ""
                     raise ModelError(f"unknown state name {name!r}{hint}")
@@ -1080,6 +1085,8 @@ class Model(LoopsMixin):
         return out
 
     def _repr_html_(self) -> str:
+        import html
+
         labels = self.metadata.get("unit_labels", {})
 
         def row(name: str, value: str = "") -> str:
@@ -1137,6 +1144,8 @@ def ensemble_chunks(k: int, workers: int, lanes: int = 1) -> list[slice]:
 def run_chunks(work: Callable[[slice], None], chunks: list[slice], workers: int,
                progress: runs.Progress | None, show: bool | None) -> None:
     """WORK on every chunk over the threads (cffi releases the GIL during the C calls)."""
+    from concurrent.futures import ThreadPoolExecutor, as_completed
+
     if progress is not None and show:
         progress.delay = 0.0
     done = 0
