@@ -262,7 +262,7 @@ class Model(LoopsMixin):
             name: getattr(lib, prefix + name)
             for name in (
                 "rhs", "rhs_many", "checks", "initial_state", "outputs", "jacobian",
-                "inverse_mass_matrix",
+                "inverse_mass_matrix", "integrate", "free_steps",
             )
             if hasattr(lib, prefix + name)
         }
@@ -274,6 +274,9 @@ class Model(LoopsMixin):
         self._checked: tuple[tuple, np.ndarray] = ((), self._default_p)
         self._rhs_cache: tuple[Any, Any] = (None, None)  # rhs(): (p, its closure)
         self._default_rhs: Callable[[Any, Any], np.ndarray] | None = None  # rhs(t, y)
+        self._method_ids: dict[str, int] = {}  # _method_id's, looked up once
+        # parameters_at(the defaults), copied for each result: never handed out itself
+        self._default_params = dict(zip(self.parameter_names, self._default_p.tolist()))
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -290,6 +293,8 @@ class Model(LoopsMixin):
 
     def parameter_vector(self, params: Mapping[str, float] | None = None) -> np.ndarray:
         """The C parameter array for these overrides, checked (finite, masses positive)."""
+        if params is None and not self._checked[0]:  # the defaults, as last time
+            return self._checked[1]
         overrides = self._overrides(params)
         key = tuple(sorted(overrides.items()))
         if key == self._checked[0]:
@@ -771,7 +776,7 @@ class Model(LoopsMixin):
     def _initial(self, y0: Any, params: Mapping[str, float] | None) -> np.ndarray:
         """The initial state of a run: finite, whatever gave it (y0, the scene, parameters)."""
         state = self.state_vector(y0, params)
-        if not np.all(np.isfinite(state)):
+        if not np.isfinite(state).all():
             values = ", ".join(f"{n}={v:g}" for n, v in zip(self.state_names, state))
             raise ModelError(f"the initial state must be finite, got {values}")
         return state
@@ -833,11 +838,16 @@ class Model(LoopsMixin):
 
     def _method_id(self, method: str) -> int:
         """The C enum nemc_method value of a native method ("nemc.Vern9" -> NEMC_VERN9)."""
-        return getattr(self._lib, "NEMC_" + method.removeprefix("nemc.").upper())
+        known = self._method_ids.get(method)
+        if known is None:
+            known = self._method_ids[method] = getattr(
+                self._lib, "NEMC_" + method.removeprefix("nemc.").upper())
+        return known
 
     def _native(self, method: str, function: str = "integrate") -> Any:
         """A native entry point of this model's compiled module."""
-        entry = getattr(self._lib, self.metadata["c_prefix"] + function, None)
+        entry = self._c.get(function) or getattr(self._lib, self.metadata["c_prefix"] + function,
+                                                 None)
         if entry is None:
             raise ModelError(f"{method}: this build has no native integrators (rebuild it)")
         return entry
@@ -868,7 +878,7 @@ class Model(LoopsMixin):
 
     def _interrupt_pointer(self, flag: np.ndarray) -> Any:
         """The C int* of an interrupt flag (runs.interrupt_flag) for nemc_run.interrupt."""
-        return self._ffi.cast("int *", self._ffi.from_buffer("int[]", flag))
+        return self._ffi.from_buffer("int[]", flag)  # an int[] goes into an int * as is
 
     def _simulate_native(
         self, method: str, span: tuple[float, ...], y0: np.ndarray, times: Any,
@@ -893,7 +903,7 @@ class Model(LoopsMixin):
                 t, y = keep[0][: run.n_out], y_eval[: run.n_out].T
             events = self._take_events(run)
         finally:
-            getattr(self._lib, self.metadata["c_prefix"] + "free_steps")(run)
+            self._native(method, "free_steps")(run)
         lib = self._lib
         if status == lib.NEMC_RHS_FAILED:
             failure = IntegrationFailure(run.t_fail, y_fail, run.rhs_status, self.state_names,
@@ -949,6 +959,8 @@ class Model(LoopsMixin):
         return LazyOutputs(lambda: self.outputs(t, y, params))
 
     def parameters_at(self, p: np.ndarray) -> dict[str, float]:
+        if p is self._default_p:  # never written to (parameter_vector copies it)
+            return self._default_params.copy()
         return dict(zip(self.parameter_names, p.tolist()))
 
     def _take_steps(self, run: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -1223,10 +1235,11 @@ def checked_times(times: np.ndarray, span: tuple[float, ...]) -> np.ndarray:
     if times.ndim != 1 or not times.size:
         raise ModelError(f"t_eval must be a 1-d list of at least one time (or None: the "
                          f"solver's own steps), got shape {times.shape}")
-    if not np.isfinite(times).all():
+    low, high = (times[0], times[0]) if times.size == 1 else (times.min(), times.max())
+    if not (math.isfinite(low) and math.isfinite(high)):  # a nan or inf shows in min or max
         raise ModelError("Values in `t_eval` are not within `t_span`: "
                          f"{times[~np.isfinite(times)][0]} is not finite")
-    if times.min() < min(t0, tf) or times.max() > max(t0, tf):
+    if low < min(t0, tf) or high > max(t0, tf):
         raise ModelError(f"Values in `t_eval` are not within `t_span` {list(span)}")
     if times.size > 1:
         d = np.diff(times)
@@ -1243,11 +1256,15 @@ MAX_STEP_TIMES = 1_000_000  # times a scene's t_eval {step} may give (memory: n_
 def checked_span(t_span: Any) -> tuple[float, float]:
     """t_span as two finite times. t1 < t0 integrates backwards (every method can); t1 == t0
     returns the initial state."""
-    array = _real_array(t_span, "t_span")
-    if array.shape != (2,):
-        got = f"{array.size} value(s)" if array.ndim == 1 else f"shape {array.shape}"
-        raise ModelError(f"t_span must be two times [t0, t1], got {got}")
-    t0, t1 = (float(v) for v in array)
+    if type(t_span) in (tuple, list) and len(t_span) == 2 and all(
+            type(v) is float for v in t_span):  # the usual case: no array needed
+        t0, t1 = t_span
+    else:
+        array = _real_array(t_span, "t_span")
+        if array.shape != (2,):
+            got = f"{array.size} value(s)" if array.ndim == 1 else f"shape {array.shape}"
+            raise ModelError(f"t_span must be two times [t0, t1], got {got}")
+        t0, t1 = (float(v) for v in array)
     if not (math.isfinite(t0) and math.isfinite(t1) and math.isfinite(t1 - t0)):
         raise ModelError(f"t_span must be two finite times [t0, t1] (and t1 - t0 finite), "
                          f"got [{t0}, {t1}]")
@@ -1273,13 +1290,18 @@ def checked_tolerances(rtol: Any, atol: Any) -> tuple[float, float]:
 
 
 def _tolerance(value: Any, name: str) -> float:
+    if type(value) is float:  # the usual case (checked finite below)
+        return _finite_tolerance(value, name)
     if isinstance(value, (bool, np.bool_)):
         raise ModelError(f"{name} must be a number, got {value!r}")
     array = _real_array(value, name)
     if array.ndim != 0:
         raise ModelError(f"{name} must be one number (tolerances per state entry are not "
                          f"supported), got an array of shape {array.shape}")
-    number = float(array)
+    return _finite_tolerance(float(array), name)
+
+
+def _finite_tolerance(number: float, name: str) -> float:
     if not math.isfinite(number):
         raise ModelError(f"{name} must be finite, got {number}")
     return number
