@@ -192,6 +192,15 @@ def _real_array(value: Any, what: str) -> np.ndarray:
     return array
 
 
+def _all_finite(array: np.ndarray) -> bool:
+    """Whether every entry is finite. A small array's sum as Python floats (no warning on an
+    overflow) says so in 0.2 us where numpy's isfinite().all() takes 1 us: a nan or inf makes
+    the sum nan or inf; only then (or after an overflow) each entry is looked at."""
+    if array.size <= 64 and math.isfinite(sum(array.tolist())):
+        return True
+    return bool(np.isfinite(array).all())
+
+
 def read_metadata(path: Path) -> dict:
     return json.loads(Path(path).read_text())
 
@@ -399,7 +408,8 @@ class Model(LoopsMixin):
         """A state from an array, or from a dict of coordinate / dot(q) values (others 0)."""
         if y0 is None:
             return self.initial_state(params)
-        if isinstance(y0, Mapping):  # closed loops: the others start from the scene's guess
+        # a dict of values (closed loops: the others start from the scene's guess)
+        if type(y0) is not np.ndarray and isinstance(y0, Mapping):
             state = self.initial_state(params) if self.has_loops else np.zeros(self.n_state)
             for name, value in y0.items():
                 if name not in self.state_names:
@@ -776,7 +786,7 @@ class Model(LoopsMixin):
     def _initial(self, y0: Any, params: Mapping[str, float] | None) -> np.ndarray:
         """The initial state of a run: finite, whatever gave it (y0, the scene, parameters)."""
         state = self.state_vector(y0, params)
-        if not np.isfinite(state).all():
+        if not _all_finite(state):
             values = ", ".join(f"{n}={v:g}" for n, v in zip(self.state_names, state))
             raise ModelError(f"the initial state must be finite, got {values}")
         return state
