@@ -288,7 +288,7 @@ class interrupt_flag:  # a class, not @contextmanager: 2 us less a run (issue 19
         _signals.signal(2, _signals.default_int_handler)
         with _WATCH.lock:
             _WATCH.flags.remove(self.flag)
-        if kind is None and self.flag[0] and getattr(_RAISING, "on", False):
+        if kind is None and getattr(_RAISING, "on", False) and self.flag[0]:
             raise KeyboardInterrupt
 
 
