@@ -1,9 +1,11 @@
 """What a call from Python costs beyond the C it runs (issue 19, the lean driver): model.rhs
 against the C right-hand side itself (rhs_many over 1,000 states, per state), and simulate()
 over a step-sized interval (its fixed cost: checks, settings, the interrupt flag, the result),
-each native method, on the book's double pendulum. Interleaved calibrated loops.
+each native method, on the book's double pendulum; and over an empty interval [0, 0], where
+the C returns the initial state at once and what is timed is simulate()'s fixed cost alone.
+Interleaved calibrated loops.
 
-Run: `python benchmarks/overhead.py [--rounds 5]` (about 20 s). Prints a Markdown table
+Run: `python benchmarks/overhead.py [--rounds 5]` (about 30 s). Prints a Markdown table
 (median (min-max) per call) and the load average; writes nothing. The README quotes one run.
 """
 
@@ -38,6 +40,10 @@ def main() -> int:
         calls[f"simulate over [0, 1e-3], {method}"] = (
             lambda method=method: model.simulate((0.0, 1e-3), y0, method=method,
                                                  t_eval=[1e-3]), 1)
+        # an empty interval: the C returns y0 at once, what is left is the fixed cost
+        calls[f"simulate over [0, 0], {method}"] = (
+            lambda method=method: model.simulate((0.0, 0.0), y0, method=method,
+                                                 t_eval=[0.0]), 1)
     print(f"load average at start: {os.getloadavg()}")
     times = interleaved(calls, args.rounds, target=0.2)
     print("| call | time per call, median (min-max) |\n| --- | --- |")

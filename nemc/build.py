@@ -22,27 +22,25 @@ from __future__ import annotations
 import contextlib
 import errno
 import hashlib
-import io
 import json
 import os
 import shlex
-import shutil
 import stat
-import subprocess
 import sysconfig
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import cffi
+import _cffi_backend  # the extension loads it anyway; cffi itself is imported to build only
 
 from . import __version__
 from .errors import BuildError, describe
 from .resources import template_files
 
-if TYPE_CHECKING:  # emit imports sympy; a cached load must not
+if TYPE_CHECKING:  # emit imports sympy; a cached load must not (nor subprocess, cffi, ...)
+    import subprocess
+
     from .emit import Emitted
 
 NEMC_DIR = Path(__file__).resolve().parent
@@ -117,7 +115,7 @@ def build_key(source: Source, options: dict | None = None) -> str:
         "file": Path(source.path).name,
         "options": options or {},
         "abi": sysconfig.get_config_var("EXT_SUFFIX"),
-        "cffi": cffi.__version__,
+        "cffi": _cffi_backend.__version__,  # cffi.__version__: cffi refuses another backend
         "cc": compiler(),
         "cflags": CFLAGS,
     }
@@ -182,6 +180,8 @@ def discard(path: Path, key: str | None = None) -> None:
 
 
 def remove(path: Path) -> None:
+    import shutil
+
     if path.is_dir() and not path.is_symlink():
         shutil.rmtree(path, ignore_errors=True)
     else:
@@ -207,6 +207,8 @@ def compiler() -> list[str]:
 
 def start(command: list[str]) -> subprocess.Popen:
     """Start a compiler job; a compiler that cannot be run is a BuildError saying what to do."""
+    import subprocess
+
     try:
         return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
     except OSError as error:
@@ -268,6 +270,8 @@ def write_package(code: Emitted, folder: Path) -> None:
 
 def scratch_folder(root: Path, name: str) -> Path:
     """A private temporary folder in the cache; unusable cache folders are a BuildError."""
+    import tempfile
+
     try:
         root.mkdir(parents=True, exist_ok=True)
         remove_stale_scratch(root)
@@ -288,6 +292,11 @@ def remove_stale_scratch(root: Path) -> None:
 
 def build(code: Emitted, key: str) -> Path:
     """Build into the cache and publish atomically; returns the package folder."""
+    import io
+    import shutil
+
+    import cffi
+
     root = cache_root()
     final = root / key
     scratch = scratch_folder(root, code.name)

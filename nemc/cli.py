@@ -8,7 +8,6 @@ Exit status: 0 success; 2 bad input (`FILE:LINE: key.path: what is wrong`, no tr
 from __future__ import annotations
 
 import argparse
-import difflib
 import fnmatch
 import math
 import os
@@ -428,6 +427,8 @@ def run_settings(model, args: argparse.Namespace) -> dict:
         y0 = model.initial_state(dict(args.params))
         for name, value in args.initial:
             if name not in model.state_names:
+                import difflib  # here: only a mistyped name needs it
+
                 close = difflib.get_close_matches(name, model.state_names, n=1)
                 hint = f" (did you mean {close[0]}?)" if close else ""
                 raise ValueError(f"--initial: unknown coordinate or rate {name!r}{hint}; the "

@@ -1,0 +1,138 @@
+"""The fast paths of issue 19's lean calls give what the general paths give: model.rhs with the
+default parameters, simulate's plain-float spans, tolerances and t_eval, the initial state's
+finiteness, the shared default run settings, the interrupt flag as a context manager. (Their
+speed is measured by benchmarks/overhead.py and benchmarks/startup.py, never asserted here.)"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import nemc
+from nemc import runs
+from nemc.runtime import Model, ModelError, _all_finite, checked_span, checked_times
+
+ROOT = Path(__file__).resolve().parent.parent
+COMPOUND = ROOT / "examples" / "compound_pendulum.yaml"  # state [theta, dot(theta)]
+
+
+@pytest.fixture(scope="module")
+def model() -> Model:
+    return nemc.compile(COMPOUND)
+
+
+def test_rhs_with_defaults_is_rhs_with_no_overrides(model: Model) -> None:
+    y = np.array([0.4, -0.3])
+    expected = model.rhs(0.5, y, params={})
+    for t, state in [(0.5, y), (np.float64(0.5), y), (1, list(y)), (0.5, y.astype(">f8")),
+                     (0.5, np.array([0.4, 9.0, -0.3])[::2]), (0.5, np.asfortranarray(y))]:
+        np.testing.assert_array_equal(model.rhs(t, state), model.rhs(0.5, y, params={}))
+    assert model.rhs(0.5, y) is not model.rhs(0.5, y)  # a new array each call
+    np.testing.assert_array_equal(model.rhs(0.5, y), expected)
+
+
+@pytest.mark.parametrize("t", [math.nan, math.inf, "0.5", [0.5, 0.6]])
+def test_rhs_with_defaults_refuses_bad_times(model: Model, t: object) -> None:
+    with pytest.raises(ModelError):
+        model.rhs(t, np.array([0.4, -0.3]))
+
+
+@pytest.mark.parametrize("y", [np.zeros(3), np.zeros(2, dtype=complex), [0.1], "ab"])
+def test_rhs_with_defaults_refuses_bad_states(model: Model, y: object) -> None:
+    with pytest.raises(ModelError):
+        model.rhs(0.0, y)
+
+
+def test_defaults_after_overrides_are_the_defaults(model: Model) -> None:
+    y = np.array([0.4, -0.3])
+    before = model.rhs(0.0, y)
+    changed = model.rhs(0.0, y, params={"g": 9.81})
+    assert not np.array_equal(before, changed)
+    np.testing.assert_array_equal(model.rhs(0.0, y), before)
+    np.testing.assert_array_equal(model.parameter_vector(None), model.parameter_vector({}))
+
+
+@pytest.mark.parametrize("span", [(0.0, math.nan), [math.inf, 1.0], (0.0, 1.0, 2.0),
+                                  (1e308, -1e308)])
+def test_plain_float_spans_are_checked(span: object) -> None:
+    with pytest.raises(ModelError):
+        checked_span(span)
+
+
+def test_spans_of_any_real_kind_agree() -> None:
+    assert checked_span((0.0, 2.5)) == checked_span([0, 2.5]) == checked_span(np.array([0, 2.5]))
+
+
+@pytest.mark.parametrize("times", [[math.nan], [math.inf], [0.5, math.nan], [-math.inf, 0.5],
+                                   [2.0], [0.5, 0.4]])
+def test_t_eval_checked_of_any_size(times: list[float]) -> None:
+    with pytest.raises(ModelError):
+        checked_times(np.array(times), (0.0, 1.0))
+
+
+def test_all_finite() -> None:
+    assert _all_finite(np.array([1e308, 1e308]))  # the sum overflows; every entry is finite
+    assert _all_finite(np.ones(100))
+    for bad in ([math.nan, 1.0], [math.inf, -math.inf], [1.0] * 99 + [math.nan]):
+        assert not _all_finite(np.array(bad))
+
+
+@pytest.mark.parametrize("y0", [[math.nan, 0.0], [0.0, math.inf]])
+def test_simulate_refuses_a_non_finite_initial_state(model: Model, y0: list[float]) -> None:
+    with pytest.raises(ModelError, match="finite"):
+        model.simulate((0.0, 0.1), y0)
+
+
+@pytest.mark.parametrize("rtol", [math.nan, math.inf, 0.0, 1.0, True])
+def test_float_tolerances_are_checked(model: Model, rtol: object) -> None:
+    with pytest.raises(ModelError):
+        model.simulate((0.0, 0.1), rtol=rtol)
+
+
+def test_results_do_not_share_their_params(model: Model) -> None:
+    first, second = model.simulate((0.0, 0.1)), model.simulate((0.0, 0.1))
+    first.params[model.parameter_names[0]] = -1.0
+    assert second.params == model.parameters
+    assert model.simulate((0.0, 0.1)).params == model.parameters
+
+
+def test_default_run_settings_are_shared_and_read_only() -> None:
+    settings = runs.run_settings({}, (0.0, 1.0))
+    assert settings is runs.DEFAULT_SETTINGS
+    assert (settings.max_step, settings.max_steps, settings.tstops.size) == (
+        math.inf, runs.DEFAULT_MAX_STEPS, 0)
+    with pytest.raises(ValueError):
+        settings.tstops[...] = 1.0  # an empty, read-only array
+    assert runs.run_settings({"max_steps": 0}, (0.0, 1.0)).max_steps == 0
+    assert runs.run_settings({"tstops": [0.5]}, (0.0, 1.0)).tstops.tolist() == [0.5]
+    assert runs.run_settings({}, (0.0, 1.0), max_step=0.1).max_step == 0.1
+
+
+def test_interrupt_flag_restores_the_handlers_also_after_an_error() -> None:
+    import signal
+
+    handler = signal.getsignal(signal.SIGINT)
+    with pytest.raises(RuntimeError), runs.interrupt_flag() as flag:
+        assert flag.dtype == np.intc and flag[0] == 0
+        raise RuntimeError("inside")
+    assert signal.getsignal(signal.SIGINT) is handler
+    assert signal.set_wakeup_fd(-1) == -1  # none left set
+    assert not runs._WATCH.flags
+
+
+def test_a_cached_compile_imports_no_build_or_report_machinery(model: Model) -> None:
+    """A cache hit needs numpy and the extension, not the compiler's tools (issue 19)."""
+    code = ("import sys, nemc; nemc.compile(sys.argv[1]); print(' '.join(sorted(m for m in ("
+            "'cffi', 'subprocess', 'tempfile', 'shutil', 'concurrent.futures', 'difflib', "
+            "'html', 'scipy', 'sympy', 'yaml', 'matplotlib', 'importlib.resources') "
+            "if m in sys.modules)))")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}  # this checkout's nemc, the session's cache
+    done = subprocess.run([sys.executable, "-c", code, str(COMPOUND)], capture_output=True,
+                          text=True, check=True, env=env)
+    assert done.stdout.strip() == ""
