@@ -161,10 +161,12 @@ def test_several_events_in_one_step_in_time_order(tmp_path: Path, method: str) -
     path.write_text(GLIDER % "    halt: {when: x - 0.5, action: stop}")
     model = nemc.compile(path)
     result = model.simulate(method=method, t_eval=None)
-    assert result.events["early"][0] == pytest.approx([0.3], abs=1e-14)
-    assert result.events["halt"][0] == pytest.approx([0.5], abs=1e-14)
+    # to rounding: Vern9's interpolant sums weights of up to 1e4 (the others' about 1)
+    rounding = 1e-12 if method == "nemc.Vern9" else 1e-14
+    assert result.events["early"][0] == pytest.approx([0.3], abs=rounding)
+    assert result.events["halt"][0] == pytest.approx([0.5], abs=rounding)
     assert result.events["late"][0].size == 0  # after the stop
-    assert result.t[-1] == pytest.approx(0.5, abs=1e-14) and result.status == 1
+    assert result.t[-1] == pytest.approx(0.5, abs=rounding) and result.status == 1
     assert result.t[-2] < 0.3  # the three crossings fall in the last step, cut at the stop
 
 

@@ -163,8 +163,8 @@ def test_ensembles_equal_single_runs(fourbar) -> None:
     starts = np.array([fourbar.simulate((0, 0), y0={"q1": 1.0, "dot(q1)": v},
                                         t_eval=[0.0]).y[:, 0] for v in (0.0, 1.0, 2.0)])
     times = np.linspace(0, 3, 7)
-    runs = fourbar.simulate_many(starts, t_eval=times, method="nemc.Vern9", rtol=1e-10,
-                                 atol=1e-12)
+    runs = fourbar.simulate_many(starts, t_span=(0, 3), t_eval=times, method="nemc.Vern9",
+                                 rtol=1e-10, atol=1e-12)
     for k, start in enumerate(starts):
         one = fourbar.simulate((0, 3), start, method="nemc.Vern9", rtol=1e-10, atol=1e-12,
                                t_eval=times)
