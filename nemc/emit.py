@@ -778,26 +778,24 @@ def lane_constants(code: SeriesCode) -> list[str]:
 
 def positions_part(eqs: Equations, block: Block, prefix: str) -> tuple[str, dict]:
     """The C of `<name>_positions` (declared in templates/model.h.tmpl: the ground positions of
-    the points nemc.geometry's drawing needs) and the drawing's structure for model.json."""
+    the points nemc.geometry's drawing needs) and the drawing's structure for model.json. The
+    positions are a straight-line program placing each body once from its parent (linear in the
+    number of bodies)."""
+    from .articulated import PointPositions
     from .derive import runtime_values
     from .geometry import drawing
-    from .optimize import rewrite
+    from .optimize import rewrite_program
 
-    picture, runtime = drawing(eqs.mechanism), runtime_values(eqs.mechanism)
-    exprs = [runtime(v) for _, x, y in picture.points for v in (x, y)]
-    symbols = sympy.numbered_symbols("g", cls=sympy.Dummy, real=True)
-    temporaries, reduced = sympy.cse(exprs, symbols=symbols, order="none")
-    names = {**symbol_table(eqs, block), **{s: s.name for s, _ in temporaries}}
-    printer = SymbolTablePrinter(names)
-    indent = " " * 8
-    lines = [f"{indent}const double {s.name} = {printer.doprint(rewrite(e))};"
-             for s, e in temporaries]
-    lines += [f"{indent}{('POINT_X', 'POINT_Y')[k % 2]}({k // 2}) = {printer.doprint(rewrite(e))};"
-              for k, e in enumerate(reduced)]
+    places = PointPositions(eqs.mechanism, runtime_values(eqs.mechanism))
+    picture = drawing(eqs.mechanism, places.position)
+    program = rewrite_program(places.prog.finish(
+        [v for _, x, y in picture.points for v in (x, y)]))
+    names = {**symbol_table(eqs, block), **{s: s.name for s, _ in program.assignments()}}
+    targets = [f"{('POINT_X', 'POINT_Y')[k % 2]}({k // 2})" for k in range(len(program.results))]
     source = template("positions.c.tmpl").substitute(
         prefix=prefix, n_points=len(picture.points), n_values=2 * len(picture.points),
         point_names=comment_text(", ".join(name for name, _, _ in picture.points)),
-        positions="\n".join(lines),
+        positions=program_body(SymbolTablePrinter(names), program, targets, " " * 8),
     )
     return source, picture.metadata()
 

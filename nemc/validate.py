@@ -87,8 +87,8 @@ SHADOWED_MODULES = frozenset({*sys.stdlib_module_names, "numpy", "scipy", "cffi"
 MAX_PROBLEMS = 100
 # The largest mechanism nemc builds: a 200-body chain took 14 s to build, 58 s with its Jacobian
 # (800 bodies: 66 s without; 2-core machine under load 4). Raise them when the build scales.
-MAX_BODIES = 200
-MAX_COORDINATES = 200
+MAX_BODIES = 5000
+MAX_COORDINATES = 5000
 MAX_MODEL_NAME = 64  # characters: it names the package's folder and files, and prefixes C names
 FIXED_WHERE = "in body, joint, gravity and initial-condition fields (parameters and constants only)"
 MOTION_WHERE = "in a joint's motion (parameters, constants and t only)"
