@@ -776,7 +776,12 @@ def lane_constants(code: SeriesCode) -> list[str]:
 # ---- the drawing's point positions (issue 20): appended to every model's C ------------------
 
 
-def positions_part(eqs: Equations, block: Block, prefix: str) -> tuple[str, dict]:
+POSITIONS = Caller("positions", "The drawing's point positions", STATE_INPUTS, ("POINT", "xy"),
+                  "v", indent=" " * 8)
+
+
+def positions_part(eqs: Equations, block: Block, prefix: str, chunk_steps: int
+                   ) -> tuple[str, dict]:
     """The C of `<name>_positions` (declared in templates/model.h.tmpl: the ground positions of
     the points nemc.geometry's drawing needs) and the drawing's structure for model.json. The
     positions are a straight-line program placing each body once from its parent (linear in the
@@ -792,10 +797,12 @@ def positions_part(eqs: Equations, block: Block, prefix: str) -> tuple[str, dict
         [v for _, x, y in picture.points for v in (x, y)]))
     names = {**symbol_table(eqs, block), **{s: s.name for s, _ in program.assignments()}}
     targets = [f"{('POINT_X', 'POINT_Y')[k % 2]}({k // 2})" for k in range(len(program.results))]
+    positions = print_program(SymbolTablePrinter(names), program,
+                              dataclasses.replace(POSITIONS, targets=tuple(targets)), chunk_steps)
     source = template("positions.c.tmpl").substitute(
         prefix=prefix, n_points=len(picture.points), n_values=2 * len(picture.points),
         point_names=comment_text(", ".join(name for name, _, _ in picture.points)),
-        positions=program_body(SymbolTablePrinter(names), program, targets, " " * 8),
+        positions_parts=positions.functions, positions=positions.body,
     )
     return source, picture.metadata()
 
@@ -810,7 +817,8 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
     lanes_c = lanes_section(eqs, printer, prefix) if lanes and taylor else ""
     info = metadata(eqs, prefix)
     info.update(unit_metadata(eqs.mechanism, info["output_names"]))
-    positions_c, info["drawing"] = positions_part(eqs, block, prefix)
+    chunk_steps = chunk_steps or CHUNK_STEPS
+    positions_c, info["drawing"] = positions_part(eqs, block, prefix, chunk_steps)
     if taylor:
         info["generated"].append("taylor")
         info["taylor_program"] = ("articulated body" if eqs.taylor is eqs.dynamics
@@ -823,7 +831,7 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
     interface = header(eqs, prefix)
     return Emitted(
         name=eqs.mechanism.name,
-        c_source=c_source(eqs, block, prefix, chunk_steps or CHUNK_STEPS)
+        c_source=c_source(eqs, block, prefix, chunk_steps)
         + native_section(eqs, prefix, taylor, lanes_c) + positions_c,
         header=interface,
         cdef=cdef(interface),
