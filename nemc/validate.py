@@ -856,14 +856,19 @@ def _check_tree(ctx: _Ctx, edges: list[_Edge], named_children: set[object]) -> N
 
 
 def _check_cycles_in_tree(ctx: _Ctx, parent_of: Mapping[str, _Edge]) -> None:
+    """Each cycle once; every body's way up is walked once (linear in the bodies)."""
     reported: set[str] = set()
+    settled: set[str] = set()  # bodies whose way up an earlier walk took: nothing new there
     for start in parent_of:
         chain: list[str] = []
+        on_chain: set[str] = set()
         body = start
-        while body in parent_of and body not in chain:
+        while body in parent_of and body not in on_chain and body not in settled:
             chain.append(body)
+            on_chain.add(body)
             body = parent_of[body].parent
-        if body not in chain or body in reported:
+        settled.update(chain)
+        if body not in on_chain or body in reported:
             continue
         cycle = chain[chain.index(body):]
         reported.update(cycle)
