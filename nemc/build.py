@@ -222,7 +222,8 @@ def compile_c(c_file: Path, wrapper_file: Path, out_file: Path,
     available cores, then link the extension."""
     include = sysconfig.get_paths()["include"]
     cc = compiler()
-    sources = [c_file, *units]
+    # the largest first, so that the last to finish is a short one
+    sources = sorted([c_file, *units], key=lambda c: c.stat().st_size, reverse=True)
     jobs = [[*cc, *CFLAGS, "-c", str(c), "-o", str(c.with_suffix(".o"))] for c in sources]
     jobs.insert(1, [*cc, "-O2", "-fPIC", *limited_api_flags(), "-I", include, "-c",
                     str(wrapper_file), "-o", str(wrapper_file.with_suffix(".o"))])

@@ -340,7 +340,8 @@ def in_parts(
     calls = part_calls(parts, caller, len(values))
     if units is None:
         return Printed("".join(functions), calls), passed
-    units.functions += [(text, part.size) for text, part in zip(functions, parts)]
+    units.functions += [(text, part.size + len(part.results))
+                        for text, part in zip(functions, parts)]
     prototypes = [f"{part_signature(part, caller, number)}; /* in a unit file of its own */"
                   for number, part in enumerate(parts, start=1)]
     return Printed("\n" + "\n".join(prototypes) + "\n", calls), passed
@@ -368,7 +369,7 @@ UNIT_FILE_STEPS = 2400
 
 @dataclass
 class Units:
-    """The part functions bound for unit files: (C text, steps) in order."""
+    """The part functions bound for unit files: (C text, its steps and results) in order."""
 
     prefix: str  # the model's C prefix: the part functions' names, no longer static, carry it
     functions: list[tuple[str, int]] = dataclasses.field(default_factory=list)
