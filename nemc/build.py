@@ -12,8 +12,9 @@ The last file written, BUILD_OK, is a manifest of every other file's sha256. A c
 used only when every file matches it: a truncated, edited or partly deleted entry is moved
 aside and rebuilt, never imported.
 
-A cache entry holds the readable C source, compiled on its own with the flags below, a cffi
-API-mode wrapper linked against it, and model.json; `export` adds the runtime (nemc/runtime.py
+A cache entry holds the readable C source (a very long model's in several files, compiled in
+parallel), compiled on its own with the flags below, a cffi API-mode wrapper linked against it,
+and model.json; `export` adds the runtime (nemc/runtime.py
 and nemc/methods.py, as they are now) to make the standalone package.
 """
 
