@@ -71,6 +71,8 @@ STALE_SCRATCH_S = 24 * 3600  # a temporary build folder this old was left by a k
 SCRATCH_PREFIX = ".nemc-tmp-"
 BROKEN_PREFIX = ".nemc-broken-"
 MAX_MANIFEST_BYTES = 1_000_000
+# Compiler jobs at once, at most (a long model's unit files: up to about 150 MB of memory each)
+MAX_COMPILER_JOBS = 8
 
 
 @dataclass(frozen=True)
@@ -228,7 +230,7 @@ def compile_c(c_file: Path, wrapper_file: Path, out_file: Path,
     jobs = [[*cc, *CFLAGS, "-c", str(c), "-o", str(c.with_suffix(".o"))] for c in sources]
     jobs.insert(1, [*cc, "-O2", "-fPIC", *limited_api_flags(), "-I", include, "-c",
                     str(wrapper_file), "-o", str(wrapper_file.with_suffix(".o"))])
-    run_jobs(jobs, max(usable_cores(), 2))
+    run_jobs(jobs, min(max(usable_cores(), 2), MAX_COMPILER_JOBS))
     link = [*cc, "-shared", *(str(c.with_suffix(".o")) for c in sources),
             str(wrapper_file.with_suffix(".o")), "-o", str(out_file), "-lm"]
     process = start(link)
