@@ -247,7 +247,7 @@ def write_chains(ns: Iterable[int], folder: Path, mixed: bool = False) -> dict[s
 # -- compile phases (fresh processes) ---------------------------------------------------------
 
 COLD_SCRIPT = """
-import json, sys, time
+import json, resource, sys, time
 from pathlib import Path
 t = time.perf_counter()
 from nemc.pipeline import compile_mechanism
@@ -258,7 +258,8 @@ sources = sorted(Path(c.package).glob("*.c"))
 print(json.dumps({"timings": c.timings, "cached": c.cached, "import": imported,
                   "total_in_process": total, "c_bytes": sum(p.stat().st_size for p in sources),
                   "c_lines": sum(p.read_text().count(chr(10)) for p in sources),
-                  "package": str(c.package)}))
+                  "package": str(c.package),
+                  "peak_rss_kb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}))
 """
 CACHED_SCRIPT = (
     "import nemc, sys, time; t=time.perf_counter(); nemc.compile(sys.argv[1]);"
@@ -290,7 +291,8 @@ def python_run(code: str, args: Sequence[str], timeout: float,
 def compile_phases(path: Path, timeout: float, cached_repeats: int,
                    cache: Path | None = None) -> dict[str, Any]:
     """Cold build in a fresh process with a fresh NEMC_CACHE (phases from `Compiled.timings`,
-    generated C size), then cached loads in fresh processes on that cache. CACHE: an empty
+    generated C size, peak memory), then cached loads in fresh processes on that cache (none
+    when cached_repeats is 0). CACHE: an empty
     folder to build in and keep (cold["package"] is the build), else a temporary one."""
     with tempfile.TemporaryDirectory(prefix="nemc-bench-cache-") as scratch:
         env = dict(os.environ, NEMC_CACHE=str(cache or scratch))
@@ -304,9 +306,11 @@ def compile_phases(path: Path, timeout: float, cached_repeats: int,
             loads.append(first)
             again.append(second)
             walls.append(wall)
-    return {"cold": cold, "cold_total": sum(cold["timings"].values()),
-            "cached_load": summary(loads), "cached_load_again": summary(again),
-            "cached_process_wall": summary(walls)}
+    found: dict[str, Any] = {"cold": cold, "cold_total": sum(cold["timings"].values())}
+    if cached_repeats:
+        found.update(cached_load=summary(loads), cached_load_again=summary(again),
+                     cached_process_wall=summary(walls))
+    return found
 
 
 def predicted_next(known: Sequence[tuple[int, float]], n: int) -> float | None:

@@ -12,6 +12,10 @@ smaller n, is skipped for that n and larger ones, with the reason in the notes.
 
 Run: `python benchmarks/scaling.py [--quick] [--sizes 2,4,8,16,32,64] [--out DIR]`; part of
 `make bench`. Results: benchmarks/results/scaling-latest.{json,md}, scaling_*.png.
+
+The full mode also compiles long chains (200, 500 and 1000 bodies, issue 19's target: 1000 under
+60 s and 2 GB) cold, once each, and records their phases and the peak memory of the compiling
+process (`--long-sizes` to choose; a compiler job of a unit file takes up to about 150 MB).
 """
 
 from __future__ import annotations
@@ -57,12 +61,14 @@ class Config:
     sample_seconds: float
     many_states: int
     peers: bool
+    long_sizes: tuple[int, ...] = ()  # cold compile only (phases, peak memory), once each
 
 
 MODES = {
     "smoke": Config("smoke", (2, 3), 60.0, 30.0, 60.0, 1, 2, 0.005, 256, False),
     "quick": Config("quick", (2, 4, 8), 60.0, 30.0, 60.0, 3, 5, 0.02, 1000, False),
-    "full": Config("full", (2, 4, 8, 16, 32, 64), 300.0, 300.0, 300.0, 5, 7, 0.05, 1000, True),
+    "full": Config("full", (2, 4, 8, 16, 32, 64), 300.0, 300.0, 300.0, 5, 7, 0.05, 1000, True,
+                   (200, 500, 1000)),
 }
 
 
@@ -123,6 +129,25 @@ def measure_nemc(n: int, path: Path, cache: Path, config: Config, budget: Budget
           f"kB, cached load {fmt_time(phases['cached_load']['median'])}, RHS C "
           f"{fmt_time(rhs['C (rhs_many, per state)']['median'])}, Python "
           f"{fmt_time(rhs['Python (closure per call)']['median'])}", flush=True)
+
+
+def measure_long(n: int, path: Path, cache: Path, config: Config, budget: Budget
+                 ) -> dict[str, Any] | None:
+    """A long chain's cold compile in a fresh process: phases, C size, peak memory."""
+    if not budget.allows(n):
+        return None
+    try:
+        phases = common.compile_phases(path, config.compile_budget, 0, cache)
+    except StageFailed as error:
+        budget.failed(n, f"cold compile {error}")
+        return None
+    budget.known.append((n, phases["cold_total"]))
+    cold = phases["cold"]
+    cold.pop("package")
+    print(f"  nemc: cold {phases['cold_total']:.1f} s (process {cold['process_wall']:.1f} s), "
+          f"C {cold['c_bytes'] / 1e6:.1f} MB, peak memory {cold['peak_rss_kb'] / 1e3:.0f} MB",
+          flush=True)
+    return {"cold": cold, "cold_total": phases["cold_total"], "loadavg": common.load_average()}
 
 
 def measure_mechanics(n: int, path: Path, config: Config, budget: Budget,
@@ -213,9 +238,30 @@ def run(config: Config) -> dict[str, Any]:
             for peer in [p for p in peers.PEER_NAMES if p in budgets]:
                 measure_peer(peer, n, path, config, budgets[peer], row)
             result["rows"][n] = row
+        result["long"] = long_chains(config, Path(folder), notes)
     result["fits"] = fits(result["rows"])
+    points = [(n, row["cold_total"]) for n, row in result["long"].items()]
+    if len(points) >= 2:
+        result["fits"]["nemc cold compile, long chains (s)"] = {
+            **(common.power_fit([n for n, _ in points], [v for _, v in points]) or {}),
+            "points": points}
     common.finish_environment(result["environment"], start)
     return result
+
+
+def long_chains(config: Config, folder: Path, notes: list[str]) -> dict[int, dict[str, Any]]:
+    """Cold compiles of the long chains (config.long_sizes), under the compile budget."""
+    budget, found = Budget("nemc cold compile (long chains)", config.compile_budget, notes), {}
+    (folder / "long").mkdir(exist_ok=True)
+    for name, path in common.write_chains(config.long_sizes, folder / "long", mixed=True).items():
+        n = common.chain_size(name)
+        print(f"{name} (cold compile only):", flush=True)
+        cache = folder / f"long-cache{n}"
+        cache.mkdir()
+        row = measure_long(n, path, cache, config, budget)
+        if row is not None:
+            found[n] = row
+    return found
 
 
 # -- output -------------------------------------------------------------------------------------
@@ -242,6 +288,23 @@ def md_table(rows: dict[int, dict[str, Any]]) -> list[str]:
             f"{ours['cold']['c_bytes'] / 1e3:.0f} kB | "
             f"{spread(ours['rhs']['C (rhs_many, per state)'])} | "
             f"{spread(ours['rhs']['Python (closure per call)'])} | {mech_cell} |")
+    return lines + [""]
+
+
+def md_long(long: dict[int, dict[str, Any]]) -> list[str]:
+    if not long:
+        return []
+    stages = ("validate", "derive", "optimize", "emit", "build")
+    lines = ["## Long chains: cold compile (fresh process and cache, once each)", "",
+             "| n | " + " | ".join(stages) + " | cold total | process wall | C source | peak "
+             "memory (the compiling process) | load average |",
+             "|" + " --- |" * (len(stages) + 6)]
+    for n, row in sorted(long.items()):
+        cold, t = row["cold"], row["cold"]["timings"]
+        lines.append(f"| {n} | " + " | ".join(f"{t.get(s, 0):.2f}" for s in stages)
+                     + f" | {row['cold_total']:.1f} s | {cold['process_wall']:.1f} s | "
+                     f"{cold['c_bytes'] / 1e6:.1f} MB | {cold['peak_rss_kb'] / 1e3:.0f} MB | "
+                     f"{row['loadavg']} |")
     return lines + [""]
 
 
@@ -295,7 +358,9 @@ def markdown(result: dict[str, Any]) -> str:
     lines = ["# nemc scaling benchmark", ""] + common.md_environment(result["environment"])
     lines += ["", "Chains of n uniform rods (m = 1, L = 1), every third joint prismatic, the "
               "others revolute (relative angles), each with a damped joint spring; gravity.", ""]
-    lines += md_table(rows) + md_targets(rows) + md_peers(rows) + md_fits(result["fits"])
+    long = {int(n): r for n, r in result.get("long", {}).items()}
+    lines += (md_table(rows) + md_long(long) + md_targets(rows) + md_peers(rows)
+              + md_fits(result["fits"]))
     if result["notes"]:
         lines += ["## Notes", ""] + [f"- {n}" for n in result["notes"]] + [""]
     return "\n".join(lines)
@@ -333,6 +398,9 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     parser = common.mode_parser(
         __doc__.splitlines()[0], "n in {2, 4, 8}, no peers", "n in {2, 3}, for tests"
     )
+    parser.add_argument("--long-sizes", type=lambda s: tuple(int(v) for v in s.split(",") if v),
+                        help="long chains compiled cold only, comma-separated (default: the "
+                        "mode's; full: 200,500,1000)")
     return parser.parse_args(argv)
 
 
@@ -340,6 +408,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(sys.argv[1:] if argv is None else argv)
     mode = common.mode_of(args)
     config = MODES[mode] if args.sizes is None else replace(MODES[mode], sizes=args.sizes)
+    if args.long_sizes is not None:
+        config = replace(config, long_sizes=args.long_sizes)
     print(f"nemc scaling benchmark, {mode} mode", flush=True)
     result = run(config)
     folder = args.out or RESULTS

@@ -117,6 +117,24 @@ class ProgramFrame:
         return self.geo.prog.lets(exprs)
 
 
+class PointPositions:
+    """Ground positions of points fixed in the bodies as names of one straight-line program
+    (the drawing's, nemc/emit.py positions_part): each body placed once from its parent, so the
+    program grows linearly with the bodies where whole position expressions grow
+    quadratically."""
+
+    def __init__(self, mech: m.Mechanism, value: Callable):
+        joints = [joint.map_expressions(value) for joint in mech.joints]
+        motions = {joint.coordinates[0]: prescribed_motion(joint)[0]
+                   for joint in joints if joint.driven}
+        self.prog = ProgramBuilder("g")
+        self.geo = Geometry(joints, self.prog, value,
+                            lambda name: motions[name] if name in motions else m.symbol(name))
+
+    def position(self, body: str, xy: Sequence[Expr]) -> V2:
+        return self.geo.point(body, xy)
+
+
 @dataclass
 class Node:
     """A body with its own degrees of freedom, and the bodies welded to it."""

@@ -12,8 +12,9 @@ The last file written, BUILD_OK, is a manifest of every other file's sha256. A c
 used only when every file matches it: a truncated, edited or partly deleted entry is moved
 aside and rebuilt, never imported.
 
-A cache entry holds the readable C source, compiled on its own with the flags below, a cffi
-API-mode wrapper linked against it, and model.json; `export` adds the runtime (nemc/runtime.py
+A cache entry holds the readable C source (a very long model's in several files, compiled in
+parallel), compiled on its own with the flags below, a cffi API-mode wrapper linked against it,
+and model.json; `export` adds the runtime (nemc/runtime.py
 and nemc/methods.py, as they are now) to make the standalone package.
 """
 
@@ -28,6 +29,7 @@ import shlex
 import stat
 import sysconfig
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -67,6 +69,8 @@ STALE_SCRATCH_S = 24 * 3600  # a temporary build folder this old was left by a k
 SCRATCH_PREFIX = ".nemc-tmp-"
 BROKEN_PREFIX = ".nemc-broken-"
 MAX_MANIFEST_BYTES = 1_000_000
+# Compiler jobs at once, at most (a long model's unit files: up to about 150 MB of memory each)
+MAX_COMPILER_JOBS = 8
 
 
 @dataclass(frozen=True)
@@ -217,26 +221,51 @@ def start(command: list[str]) -> subprocess.Popen:
                          f"(CC is {os.environ.get('CC', '')!r})") from None
 
 
-def compile_c(c_file: Path, wrapper_file: Path, out_file: Path) -> None:
-    """Compile the model's C and the cffi wrapper in parallel, then link the extension."""
+def compile_c(c_file: Path, wrapper_file: Path, out_file: Path,
+              units: Sequence[Path] = ()) -> None:
+    """Compile the model's C (its unit files too), and the cffi wrapper, in parallel on the
+    available cores, then link the extension."""
     include = sysconfig.get_paths()["include"]
     cc = compiler()
-    jobs = [
-        [*cc, *CFLAGS, "-c", str(c_file), "-o", str(c_file.with_suffix(".o"))],
-        [*cc, "-O2", "-fPIC", *limited_api_flags(), "-I", include, "-c", str(wrapper_file),
-         "-o", str(wrapper_file.with_suffix(".o"))],
-    ]
-    running = [start(job) for job in jobs]
-    for job, process in zip(jobs, running):
-        output = process.communicate()[0].decode(errors="replace")
-        if process.returncode:
-            raise BuildError(f"the C compiler failed on {job[-3]}:\n$ {' '.join(job)}\n{output}")
-    link = [*cc, "-shared", str(c_file.with_suffix(".o")), str(wrapper_file.with_suffix(".o")),
-            "-o", str(out_file), "-lm"]
+    # the largest first, so that the last to finish is a short one
+    sources = sorted([c_file, *units], key=lambda c: c.stat().st_size, reverse=True)
+    jobs = [[*cc, *CFLAGS, "-c", str(c), "-o", str(c.with_suffix(".o"))] for c in sources]
+    jobs.insert(1, [*cc, "-O2", "-fPIC", *limited_api_flags(), "-I", include, "-c",
+                    str(wrapper_file), "-o", str(wrapper_file.with_suffix(".o"))])
+    run_jobs(jobs, min(max(usable_cores(), 2), MAX_COMPILER_JOBS))
+    link = [*cc, "-shared", *(str(c.with_suffix(".o")) for c in sources),
+            str(wrapper_file.with_suffix(".o")), "-o", str(out_file), "-lm"]
     process = start(link)
     output = process.communicate()[0].decode(errors="replace")
     if process.returncode:
         raise BuildError(f"linking failed:\n$ {' '.join(link)}\n{output}")
+
+
+def usable_cores() -> int:
+    """The cores this process may run on (its affinity mask, else the machine's count)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def run_jobs(jobs: Sequence[list[str]], workers: int) -> None:
+    """Run the compiler jobs, at most WORKERS at once; the first failure is a BuildError (the
+    jobs still running are waited for)."""
+    pending, running = list(jobs), []
+    failure = None
+    while pending or running:
+        while pending and len(running) < workers and failure is None:
+            job = pending.pop(0)
+            running.append((job, start(job)))
+        if not running:
+            break
+        job, process = running.pop(0)
+        output = process.communicate()[0].decode(errors="replace")
+        if process.returncode and failure is None:
+            failure = BuildError(f"the C compiler failed on {job[-3]}:\n$ {' '.join(job)}\n"
+                                 f"{output}")
+    if failure is not None:
+        raise failure
 
 
 def stable_abi() -> bool:
@@ -265,7 +294,14 @@ def write_package(code: Emitted, folder: Path) -> None:
     (folder / "__init__.py").write_text(code.package_init)
     (folder / "model.json").write_text(json.dumps(code.metadata, indent=1) + "\n")
     (folder / f"{code.name}.c").write_text(code.c_source)
+    for path, text in zip(unit_files(code, folder), code.units):
+        path.write_text(text)
     (folder / f"{code.name}.h").write_text(code.header)
+
+
+def unit_files(code: Emitted, folder: Path) -> list[Path]:
+    """Where the model's unit files go (nemc.emit.Units): <name>_unit<k>.c, k = 1, 2, ..."""
+    return [folder / f"{code.name}_unit{k}.c" for k in range(1, len(code.units) + 1)]
 
 
 def scratch_folder(root: Path, name: str) -> Path:
@@ -310,8 +346,10 @@ def build(code: Emitted, key: str) -> Path:
         with contextlib.redirect_stdout(io.StringIO()):  # cffi announces what it writes
             ffi.emit_c_code(str(wrapper))
         extension = package / ("_native" + extension_suffix())
-        compile_c(package / f"{code.name}.c", wrapper, extension)
-        (package / f"{code.name}.o").unlink()
+        units = unit_files(code, package)
+        compile_c(package / f"{code.name}.c", wrapper, extension, units)
+        for c_file in [package / f"{code.name}.c", *units]:
+            c_file.with_suffix(".o").unlink()
         write_manifest(package, key)
         publish(package, final, key)
     except OSError as error:  # e.g. the disk filled up while writing the package

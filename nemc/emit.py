@@ -50,6 +50,7 @@ class Emitted:
     cdef: str
     package_init: str
     metadata: dict
+    units: tuple[str, ...] = ()  # the C of <name>_unit<k>.c, k = 1, 2, ... (long programs' parts)
 
 
 class SymbolTablePrinter(C99CodePrinter):
@@ -266,9 +267,10 @@ def has_guard(program: Program) -> bool:
 
 def part_function(
     printer: SymbolTablePrinter, part: Program, caller: Caller, number: int, count: int,
-    passed: dict[sympy.Symbol, str],
+    passed: dict[sympy.Symbol, str], storage: str = "static ",
 ) -> str:
-    """One part as a static function; it returns a guard's status when it has guards."""
+    """One part as a function (static, unless it goes to a unit file of its own: storage "");
+    it returns a guard's status when it has guards."""
     names = [name for name, _ in part.assignments()]
     defined_here = set(names)
     elsewhere = {name: c for name, c in passed.items() if name not in defined_here}
@@ -276,19 +278,29 @@ def part_function(
     mine = {name: passed[name] for name in names if name in passed}
     text = program_body(part_printer, part, caller.writes if part.results else caller.results[0],
                         passed=mine)
-    parameters = [*caller.inputs, ("double *", caller.array)]
-    if part.results:
-        parameters.append(("double *", caller.results[1]))
+    parameters = part_parameters(part, caller)
     guarded = has_guard(part)
     return template("part.c.tmpl").substitute(
         what=caller.what, number=number, count=count,
         steps=f"{names[0].name} to {names[-1].name}" if names else "no named steps",
-        return_type="int" if guarded else "void", function=caller.function,
-        parameters=", ".join(f"{ctype}{'' if ctype.endswith('*') else ' '}{name}"
-                             for ctype, name in parameters),
+        storage=storage, signature=part_signature(part, caller, number),
         unused=" ".join(f"(void){name};" for _, name in parameters),
         body=text, finish="\n    return 0;" if guarded else "",
     )
+
+
+def part_parameters(part: Program, caller: Caller) -> list[Parameter]:
+    parameters = [*caller.inputs, ("double *", caller.array)]
+    return parameters + [("double *", caller.results[1])] if part.results else parameters
+
+
+def part_signature(part: Program, caller: Caller, number: int) -> str:
+    """`int accelerations_part3(double t, ...)`: what a part function returns, its name and its
+    parameters."""
+    parameters = ", ".join(f"{ctype}{'' if ctype.endswith('*') else ' '}{name}"
+                           for ctype, name in part_parameters(part, caller))
+    return_type = "int" if has_guard(part) else "void"
+    return f"{return_type} {caller.function}_part{number}({parameters})"
 
 
 def part_calls(parts: list[Program], caller: Caller, n_passed: int) -> str:
@@ -312,27 +324,75 @@ def part_calls(parts: list[Program], caller: Caller, n_passed: int) -> str:
 
 def in_parts(
     printer: SymbolTablePrinter, program: Program, caller: Caller, chunk_steps: int,
-    used_elsewhere: set[sympy.Symbol] | None = None,
+    used_elsewhere: set[sympy.Symbol] | None = None, units: Units | None = None,
 ) -> tuple[Printed, dict[sympy.Symbol, str]]:
     """The program as part functions and the calls to them; also the array entry of each value
-    passed, for code elsewhere that reads them (used_elsewhere)."""
+    passed, for code elsewhere that reads them (used_elsewhere). With units, the part
+    functions go there (files of their own) and only their prototypes here."""
     parts = split_steps(program, chunk_steps)
     values = passed_values(parts, used_elsewhere or set())
     passed = {name: f"{caller.array}[{k}]" for k, name in enumerate(values)}
-    functions = "".join(
-        part_function(printer, part, caller, number, len(parts), passed)
-        for number, part in enumerate(parts, start=1)
-    )
-    return Printed(functions, part_calls(parts, caller, len(values))), passed
+    if units is not None:
+        caller = dataclasses.replace(caller, function=units.prefix + caller.function)
+    functions = [part_function(printer, part, caller, number, len(parts), passed,
+                               "static " if units is None else "")
+                 for number, part in enumerate(parts, start=1)]
+    calls = part_calls(parts, caller, len(values))
+    if units is None:
+        return Printed("".join(functions), calls), passed
+    units.functions += [(text, part.size + len(part.results))
+                        for text, part in zip(functions, parts)]
+    prototypes = [f"{part_signature(part, caller, number)}; /* in a unit file of its own */"
+                  for number, part in enumerate(parts, start=1)]
+    return Printed("\n" + "\n".join(prototypes) + "\n", calls), passed
 
 
 def print_program(
-    printer: SymbolTablePrinter, program: Program, caller: Caller, chunk_steps: int
+    printer: SymbolTablePrinter, program: Program, caller: Caller, chunk_steps: int,
+    units: Units | None = None,
 ) -> Printed:
     """One body when the program is short, parts when it is long."""
     if program.size <= chunk_steps:
         return Printed("", program_body(printer, program, caller.writes, caller.indent))
-    return in_parts(printer, program, caller, chunk_steps)[0]
+    return in_parts(printer, program, caller, chunk_steps, units=units)[0]
+
+
+# ---- very long programs in several files (issue 19) ----------------------------------------
+# gcc compiles one file on one core: a model whose programs have more than UNIT_STEPS steps in
+# all puts its part functions in files of their own, <name>_unit<k>.c of about UNIT_FILE_STEPS
+# steps each, which nemc.build compiles in parallel on the available cores (the same functions,
+# no longer static: the same numbers). Smaller models keep their one file.
+
+UNIT_STEPS = 3000
+UNIT_FILE_STEPS = 2400
+
+
+@dataclass
+class Units:
+    """The part functions bound for unit files: (C text, its steps and results) in order."""
+
+    prefix: str  # the model's C prefix: the part functions' names, no longer static, carry it
+    functions: list[tuple[str, int]] = dataclasses.field(default_factory=list)
+
+    def files(self, name: str) -> tuple[str, ...]:
+        """The unit files' C, each about UNIT_FILE_STEPS steps of consecutive functions."""
+        groups: list[list[str]] = [[]]
+        steps = 0
+        for text, size in self.functions:
+            if groups[-1] and steps + size > UNIT_FILE_STEPS:
+                groups.append([])
+                steps = 0
+            groups[-1].append(text)
+            steps += size
+        return tuple(template("unit.c.tmpl").substitute(
+            name=name, version=__version__, number=k, count=len(groups),
+            functions="".join(group)) for k, group in enumerate(groups, start=1) if group)
+
+
+def needs_units(block: Block, chunk_steps: int) -> bool:
+    """Whether the model's programs are long enough to be compiled in several files."""
+    steps = sum(program.size for program in block.programs.values())
+    return steps > max(UNIT_STEPS, 2 * chunk_steps)
 
 
 STATE_INPUTS: tuple[Parameter, ...] = (("double", "t"), ("const double *", "y"),
@@ -351,16 +411,18 @@ TANGENT = Caller("jacobian_tangent", "The derivative of the accelerations along 
 
 
 def jacobian_programs(
-    printer: SymbolTablePrinter, primal: Program, tangent: Program, chunk_steps: int
+    printer: SymbolTablePrinter, primal: Program, tangent: Program, chunk_steps: int,
+    units: Units | None = None,
 ) -> tuple[Printed, Printed]:
     """The primal (run once) and its tangent (once per column): in parts when either is long,
     the primal then also passing on every value the tangent reads."""
     if max(primal.size, tangent.size) <= chunk_steps:
         return (Printed("", program_body(printer, primal, PRIMAL.results[0])),
                 Printed("", program_body(printer, tangent, TANGENT.results[0], TANGENT.indent)))
-    primal_code, passed = in_parts(printer, primal, PRIMAL, chunk_steps, symbols_used(tangent))
+    primal_code, passed = in_parts(printer, primal, PRIMAL, chunk_steps, symbols_used(tangent),
+                                   units)
     tangent_printer = SymbolTablePrinter({**printer.names, **passed})
-    return primal_code, in_parts(tangent_printer, tangent, TANGENT, chunk_steps)[0]
+    return primal_code, in_parts(tangent_printer, tangent, TANGENT, chunk_steps, units=units)[0]
 
 
 # ---- the sections of the C source ------------------------------------------------------------
@@ -451,13 +513,13 @@ def phased_functions(printer: SymbolTablePrinter, phases: Phases) -> str:
 
 
 def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str,
-                     chunk_steps: int) -> str:
+                     chunk_steps: int, units: Units | None = None) -> str:
     """The right-hand side: a tree's (templates/tree.c.tmpl), or with drives or loops the
     articulated-body program with its unit passes, the multipliers and the projection onto
     the constraints (templates/loops.c.tmpl)."""
     program = block.programs["dynamics"]
     if eqs.layout is None or not eqs.layout.augmented:
-        dynamics = print_program(printer, program, DYNAMICS, chunk_steps)
+        dynamics = print_program(printer, program, DYNAMICS, chunk_steps, units)
         return template("tree.c.tmpl").substitute(
             prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body)
     targets = dynamics_targets(eqs.layout)
@@ -466,7 +528,7 @@ def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
                                                              set(eqs.speeds)))
     else:
         caller = dataclasses.replace(AUGMENTED, targets=targets)
-        dynamics = print_program(printer, program, caller, chunk_steps)
+        dynamics = print_program(printer, program, caller, chunk_steps, units)
         functions = template("accelerations_augmented.c.tmpl").substitute(
             dynamics_parts=dynamics.functions, dynamics=dynamics.body)
     return template("loops.c.tmpl").substitute(
@@ -487,21 +549,23 @@ def constraint_values(eqs: Equations, block: Block, printer: SymbolTablePrinter)
 
 
 def jacobian_section(
-    eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str, chunk_steps: int
+    eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str, chunk_steps: int,
+    units: Units | None = None,
 ) -> str:
     """The Jacobian (exact; by differences for a closed loop's projected right-hand side) and
     M^-1, or the functions saying this build has none."""
     programs = block.programs
     if "inverse_mass" not in programs:
         return template("jacobian_absent.c.tmpl").substitute(prefix=prefix)
-    inverse_mass = print_program(printer, programs["inverse_mass"], INVERSE_MASS, chunk_steps)
+    inverse_mass = print_program(printer, programs["inverse_mass"], INVERSE_MASS, chunk_steps,
+                                 units)
     inverse_mass_text = template("inverse_mass.c.tmpl").substitute(
         prefix=prefix, inverse_mass_parts=inverse_mass.functions, inverse_mass=inverse_mass.body)
     if eqs.jacobian is None:
         return template("jacobian_differences.c.tmpl").substitute(prefix=prefix) + inverse_mass_text
     primal, tangent = jacobian_programs(
-        printer, programs.get("primal", programs["dynamics"]), programs["jacobian"], chunk_steps
-    )
+        printer, programs.get("primal", programs["dynamics"]), programs["jacobian"], chunk_steps,
+        units)
     return template("jacobian.c.tmpl").substitute(
         prefix=prefix,
         jacobian_parts=primal.functions + tangent.functions,
@@ -547,7 +611,8 @@ def cdef(header_text: str) -> str:
     return CDEF.search(header_text).group(1)  # type: ignore[union-attr]
 
 
-def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int) -> str:
+def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
+             units: Units | None = None) -> str:
     mech, printer = eqs.mechanism, SymbolTablePrinter(symbol_table(eqs, block))
     return template("model.c.tmpl").substitute(
         name=mech.name,
@@ -558,12 +623,12 @@ def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int) -> str
         state_names=comment_text(", ".join(mech.state_names)),
         parameter_names=comment_text(", ".join(s.name for s in eqs.parameters)),
         prefix=prefix,
-        dynamics_section=dynamics_section(eqs, block, printer, prefix, chunk_steps),
+        dynamics_section=dynamics_section(eqs, block, printer, prefix, chunk_steps, units),
         check_names=comment_text(", ".join(key for key, _ in eqs.checks)),
         checks=body(printer, block, indexed("out", block.groups["checks"])),
         initial=body(printer, block, indexed("y0", block.groups["initial"])),
         outputs_section=outputs_section(eqs, block, printer, prefix),
-        jacobian_section=jacobian_section(eqs, block, printer, prefix, chunk_steps),
+        jacobian_section=jacobian_section(eqs, block, printer, prefix, chunk_steps, units),
         loops_absent="" if eqs.loops is not None else
         template("loops_absent.c.tmpl").substitute(prefix=prefix),
     ) + events_section(eqs, block, printer, prefix)
@@ -776,28 +841,34 @@ def lane_constants(code: SeriesCode) -> list[str]:
 # ---- the drawing's point positions (issue 20): appended to every model's C ------------------
 
 
-def positions_part(eqs: Equations, block: Block, prefix: str) -> tuple[str, dict]:
+POSITIONS = Caller("positions", "The drawing's point positions", STATE_INPUTS, ("POINT", "xy"),
+                  "v", indent=" " * 8)
+
+
+def positions_part(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
+                   units: Units | None = None) -> tuple[str, dict]:
     """The C of `<name>_positions` (declared in templates/model.h.tmpl: the ground positions of
-    the points nemc.geometry's drawing needs) and the drawing's structure for model.json."""
+    the points nemc.geometry's drawing needs) and the drawing's structure for model.json. The
+    positions are a straight-line program placing each body once from its parent (linear in the
+    number of bodies)."""
+    from .articulated import PointPositions
     from .derive import runtime_values
     from .geometry import drawing
-    from .optimize import rewrite
+    from .optimize import rewrite_program
 
-    picture, runtime = drawing(eqs.mechanism), runtime_values(eqs.mechanism)
-    exprs = [runtime(v) for _, x, y in picture.points for v in (x, y)]
-    symbols = sympy.numbered_symbols("g", cls=sympy.Dummy, real=True)
-    temporaries, reduced = sympy.cse(exprs, symbols=symbols, order="none")
-    names = {**symbol_table(eqs, block), **{s: s.name for s, _ in temporaries}}
-    printer = SymbolTablePrinter(names)
-    indent = " " * 8
-    lines = [f"{indent}const double {s.name} = {printer.doprint(rewrite(e))};"
-             for s, e in temporaries]
-    lines += [f"{indent}{('POINT_X', 'POINT_Y')[k % 2]}({k // 2}) = {printer.doprint(rewrite(e))};"
-              for k, e in enumerate(reduced)]
+    places = PointPositions(eqs.mechanism, runtime_values(eqs.mechanism))
+    picture = drawing(eqs.mechanism, places.position)
+    program = rewrite_program(places.prog.finish(
+        [v for _, x, y in picture.points for v in (x, y)]))
+    names = {**symbol_table(eqs, block), **{s: s.name for s, _ in program.assignments()}}
+    targets = [f"{('POINT_X', 'POINT_Y')[k % 2]}({k // 2})" for k in range(len(program.results))]
+    positions = print_program(SymbolTablePrinter(names), program,
+                              dataclasses.replace(POSITIONS, targets=tuple(targets)), chunk_steps,
+                              units)
     source = template("positions.c.tmpl").substitute(
         prefix=prefix, n_points=len(picture.points), n_values=2 * len(picture.points),
         point_names=comment_text(", ".join(name for name, _, _ in picture.points)),
-        positions="\n".join(lines),
+        positions_parts=positions.functions, positions=positions.body,
     )
     return source, picture.metadata()
 
@@ -812,7 +883,9 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
     lanes_c = lanes_section(eqs, printer, prefix) if lanes and taylor else ""
     info = metadata(eqs, prefix)
     info.update(unit_metadata(eqs.mechanism, info["output_names"]))
-    positions_c, info["drawing"] = positions_part(eqs, block, prefix)
+    chunk_steps = chunk_steps or CHUNK_STEPS
+    units = Units(prefix) if needs_units(block, chunk_steps) else None
+    positions_c, info["drawing"] = positions_part(eqs, block, prefix, chunk_steps, units)
     if taylor:
         info["generated"].append("taylor")
         info["taylor_program"] = ("articulated body" if eqs.taylor is eqs.dynamics
@@ -825,8 +898,9 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
     interface = header(eqs, prefix)
     return Emitted(
         name=eqs.mechanism.name,
-        c_source=c_source(eqs, block, prefix, chunk_steps or CHUNK_STEPS)
+        c_source=c_source(eqs, block, prefix, chunk_steps, units)
         + native_section(eqs, prefix, taylor, lanes_c) + positions_c,
+        units=units.files(eqs.mechanism.name) if units is not None else (),
         header=interface,
         cdef=cdef(interface),
         package_init=template("package_init.py.tmpl").substitute(

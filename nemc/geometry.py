@@ -11,6 +11,7 @@ belongs to which body, joint or spring) goes to the build's metadata (`drawing`)
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import sympy
@@ -38,9 +39,13 @@ class Drawing:
                 "traces": self.traces}
 
 
+# where a point fixed in a body (its name, body-frame xy) is in the ground frame: (x, y)
+Locate = Callable[[str, m.Vec2], Sequence[sympy.Expr]]
+
+
 class _Builder:
-    def __init__(self, mech: m.Mechanism):
-        self.kin = Kinematics(mech)
+    def __init__(self, mech: m.Mechanism, locate: Locate | None):
+        self.locate = locate or Kinematics(mech).position
         self.drawing = Drawing()
         self.index: dict[tuple[str, tuple], int] = {}
 
@@ -48,15 +53,17 @@ class _Builder:
         """The index of a point fixed in BODY at XY (body frame); the same point once."""
         key = (body, tuple(sympy.sympify(v) for v in xy))
         if key not in self.index:
-            position = self.kin.position(body, xy)
+            position = self.locate(body, xy)
             self.index[key] = len(self.drawing.points)
             self.drawing.points.append((name, position[0], position[1]))
         return self.index[key]
 
 
-def drawing(mech: m.Mechanism) -> Drawing:
-    """Every point a picture of MECH needs, in a fixed order: bodies, joints, springs."""
-    builder = _Builder(mech)
+def drawing(mech: m.Mechanism, locate: Locate | None = None) -> Drawing:
+    """Every point a picture of MECH needs, in a fixed order: bodies, joints, springs.
+    locate: how a point's ground position is found (default: whole expressions from
+    nemc.kinematics; the build passes names of a program, nemc.articulated.PointPositions)."""
+    builder = _Builder(mech, locate)
     for body in mech.bodies:
         named = [("origin", (0, 0)), ("com", body.com), *body.points.items()]
         if not body.points and any(sympy.sympify(v) != 0 for v in body.com):

@@ -54,15 +54,25 @@ class Kinematics:
         self.q = tuple(m.symbol(c) for c in mech.coordinates)
         self.u = tuple(m.rate_symbol(c) for c in mech.coordinates)
         self.qdd = tuple(m.accel_symbol(c) for c in mech.coordinates)
-        self.bodies: dict[str, BodyKinematics] = {
+        self._placed: dict[str, BodyKinematics] = {
             m.GROUND: BodyKinematics(sympy.S.Zero, vec([0, 0]))
         }
         self._joint_of = {joint.child: joint for joint in mech.joints}
         self.motions = {joint.coordinates[0]: prescribed_motion(joint) for joint in mech.driven}
-        for joint in joints_parent_first(mech.joints):
+
+    def body(self, name: str) -> BodyKinematics:
+        """A body's angle and origin, placed (with its ancestors) on first use: a body's whole
+        expressions grow with its depth in the tree, so placing every body of a long chain
+        costs the square of its length, which the derivation spends only when it asks."""
+        pending = []
+        while name not in self._placed:
+            pending.append(self._joint_of[name])
+            name = pending[-1].parent
+        for joint in reversed(pending):
             angle, origin = joint.place(self.frame(joint.parent),
                                         [self.coordinate(c) for c in joint.coordinates])
-            self.bodies[joint.child] = BodyKinematics(angle, vec(origin))
+            self._placed[joint.child] = BodyKinematics(angle, vec(origin))
+        return self._placed[pending[0].child] if pending else self._placed[name]
 
     def coordinate(self, name: str) -> sympy.Expr:
         """A coordinate's value: its symbol, or a driven coordinate's motion (of t)."""
@@ -75,10 +85,10 @@ class Kinematics:
         return SymbolicFrame(self, body)
 
     def angle(self, body: str) -> sympy.Expr:
-        return self.bodies[body].angle
+        return self.body(body).angle
 
     def position(self, body: str, xy: m.Vec2) -> Vec:
-        kin = self.bodies[body]
+        kin = self.body(body)
         return kin.origin + rotation(kin.angle) * vec(xy)
 
     def velocity(self, body: str, xy: m.Vec2) -> Vec:
@@ -86,7 +96,7 @@ class Kinematics:
         (no differentiation: linear in the depth of the tree, where `rate` is quadratic)."""
         if body == m.GROUND:
             return vec([0, 0])
-        kin, omega = self.bodies[body], self.rate(self.angle(body))
+        kin, omega = self.body(body), self.rate(self.angle(body))
         arm = rotation(kin.angle) * vec(xy)
         return self.origin_velocity(body) + omega * vec([-arm[1], arm[0]])
 
@@ -120,7 +130,7 @@ class SymbolicFrame:
 
     @property
     def origin(self) -> tuple[sympy.Expr, sympy.Expr]:
-        origin = self.kin.bodies[self.body].origin
+        origin = self.kin.body(self.body).origin
         return origin[0], origin[1]
 
     def rotate(self, xy: Sequence[sympy.Expr]) -> tuple[sympy.Expr, sympy.Expr]:
@@ -163,16 +173,21 @@ def motion_substitutions(mech: m.Mechanism) -> dict[sympy.Symbol, sympy.Expr]:
 
 
 def joints_parent_first(joints: Iterable[Joint]) -> list[Joint]:
-    placed, pending, ordered = {m.GROUND}, list(joints), []
-    while pending:
-        ready = [j for j in pending if j.parent in placed]
-        if not ready:
-            raise ValueError("joints do not form a tree rooted at ground (validate first)")
-        for joint in ready:
-            ordered.append(joint)
-            placed.add(joint.child)
-            pending.remove(joint)
-    return ordered
+    """The joints by their depth in the tree (those on ground first), in file order at each
+    depth: every joint after the one placing its parent. Linear in the number of joints."""
+    joints = list(joints)
+    of_child = {joint.child: joint for joint in joints}
+    depth = {m.GROUND: -1}
+    for joint in joints:
+        path, body = [], joint.child
+        while body not in depth:
+            if body not in of_child or len(path) > len(joints):
+                raise ValueError("joints do not form a tree rooted at ground (validate first)")
+            path.append(body)
+            body = of_child[body].parent
+        for body in reversed(path):
+            depth[body] = depth[of_child[body].parent] + 1
+    return sorted(joints, key=lambda joint: depth[joint.child])
 
 
 def applied_loads(mech: m.Mechanism, kin: Kinematics

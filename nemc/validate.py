@@ -85,10 +85,12 @@ SHADOWED_MODULES = frozenset({*sys.stdlib_module_names, "numpy", "scipy", "cffi"
 # Problems reported at most: each costs a suggestion (difflib over every name), so a file of
 # 15,000 wrong loads and 5,000 parameters took 106 s to report in full.
 MAX_PROBLEMS = 100
-# The largest mechanism nemc builds: a 200-body chain took 14 s to build, 58 s with its Jacobian
-# (800 bodies: 66 s without; 2-core machine under load 4). Raise them when the build scales.
-MAX_BODIES = 200
-MAX_COORDINATES = 200
+# The largest mechanism nemc builds. The build grows linearly with the bodies (issue 19): a
+# 1000-body chain of revolute joints builds cold in 53 s with 224 MB at most (400 bodies 22 s,
+# 200 bodies 16 s), 264 s and 710 MB with its Jacobian (whose derivation, sympy's diff of every
+# step, is linear but slow); 2-core machine under a load of 2.3-2.9 (docs/decisions.md, "Size").
+MAX_BODIES = 1000
+MAX_COORDINATES = 1000
 MAX_MODEL_NAME = 64  # characters: it names the package's folder and files, and prefixes C names
 FIXED_WHERE = "in body, joint, gravity and initial-condition fields (parameters and constants only)"
 MOTION_WHERE = "in a joint's motion (parameters, constants and t only)"
@@ -483,7 +485,8 @@ def _check_size(ctx: _Ctx, root: Mapping[str, Node]) -> None:
     too_large = [(key, count, most, what) for key, count, most, what in sizes if count > most]
     for key, count, most, what in too_large:
         ctx.problem(root[key].line, key, f"{count} {what}: nemc builds at most {most} {what} "
-                    f"(a {MAX_BODIES}-body chain builds in about a minute with its Jacobian)")
+                    f"(a {MAX_BODIES}-body chain builds in about a minute, about five with its "
+                    "Jacobian)")
     if too_large:  # validating the rest would take long and say nothing more useful
         raise InputError(sorted(ctx.problems, key=lambda p: p.line))
 
@@ -856,14 +859,19 @@ def _check_tree(ctx: _Ctx, edges: list[_Edge], named_children: set[object]) -> N
 
 
 def _check_cycles_in_tree(ctx: _Ctx, parent_of: Mapping[str, _Edge]) -> None:
+    """Each cycle once; every body's way up is walked once (linear in the bodies)."""
     reported: set[str] = set()
+    settled: set[str] = set()  # bodies whose way up an earlier walk took: nothing new there
     for start in parent_of:
         chain: list[str] = []
+        on_chain: set[str] = set()
         body = start
-        while body in parent_of and body not in chain:
+        while body in parent_of and body not in on_chain and body not in settled:
             chain.append(body)
+            on_chain.add(body)
             body = parent_of[body].parent
-        if body not in chain or body in reported:
+        settled.update(chain)
+        if body not in on_chain or body in reported:
             continue
         cycle = chain[chain.index(body):]
         reported.update(cycle)

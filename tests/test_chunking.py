@@ -103,3 +103,66 @@ def test_parts_compile_warning_free(pair: tuple[Compiled, Compiled], tmp_path: P
         capture_output=True, text=True,
     )
     assert done.returncode == 0, done.stderr
+
+
+# ---- very long programs in unit files (nemc/emit.py Units, issue 19): forced on small models -
+
+
+def model_path(name: str, folder: Path) -> Path:
+    if name == "tree6":
+        path = folder / "tree6.yaml"
+        path.write_text(random_mechanism_yaml(np.random.default_rng(7), 6, True, "tree6"))
+        return path
+    return EXAMPLES / f"{name}.yaml"
+
+
+@pytest.fixture(scope="module", params=["double_pendulum", "tree6"])
+def units(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+          ) -> tuple[Compiled, Compiled]:
+    """The model in one file, and in parts of 7 steps spread over unit files of about 30 steps
+    (its own cache: the build key does not see the patched sizes)."""
+    folder = tmp_path_factory.mktemp("units")
+    path = model_path(request.param, folder)
+    whole = build(path, folder / "whole", None)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr("nemc.emit.UNIT_STEPS", 20)
+        patch.setattr("nemc.emit.UNIT_FILE_STEPS", 30)
+        split = build(path, folder / "split", 7)
+    return whole, split
+
+
+def test_unit_files_hold_the_parts(units: tuple[Compiled, Compiled]) -> None:
+    whole, split = units
+    name = split.model.name
+    files = sorted(split.package.glob(f"{name}_unit*.c"))
+    assert len(files) >= 2 and not list(whole.package.glob(f"{name}_unit*.c"))
+    main = (split.package / f"{name}.c").read_text()
+    assert "in a unit file of its own" in main and "static void accelerations_part" not in main
+    defined = "".join(path.read_text() for path in files)
+    assert f"\nvoid {name}_accelerations_part1(" in defined or \
+        f"\nint {name}_accelerations_part1(" in defined
+
+
+def test_unit_files_give_the_same_numbers(units: tuple[Compiled, Compiled]) -> None:
+    whole, split = units
+    rng = np.random.default_rng(12)
+    p = whole.model.parameter_vector()
+    for _ in range(4):
+        y = rng.uniform(-1.5, 1.5, whole.model.n_state)
+        assert evaluate(split, y, p) == evaluate(whole, y, p)  # bit for bit
+    y = rng.uniform(-1.5, 1.5, (whole.model.n_state, 3))
+    expected = whole.model.positions(0.2, y)
+    found = split.model.positions(0.2, y)
+    assert found.keys() == expected.keys()
+    assert all(np.array_equal(found[name], expected[name]) for name in expected)
+
+
+def test_unit_files_compile_warning_free(units: tuple[Compiled, Compiled], tmp_path: Path
+                                         ) -> None:
+    for c_file in sorted(units[1].package.glob("*.c")):
+        done = subprocess.run(
+            ["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-c", str(c_file),
+             "-o", str(tmp_path / "unit.o")],
+            capture_output=True, text=True,
+        )
+        assert done.returncode == 0, (c_file.name, done.stderr)

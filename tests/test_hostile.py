@@ -208,7 +208,7 @@ def generated_cases() -> dict[str, tuple[bytes, tuple[int, str, str]]]:
         "loads_flood_with_5000_names": (names_and_loads(5000, 15000).encode(),
                                         (5006, "loads[0].torque", "stopped after 100 problems")),
         "chain_of_2000_bodies": (chain_yaml(2000).encode(),
-                                 (5, "bodies", "2000 bodies: nemc builds at most 200")),
+                                 (5, "bodies", "2000 bodies: nemc builds at most 1000")),
     }
 
 
