@@ -67,15 +67,19 @@ def test_parts_are_emitted_only_when_forced(pair: tuple[Compiled, Compiled]) -> 
     assert "intermediates passed between the parts" in text
 
 
-def test_parts_give_the_same_numbers(pair: tuple[Compiled, Compiled]) -> None:
-    whole, parts = pair
-    rng = np.random.default_rng(11)
+def assert_same_numbers(whole: Compiled, other: Compiled, rng: np.random.Generator) -> None:
+    """Every compiled function of OTHER gives WHOLE's numbers, bit for bit (the same
+    operations), at 4 random states."""
     p = whole.model.parameter_vector()
     for _ in range(4):
         y = rng.uniform(-1.5, 1.5, whole.model.n_state)
         expected = evaluate(whole, y, p)
         assert all(status == 0 for status, _ in expected.values())
-        assert evaluate(parts, y, p) == expected  # bit for bit: the same operations
+        assert evaluate(other, y, p) == expected
+
+
+def test_parts_give_the_same_numbers(pair: tuple[Compiled, Compiled]) -> None:
+    assert_same_numbers(*pair, np.random.default_rng(11))
 
 
 def test_parts_return_the_same_status_at_singular_states(pair: tuple[Compiled, Compiled]) -> None:
@@ -146,10 +150,7 @@ def test_unit_files_hold_the_parts(units: tuple[Compiled, Compiled]) -> None:
 def test_unit_files_give_the_same_numbers(units: tuple[Compiled, Compiled]) -> None:
     whole, split = units
     rng = np.random.default_rng(12)
-    p = whole.model.parameter_vector()
-    for _ in range(4):
-        y = rng.uniform(-1.5, 1.5, whole.model.n_state)
-        assert evaluate(split, y, p) == evaluate(whole, y, p)  # bit for bit
+    assert_same_numbers(whole, split, rng)
     y = rng.uniform(-1.5, 1.5, (whole.model.n_state, 3))
     expected = whole.model.positions(0.2, y)
     found = split.model.positions(0.2, y)
