@@ -12,9 +12,10 @@ problem.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import dataclasses
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Literal, TypeVar
 
 import sympy
 
@@ -29,6 +30,23 @@ Vec2 = tuple[sympy.Expr, sympy.Expr]
 TIME = sympy.Symbol("t", real=True)
 GROUND = "ground"
 ZERO2: Vec2 = (sympy.S.Zero, sympy.S.Zero)
+
+
+Record = TypeVar("Record")
+
+
+def with_expressions_mapped(record: Record, f: Callable[[sympy.Expr], sympy.Expr]) -> Record:
+    """A joint, load or constraint (a dataclass) with f applied to every expression of its own
+    fields: sympy values and tuples of them (e.g. constants folded)."""
+    changes = {}
+    for item in dataclasses.fields(record):  # type: ignore[arg-type]
+        value = getattr(record, item.name)
+        if isinstance(value, sympy.Basic):
+            changes[item.name] = f(value)
+        elif isinstance(value, tuple) and value and all(
+                isinstance(v, sympy.Basic) for v in value):
+            changes[item.name] = tuple(f(v) for v in value)
+    return dataclasses.replace(record, **changes)  # type: ignore[type-var]
 
 
 def symbol(name: str) -> sympy.Symbol:

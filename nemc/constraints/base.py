@@ -10,14 +10,13 @@ the multipliers of the index-1 equations are the reactions, with no further conv
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import sympy
 
-from ..model import Loc, PointRef
+from ..model import Loc, PointRef, with_expressions_mapped
 from ..spatial import V2, couple
 
 if TYPE_CHECKING:
@@ -48,15 +47,7 @@ class Constraint:
 
     def map_expressions(self, f: Callable[[Expr], Expr]) -> Constraint:
         """The constraint with f applied to every expression of its own fields."""
-        changes = {}
-        for item in dataclasses.fields(self):
-            value = getattr(self, item.name)
-            if isinstance(value, sympy.Basic):
-                changes[item.name] = f(value)
-            elif isinstance(value, tuple) and value and all(
-                    isinstance(v, sympy.Basic) for v in value):
-                changes[item.name] = tuple(f(v) for v in value)
-        return dataclasses.replace(self, **changes)
+        return with_expressions_mapped(self, f)
 
     def equations(self, a: Frame, b: Frame) -> list[Expr]:
         """Phi: the expressions that vanish when the constraint holds, given the two bodies'

@@ -15,14 +15,13 @@ kinematics' frames build plain expressions. Each kind writes its placement once,
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import sympy
 
-from ..model import ZERO2, Loc, Vec2
+from ..model import ZERO2, Loc, Vec2, with_expressions_mapped
 from ..spatial import V2, V3, cross_motion
 
 if TYPE_CHECKING:
@@ -115,15 +114,7 @@ class Joint:
 
     def map_expressions(self, f: Callable[[Expr], Expr]) -> Joint:
         """The joint with f applied to every expression it holds (e.g. constants folded)."""
-        changes = {}
-        for item in dataclasses.fields(self):
-            value = getattr(self, item.name)
-            if isinstance(value, sympy.Basic):
-                changes[item.name] = f(value)
-            elif isinstance(value, tuple) and value and all(
-                    isinstance(v, sympy.Basic) for v in value):
-                changes[item.name] = tuple(f(v) for v in value)
-        return dataclasses.replace(self, **changes)
+        return with_expressions_mapped(self, f)
 
     # -- placement: every derivation ---------------------------------------------------------
 

@@ -10,14 +10,13 @@ potential energy. Nothing outside nemc/loads/ tests a load's kind; it asks the l
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import sympy
 
-from ..model import Loc, Vec2
+from ..model import Loc, Vec2, with_expressions_mapped
 from ..spatial import V2, V3
 
 if TYPE_CHECKING:
@@ -94,15 +93,7 @@ class Load:
 
     def map_expressions(self, f: Callable[[Expr], Expr]) -> Load:
         """The load with f applied to every expression it holds (e.g. constants folded)."""
-        changes = {}
-        for item in dataclasses.fields(self):
-            value = getattr(self, item.name)
-            if isinstance(value, sympy.Basic):
-                changes[item.name] = f(value)
-            elif isinstance(value, tuple) and value and all(
-                    isinstance(v, sympy.Basic) for v in value):
-                changes[item.name] = tuple(f(v) for v in value)
-        return dataclasses.replace(self, **changes)
+        return with_expressions_mapped(self, f)
 
     def act(self, aba: ArticulatedLoads) -> None:
         """Apply the load in the articulated-body algorithm (its expressions already in
