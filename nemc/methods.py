@@ -40,6 +40,18 @@ def auto_builds_taylor(method: str | None, coordinates: int) -> bool:
     return method in (None, AUTO) and coordinates <= AUTO_TAYLOR_MAX_COORDINATES
 
 
+def stiff_rate(eigenvalues: list[complex]) -> float:
+    """The rate that holds an explicit method's step for stability alone: the fastest
+    decaying mode's (its decay beyond its frequency: damped, not an oscillation the steps must
+    resolve anyway), less the fastest growing mode's (which they must resolve too); 0 without
+    a damped mode."""
+    decays = [-value.real for value in eigenvalues]
+    damped = [decay for decay, value in zip(decays, eigenvalues) if decay > abs(value.imag)]
+    if not damped:
+        return 0.0
+    return max(max(damped) - max(-min(decays), 0.0), 0.0)
+
+
 def auto_method(coordinates: int, rtol: float, has_taylor: bool, stiff_steps: float) -> str:
     """The native method "auto" starts with. stiff_steps: the steps an explicit method would
     need over the interval for stability alone, from the decaying modes at the start (0: none
