@@ -3,7 +3,9 @@ against the C right-hand side itself (rhs_many over 1,000 states, per state), an
 over a step-sized interval (its fixed cost: checks, settings, the interrupt flag, the result),
 each native method, on the book's double pendulum; and over an empty interval [0, 0], where
 the C returns the initial state at once and what is timed is simulate()'s fixed cost alone.
-Interleaved calibrated loops.
+The drivers' own work: each explicit method over [0, 200] at rtol 1e-10 (long runs: the fixed
+cost vanishes), per right-hand-side call, against the C right-hand side alone; the excess is
+the driver's per-step work (stage sums, error norm, step control). Interleaved calibrated loops.
 
 Run: `python benchmarks/overhead.py [--rounds 5]` (about 30 s). Prints a Markdown table
 (median (min-max) per call) and the load average; writes nothing. The README quotes one run.
@@ -44,11 +46,22 @@ def main() -> int:
         calls[f"simulate over [0, 0], {method}"] = (
             lambda method=method: model.simulate((0.0, 0.0), y0, method=method,
                                                  t_eval=[0.0]), 1)
+    for method in ("nemc.DOP853", "nemc.Vern9", "nemc.Taylor"):
+        nfev = model.simulate((0.0, 200.0), y0, method=method, rtol=1e-10, atol=1e-12,
+                              t_eval=[200.0]).nfev
+        calls[f"per RHS call (expansion for Taylor), {method} over [0, 200]"] = (
+            lambda method=method: model.simulate((0.0, 200.0), y0, method=method, rtol=1e-10,
+                                                 atol=1e-12, t_eval=[200.0]), nfev)
     print(f"load average at start: {os.getloadavg()}")
     times = interleaved(calls, args.rounds, target=0.2)
     print("| call | time per call, median (min-max) |\n| --- | --- |")
     for name, summary in times.items():
         print(f"| {name} | {spread(summary)} |")
+    rhs = times["C right-hand side (rhs_many, per state)"]["median"]
+    for method in ("nemc.DOP853", "nemc.Vern9"):
+        per_call = times[f"per RHS call (expansion for Taylor), {method} over [0, 200]"]["median"]
+        print(f"- {method}: the driver adds {(per_call - rhs) / rhs:.0%} of the RHS's cost per"
+              " call")
     print(f"load average at end: {os.getloadavg()}")
     return 0
 
