@@ -753,10 +753,8 @@ class Model(LoopsMixin):
 
     def _start_stiffness(self, span: tuple[float, ...], y0: np.ndarray, p: np.ndarray) -> float:
         """The steps an explicit method would need over the span for stability alone, from the
-        Jacobian at y0 (forward differences of the RHS, one C call): the fastest decaying mode
-        (its real part beyond its imaginary one: damped, not an oscillation to resolve), less
-        the fastest growing one (which the steps must resolve anyway), x the span /
-        EXPLICIT_STABILITY. The eigenvalues are computed only when the dissipation (minus
+        Jacobian at y0 (_start_jacobian: one C call): methods.stiff_rate of its eigenvalues x
+        the span / EXPLICIT_STABILITY. The eigenvalues are computed only when the dissipation (minus
         the trace: the decay rates' sum) is large enough to make that many steps; else it is
         returned, an estimate that a stiffness it misses is still caught by the run's test.
         0 when not computed (loops, large systems, a start the RHS cannot evaluate)."""
