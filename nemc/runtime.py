@@ -218,7 +218,7 @@ def _all_finite(array: np.ndarray) -> bool:
     """Whether every entry is finite. A small array's sum as Python floats (no warning on an
     overflow) says so in 0.2 us where numpy's isfinite().all() takes 1 us: a nan or inf makes
     the sum nan or inf; only then (or after an overflow) each entry is looked at."""
-    if array.size <= 64 and math.isfinite(sum(array.tolist())):
+    if array.size <= 64 and math.isfinite(sum(array.ravel().tolist())):
         return True
     return bool(np.isfinite(array).all())
 
@@ -754,9 +754,10 @@ class Model(LoopsMixin):
     def _start_stiffness(self, span: tuple[float, ...], y0: np.ndarray, p: np.ndarray) -> float:
         """The steps an explicit method would need over the span for stability alone, from the
         Jacobian at y0 (_start_jacobian: one C call): methods.stiff_rate of its eigenvalues x
-        the span / EXPLICIT_STABILITY. The eigenvalues are computed only when the dissipation (minus
-        the trace: the decay rates' sum) is large enough to make that many steps; else it is
-        returned, an estimate that a stiffness it misses is still caught by the run's test.
+        the span / EXPLICIT_STABILITY. The eigenvalues are computed only when the dissipation
+        (minus the trace: the decay rates' sum) is large enough to make that many steps; else
+        it is returned, an estimate that a stiffness it misses is still caught by the run's
+        test.
         0 when not computed (loops, large systems, a start the RHS cannot evaluate)."""
         n = self.n_state
         if self.has_loops or n > AUTO_SPECTRUM_MAX_STATES:
@@ -770,7 +771,7 @@ class Model(LoopsMixin):
             return 0.0
         if dissipation <= AUTO_STIFF_STEPS:
             return max(dissipation, 0.0)
-        if not np.isfinite(jacobian).all():
+        if not _all_finite(jacobian):
             return 0.0
         return stiff_rate(eigenvalues(jacobian)) * per_step
 
