@@ -397,7 +397,7 @@ class ScipyControl:
         """dop853.f's test on the step just taken: |h| |f_b - f_a| / |y_b - y_a| for the two
         evaluations at one time (the stage's argument formed again from solver.K)."""
         stage, final, threshold = self.stiffness_stages  # type: ignore[misc]
-        h = solver.t - solver.t_old
+        h = solver.h_previous  # the step just taken (solver.t_old is set after it)
         argument = solver.y_old + h * (solver.K[:stage].T @ solver.A[stage, :stage])
         denominator = np.linalg.norm(solver.y - argument)
         if not denominator > 0:
@@ -410,7 +410,7 @@ class ScipyControl:
             return
         self.nonstiff_count = 0
         if self.stiff_count == 0:
-            self.stiff_start = solver.t_old
+            self.stiff_start = solver.t - h
         self.stiff_count += 1
         if self.stiff_count < STIFF_TESTS:
             return
@@ -623,27 +623,58 @@ class _Segments:
                 outcome.ending = {"event": self.names[k], "interval": abs(t_end - last)}
                 return outcome
             self.last_impact[k] = t_end
-        self.set_cooldowns(enders, t_end, y)
+        before = np.array(sol.y_events[enders[0]][-1], dtype=float)
+        refire = self.set_cooldowns(enders, t_end, before, y)
+        if refire is not None:  # the law did not separate: it fires again at once
+            self.t_events[refire].append(t_end)
+            self.y_events[refire].append(y)
+            outcome = self.outcome(CHATTERING, ending_message(Ending(
+                CHATTERING, t_end, self.span, self.control.steps, "", 0, y,
+                event=self.names[refire], interval=0.0)))
+            outcome.ending = {"event": self.names[refire], "interval": 0.0}
+            return outcome
         return t_end, y
 
-    def set_cooldowns(self, impacted: list[int], t: float, y: np.ndarray) -> None:
-        """After an impact at t: each impacted event's side along the new motion, with a short
-        cooldown when a rounding leaves its value on the other side (as run_control.c.tmpl)."""
+    def set_cooldowns(self, impacted: list[int], t: float, before: np.ndarray,
+                      y: np.ndarray) -> int | None:
+        """After an impact at t (state before, y after): each impacted event's side along the
+        new motion, with a short cooldown when a rounding leaves its value on the other side
+        (as run_control.c.tmpl). A law that does not separate (the value stays or goes on the
+        way it crossed) gets no cooldown: if a rounding left its value on the crossed side it
+        fires again at once (returned: the run chatters), else scipy sees it cross again."""
         self.cooldown = {}
         events = self.model_events
         assert events is not None
         h = 1e-7 * (abs(t) + abs(self.span[1] - self.span[0])) * self.direction
-        f = self.rhs(t, y)
-        self.counts[0] += 1
-        now, later = events.values(t, y), events.values(t + h, y + h * f)
+        now, later = self.event_values_ahead(t, y, h)
         window = CHATTER_FRACTION * abs(self.span[1] - self.span[0])
+        crossed: np.ndarray | None = None
         for k in impacted:
             moving = int(np.sign(later[k] - now[k]))
+            crossed_to = events.directions[k]
+            if crossed_to == 0:  # either way: the way it went before the impact
+                if crossed is None:
+                    crossed = np.sign(np.subtract(*self.event_values_ahead(t, before, h)[::-1]))
+                crossed_to = int(crossed[k])
+            if crossed_to and moving in (0, crossed_to):  # no separation
+                if now[k] == 0 or np.sign(now[k]) == crossed_to:
+                    return k
+                continue
             if moving:
                 leave = 2 * abs(now[k] / (later[k] - now[k]) * h)  # back across zero
                 until = t + self.direction * (max(leave, window)
                                               + 64 * np.finfo(float).eps * abs(t))
                 self.cooldown[k] = (until, moving)
+        return None
+
+    def event_values_ahead(self, t: float, y: np.ndarray, h: float
+                           ) -> tuple[np.ndarray, np.ndarray]:
+        """The events' values at (t, y) and a short Euler step h along the motion."""
+        events = self.model_events
+        assert events is not None
+        f = self.rhs(t, y)
+        self.counts[0] += 1
+        return events.values(t, y), events.values(t + h, y + h * f)
 
     def outcome(self, status: int, message: str) -> ScipyOutcome:
         t = np.concatenate(self.ts) if self.ts else np.empty(0)

@@ -90,6 +90,42 @@ def test_an_impact_that_does_not_separate_is_chattering(tmp_path: Path) -> None:
         np.testing.assert_allclose(impacts, bounce_times(1.0)[0], atol=1e-6)
 
 
+def resting_ball(tmp_path: Path, law: str) -> nemc.Model:
+    """The bouncing ball whose impact law stops it on the floor (y := law, dot(y) := 0):
+    gravity then pulls it on through the floor, a law that does not separate."""
+    text = (EXAMPLES / "bouncing_ball.yaml").read_text().replace(
+        "-e*dot(y)", f"0, y: {law}").replace("name: bouncing_ball", "name: resting_ball")
+    path = tmp_path / "resting.yaml"
+    path.write_text(text)
+    return nemc.compile(path)
+
+
+@pytest.mark.parametrize("law", ["r - 1.0e-12", "r"])
+@pytest.mark.parametrize("method", ["nemc.DOP853", "nemc.Radau", "DOP853", "LSODA"])
+def test_an_impact_left_on_the_crossed_side_chatters(tmp_path: Path, law: str,
+                                                     method: str) -> None:
+    """After an impact that does not separate, the event's value lies on the side it crossed
+    to (a rounding, here made on purpose) or at zero: it fires again at once and the run
+    chatters, whatever the method. It used to pass unseen with scipy's methods: the ball fell
+    35 m through the floor and the run succeeded."""
+    result = resting_ball(tmp_path, law).simulate(method=method)
+    assert result.status == -10 and not result.success, result.message
+    impacts = result.events["bounce"][0]
+    assert len(impacts) == 2 and impacts[1] - impacts[0] <= 8e-9
+    np.testing.assert_allclose(impacts, bounce_times(1.0)[0], atol=1e-6)
+    assert result.y[1].min() > 0.05 - 1e-9  # y: never below the floor
+
+
+def test_scipy_runs_of_many_segments_end_by_their_budget(tmp_path: Path) -> None:
+    """An impact law that lifts the ball 1e-12 above the floor makes an impact every 0.45 us:
+    thousands of solve_ivp segments. The stiffness test, every 1000 steps, once fell on a
+    segment's first step and failed (scipy's t_old is None there); the budget ends the run
+    (at this pace it cannot reach the end within it: status -8)."""
+    result = resting_ball(tmp_path, "r + 1.0e-12").simulate(method="DOP853", max_steps=5000)
+    assert result.status == -8 and not result.success
+    assert "max_steps" in result.message
+
+
 @pytest.mark.parametrize("method", NATIVE + SCIPY)
 def test_the_pendulum_stops_at_the_vertical(method: str) -> None:
     model = nemc.compile(EXAMPLES / "pendulum_to_vertical.yaml")
