@@ -1180,8 +1180,9 @@ class Model(LoopsMixin):
         results to the last bit as one run after the other (lanes=False); the other methods
         always run one after the other."""
         span = checked_span(self.scene["t_span"] or DEFAULT_T_SPAN if t_span is None else t_span)
-        if method is None or method == AUTO:
-            ps, starts = self._ensemble_inputs(y0s, params)
+        inputs = None  # (parameters, starts), made once
+        if method is None or (isinstance(method, str) and method == AUTO):
+            inputs = ps, starts = self._ensemble_inputs(y0s, params)
             method = self.ensemble_method(span, starts[0], ps[0], rtol, len(starts))
             lanes = lanes and (len(starts) >= AUTO_LANES_MIN_RUNS or self.has_part("lanes"))
         if not isinstance(method, str) or method not in NATIVE_METHODS:
@@ -1203,7 +1204,7 @@ class Model(LoopsMixin):
         times = np.array(sorted(set(span), reverse=span[1] < span[0]) if times is None else times,
                          dtype=float)
         given = self._given_mask(y0s)
-        ps, y0s = self._ensemble_inputs(y0s, params)
+        ps, y0s = inputs or self._ensemble_inputs(y0s, params)
         if self.has_loops:  # each run from its assembled state
             y0s = self._assembled_runs(span[0], y0s, given, ps)
         settings = self._run_settings(span, max_step, tstops, max_steps)
