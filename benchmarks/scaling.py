@@ -16,6 +16,8 @@ Run: `python benchmarks/scaling.py [--quick] [--sizes 2,4,8,16,32,64] [--out DIR
 The full mode also compiles long chains (200, 500 and 1000 bodies, issue 19's target: 1000 under
 60 s and 2 GB) cold, once each, and records their phases and the peak memory of the compiling
 process (`--long-sizes` to choose; a compiler job of a unit file takes up to about 150 MB).
+`--long-jacobian`: the long chains name nemc.Radau as their method, so that their build has
+the analytic Jacobian too (its tangent program and its C).
 """
 
 from __future__ import annotations
@@ -62,6 +64,7 @@ class Config:
     many_states: int
     peers: bool
     long_sizes: tuple[int, ...] = ()  # cold compile only (phases, peak memory), once each
+    long_jacobian: bool = False  # the long chains' builds with the Jacobian (method nemc.Radau)
 
 
 MODES = {
@@ -255,6 +258,8 @@ def long_chains(config: Config, folder: Path, notes: list[str]) -> dict[int, dic
     (folder / "long").mkdir(exist_ok=True)
     for name, path in common.write_chains(config.long_sizes, folder / "long", mixed=True).items():
         n = common.chain_size(name)
+        if config.long_jacobian:  # an implicit method: the build has the Jacobian
+            path.write_text(path.read_text().replace("method: DOP853", "method: nemc.Radau"))
         print(f"{name} (cold compile only):", flush=True)
         cache = folder / f"long-cache{n}"
         cache.mkdir()
@@ -291,11 +296,12 @@ def md_table(rows: dict[int, dict[str, Any]]) -> list[str]:
     return lines + [""]
 
 
-def md_long(long: dict[int, dict[str, Any]]) -> list[str]:
+def md_long(long: dict[int, dict[str, Any]], jacobian: bool = False) -> list[str]:
     if not long:
         return []
     stages = ("validate", "derive", "optimize", "emit", "build")
-    lines = ["## Long chains: cold compile (fresh process and cache, once each)", "",
+    what = ", with the analytic Jacobian (method nemc.Radau)" if jacobian else ""
+    lines = [f"## Long chains: cold compile{what} (fresh process and cache, once each)", "",
              "| n | " + " | ".join(stages) + " | cold total | process wall | C source | peak "
              "memory (the compiling process) | load average |",
              "|" + " --- |" * (len(stages) + 6)]
@@ -359,7 +365,8 @@ def markdown(result: dict[str, Any]) -> str:
     lines += ["", "Chains of n uniform rods (m = 1, L = 1), every third joint prismatic, the "
               "others revolute (relative angles), each with a damped joint spring; gravity.", ""]
     long = {int(n): r for n, r in result.get("long", {}).items()}
-    lines += (md_table(rows) + md_long(long) + md_targets(rows) + md_peers(rows)
+    jacobian = result["config"].get("long_jacobian", False)
+    lines += (md_table(rows) + md_long(long, jacobian) + md_targets(rows) + md_peers(rows)
               + md_fits(result["fits"]))
     if result["notes"]:
         lines += ["## Notes", ""] + [f"- {n}" for n in result["notes"]] + [""]
@@ -398,6 +405,8 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     parser = common.mode_parser(
         __doc__.splitlines()[0], "n in {2, 4, 8}, no peers", "n in {2, 3}, for tests"
     )
+    parser.add_argument("--long-jacobian", action="store_true",
+                        help="the long chains built with the analytic Jacobian (nemc.Radau)")
     parser.add_argument("--long-sizes", type=lambda s: tuple(int(v) for v in s.split(",") if v),
                         help="long chains compiled cold only, comma-separated (default: the "
                         "mode's; full: 200,500,1000)")
@@ -410,6 +419,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     config = MODES[mode] if args.sizes is None else replace(MODES[mode], sizes=args.sizes)
     if args.long_sizes is not None:
         config = replace(config, long_sizes=args.long_sizes)
+    config = replace(config, long_jacobian=args.long_jacobian)
     print(f"nemc scaling benchmark, {mode} mode", flush=True)
     result = run(config)
     folder = args.out or RESULTS
