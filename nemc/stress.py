@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from . import runtime
+from . import runs, runtime
 from .runtime import Model, SimulationResult
 
 Params = Mapping[str, float] | None
@@ -351,8 +351,9 @@ class Stiffness:
     t: np.ndarray
     eigenvalues: np.ndarray  # (n_t, n_state), complex
     explicit_step: float  # mean step of RK45 at the scene's tolerances (6 RHS calls a step)
-    explicit_nfev: int
+    explicit_nfev: int  # over the whole span (extrapolated when its stiffness test stopped it)
     implicit_nfev: int
+    explicit_stopped_at: float = math.nan  # where RK45's stiffness test stopped it, if it did
 
     @property
     def fastest_decay(self) -> float:
@@ -385,10 +386,17 @@ def stiffness(model: Model, ref: Reference, params: Params = None, samples: int 
     span = (truth.t[0], truth.t[-1])
     rtol = model.scene["rtol"] or runtime.DEFAULT_RTOL
     atol = model.scene["atol"] or runtime.DEFAULT_ATOL
-    explicit = model.simulate(span, method="RK45", rtol=rtol, atol=atol, params=params)
+    explicit = model.simulate(span, method="RK45", rtol=rtol, atol=atol, params=params,
+                              t_eval=runtime.SOLVER_STEPS)  # its last step: where it stopped
     implicit = model.simulate(span, method="Radau", rtol=rtol, atol=atol, params=params)
-    step = (span[1] - span[0]) / max(1.0, explicit.nfev / 6)
-    return Stiffness(truth.t[pick], eigen, step, explicit.nfev, implicit.nfev)
+    whole, stopped_at = abs(span[1] - span[0]), math.nan
+    covered = whole
+    if explicit.status == runs.STIFF and explicit.t.size:  # RK45 stopped: its pace so far
+        stopped_at = float(explicit.t[-1])
+        covered = abs(stopped_at - span[0]) or whole
+    step = covered / max(1.0, explicit.nfev / 6)
+    nfev = round(explicit.nfev * whole / covered)
+    return Stiffness(truth.t[pick], eigen, step, nfev, implicit.nfev, stopped_at)
 
 
 @dataclass(frozen=True)

@@ -317,7 +317,10 @@ def stiffness_section(st: Study) -> list[str]:
         f"{g(k.fastest_decay, 4)} /s, spread max|λ|/min|λ| = {g(k.ratio, 3)}.",
         f"- RK45 at the scene's tolerances: mean step h = {g(k.explicit_step, 3)} s, "
         f"h · max(−Re λ) = {g(k.step_times_decay, 3)} (its stability limit is about 3.3); "
-        f"{k.explicit_nfev} RHS calls against Radau's {k.implicit_nfev}.",
+        f"{k.explicit_nfev} RHS calls against Radau's {k.implicit_nfev}"
+        + ("." if math.isnan(k.explicit_stopped_at) else
+           f" (its stiffness test stopped it at t = {g(k.explicit_stopped_at, 6)}: its RHS "
+           "calls are extrapolated from its pace until then)."),
         f"- Verdict: {advice}.", "",
         "## Conditioning of the mass matrix", "",
         f"- cond₂(M(q)) along the trajectory: {g(float(np.min(c.condition)), 3)} to "
