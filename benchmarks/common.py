@@ -184,7 +184,7 @@ def native_methods(explicit_only: bool = False) -> tuple[str, ...]:
 # -- systems ----------------------------------------------------------------------------------
 
 
-def chain_yaml(n: int, mixed: bool = False) -> str:
+def chain_yaml(n: int, mixed: bool = False, method: str = "DOP853") -> str:
     """An n-link chain of uniform rods (m = 1, L = 1) under gravity.
 
     Plain: revolute joints, relative angles. Mixed (the scaling benchmark): every third joint
@@ -220,7 +220,7 @@ def chain_yaml(n: int, mixed: bool = False) -> str:
     if springs:
         lines += ["loads:"] + springs
     lines += ["simulation:", "  t_span: [0, 5]", f"  initial: {{{', '.join(initial)}}}",
-              "  method: DOP853"]
+              f"  method: {method}"]
     return "\n".join(lines) + "\n"
 
 
@@ -234,12 +234,13 @@ def chain_size(name: str) -> int | None:
     return int(digits) if digits.isdigit() and name.startswith(("chain", "mixed")) else None
 
 
-def write_chains(ns: Iterable[int], folder: Path, mixed: bool = False) -> dict[str, Path]:
+def write_chains(ns: Iterable[int], folder: Path, mixed: bool = False, method: str = "DOP853"
+                 ) -> dict[str, Path]:
     paths = {}
     for n in sorted(set(ns)):
         name = chain_name(n, mixed)
         path = folder / f"{name}.yaml"
-        path.write_text(chain_yaml(n, mixed))
+        path.write_text(chain_yaml(n, mixed, method))
         paths[name] = path
     return paths
 

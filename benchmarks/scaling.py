@@ -256,10 +256,10 @@ def long_chains(config: Config, folder: Path, notes: list[str]) -> dict[int, dic
     """Cold compiles of the long chains (config.long_sizes), under the compile budget."""
     budget, found = Budget("nemc cold compile (long chains)", config.compile_budget, notes), {}
     (folder / "long").mkdir(exist_ok=True)
-    for name, path in common.write_chains(config.long_sizes, folder / "long", mixed=True).items():
+    method = "nemc.Radau" if config.long_jacobian else "DOP853"  # implicit: with the Jacobian
+    chains = common.write_chains(config.long_sizes, folder / "long", mixed=True, method=method)
+    for name, path in chains.items():
         n = common.chain_size(name)
-        if config.long_jacobian:  # an implicit method: the build has the Jacobian
-            path.write_text(path.read_text().replace("method: DOP853", "method: nemc.Radau"))
         print(f"{name} (cold compile only):", flush=True)
         cache = folder / f"long-cache{n}"
         cache.mkdir()

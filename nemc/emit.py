@@ -435,9 +435,9 @@ def jacobian_programs(
 ) -> tuple[Printed, Printed]:
     """The primal (run once) and its tangent (once per column): in parts when either is long,
     the primal then also passing on every value the tangent reads. The tangent's sums are
-    printed in sympy's canonical order of their terms (order "none"), not sorted for print:
-    sorting took most of a long chain's printing (a 1000-body chain's emit 57 s with its
-    Jacobian, 14 s without); the primal, as the RHS, keeps the sorted order and its bits."""
+    printed in sympy's canonical order of their terms (order "none"), not sorted for print,
+    more than half of printing's time; the primal, as the RHS, keeps the sorted order and its
+    bits (docs/decisions.md, "Printing order")."""
     if max(primal.size, tangent.size) <= chunk_steps:
         return (Printed("", program_body(printer, primal, PRIMAL.results[0])),
                 Printed("", program_body(printer.with_names({}, order="none"), tangent,

@@ -100,9 +100,9 @@ def directional_derivative(expr: sympy.Expr, tangent: Mapping[sympy.Symbol, symp
             if exponent == -1:  # d(1/b) = -(1/b)^2 db: the primal's reciprocal, no division
                 return -name_of(node) ** 2 * args[0]
             return exponent * name_of(base ** (exponent - 1)) * args[0]
-        if isinstance(node, sympy.sin) and len(args) == 1:
+        if isinstance(node, sympy.sin):
             return name_of(sympy.cos(node.args[0])) * args[0]
-        if isinstance(node, sympy.cos) and len(args) == 1:
+        if isinstance(node, sympy.cos):
             return -name_of(sympy.sin(node.args[0])) * args[0]
         return derivative_by_diff(node, tangent, known)  # b**e with e varying
 
