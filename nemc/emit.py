@@ -826,8 +826,18 @@ def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, st
     except TaylorUnsupported as why:
         return "", str(why)
     return template("taylor.c.tmpl").substitute(
-        max_order=TAYLOR_MAX_ORDER, **coefficient_fields(eqs, code, list(code.constants), SCALAR)
+        max_order=TAYLOR_MAX_ORDER,
+        taylor_math=taylor_math("math1_", "taylor_double1", "taylor_bits1", "one-element vectors"),
+        **coefficient_fields(eqs, code, list(code.constants), SCALAR)
     ), None
+
+
+def taylor_math(prefix: str, vector: str, bits: str, what: str) -> str:
+    """nemc.Taylor's sin, cos, log and exp (templates/taylor_math.c.tmpl) over one GCC vector
+    type: the scalar code's one-element vectors and the SIMD lanes' compute the same bits."""
+    return template("taylor_math.c.tmpl").substitute(
+        prefix=prefix, vec=vector, bits=bits, what=what,
+        inline="static inline __attribute__((always_inline))")
 
 
 # Lanes per batch: GCC's vector extension of 4 doubles, one AVX2 register (the coefficients'
@@ -843,6 +853,7 @@ def lanes_section(eqs: Equations, printer: SymbolTablePrinter, prefix: str) -> s
                        series_printer(printer), LANES)
     return template("batch.c.tmpl").substitute(
         prefix=prefix, lanes=LANE_COUNT,
+        taylor_math=taylor_math("lanes_math_", "lanes", "lane_bits", "NEMC_LANES lanes"),
         **coefficient_fields(eqs, code, lane_constants(code), LANES))
 
 
