@@ -13,13 +13,13 @@ Contenders per system, each timed once per round, interleaved, the order rotatin
 - one by one: the same with lanes=False (integrate_many's loop);
 each on 1 thread and on all the machine's cores. The lanes' states are checked equal to the
 one-by-one runs bit for bit. heyoka (when importable): taylor_adaptive_batch at its
-recommended_simd_size, fed benchmarks/peers.py's straight-line program (LDL^T), tol 1e-8,
-the double pendulum only,
-propagate_grid batch by batch on 1 thread, its JIT compile untimed. Both are checked against a
-reference (nemc.Taylor at rtol 2.5e-14, atol 1e-15): each run's largest error over its states
-and times, median and 90th percentile over the runs, so the ratio is one at equal error or
-says how far from it. Reported: medians with min-max spread, ratios of medians (throughput),
-the load average before and after.
+recommended_simd_size, fed benchmarks/peers.py's straight-line program (LDL^T), tol 1e-8, in
+its default and its compact mode (the faster one is the comparison), propagate_grid batch by
+batch on 1 thread, its JIT compile untimed. nemc and heyoka are checked against a reference
+(nemc.Taylor at rtol 2.5e-14, atol 1e-15): each run's largest error over its states and times,
+median and 90th percentile over the runs, so the ratio is one at equal error or says how far
+from it. Reported: medians with min-max spread, ratios of medians (throughput), the load
+average before and after.
 """
 
 from __future__ import annotations
@@ -43,7 +43,6 @@ from common import ROOT, fmt_time, spread  # noqa: E402
 PENDULUM = ROOT / "examples" / "double_pendulum.yaml"
 SPAN, RTOL, ATOL = (0.0, 10.0), 1e-8, 1e-10
 REFERENCE_RTOL, REFERENCE_ATOL = 2.5e-14, 1e-15  # rtol just above Taylor's floor of 100 eps
-TIMES = np.linspace(*SPAN, 101)
 
 
 @dataclass(frozen=True)
@@ -87,9 +86,10 @@ def initial_states(count: int, n_state: int, bound: float = 1.5) -> np.ndarray:
     return y0s
 
 
-def heyoka_batch(y0s: np.ndarray) -> tuple[Callable[[], np.ndarray] | None, str]:
-    """A call integrating every run in heyoka's batches (states (k, n_state, n_t)), or None
-    and why not."""
+def heyoka_batch(system: System, y0s: np.ndarray, compact: bool
+                 ) -> tuple[Callable[[], np.ndarray] | None, str]:
+    """A call integrating every run in heyoka's batches (states (k, n_state, n_t)) in its
+    default or compact mode, or None and why not."""
     try:
         import heyoka as hy
     except ImportError:
@@ -97,7 +97,7 @@ def heyoka_batch(y0s: np.ndarray) -> tuple[Callable[[], np.ndarray] | None, str]
     try:
         import peers
 
-        model = peers.mechanics_model(PENDULUM)
+        model = peers.mechanics_model(system.path)
         mass, forcing, qs, us = peers.plain_symbols(model)
         n = len(qs)
         hq = [hy.make_vars(f"q{k}") for k in range(n)]
@@ -107,28 +107,30 @@ def heyoka_batch(y0s: np.ndarray) -> tuple[Callable[[], np.ndarray] | None, str]
              for i in range(n)]
         f = [hy.from_sympy(forcing[i], s_dict=smap) for i in range(n)]
         qdd = peers.ldl_solve(m, f, lambda e: e)
-        system = [eq for k in range(n) for eq in ((hq[k], hu[k]), (hu[k], qdd[k]))]
+        equations = [eq for k in range(n) for eq in ((hq[k], hu[k]), (hu[k], qdd[k]))]
         batch = hy.recommended_simd_size()
-        ta = hy.taylor_adaptive_batch(system, np.zeros((2 * n, batch)), tol=RTOL)
-        grid = np.repeat(TIMES[:, None], batch, axis=1)
+        ta = hy.taylor_adaptive_batch(equations, np.zeros((2 * n, batch)), tol=RTOL,
+                                      compact_mode=compact)
+        grid = np.repeat(system.times[:, None], batch, axis=1)
     except Exception as error:  # noqa: BLE001 (recorded in the results, never hidden)
         return None, f"set-up failed: {type(error).__name__}: {error}"
 
     def run() -> np.ndarray:
         k = len(y0s)
-        out = np.full((k, 2 * n, TIMES.size), np.nan)
+        out = np.full((k, 2 * n, system.times.size), np.nan)
         for start in range(0, k, batch):
             rows = y0s[start:start + batch]
             state = np.repeat(rows[-1:], batch, axis=0)  # a short last batch repeats a run
             state[:len(rows)] = rows
-            ta.set_time(SPAN[0])
+            ta.set_time(system.span[0])
             ta.state[:] = state.T
             result = ta.propagate_grid(grid)
             states = np.asarray(result[-1] if isinstance(result, tuple) else result)
             out[start:start + len(rows)] = states.transpose(2, 1, 0)[:len(rows)]
         return out
 
-    return run, f"taylor_adaptive_batch, {batch} lanes, tol {RTOL:g}"
+    return run, (f"taylor_adaptive_batch, {batch} lanes, tol {RTOL:g}, "
+                 f"{'compact' if compact else 'default'} mode")
 
 
 def threads_label(threads: int) -> str:
@@ -148,24 +150,27 @@ def contenders(system: System) -> tuple[dict[str, Callable[[], Any]], dict[str, 
             calls[name] = lambda lanes=lanes, threads=threads: model.simulate_many(
                 y0s, t_span=system.span, t_eval=system.times, method="nemc.Taylor", rtol=RTOL,
                 atol=ATOL, threads=threads, lanes=lanes, progress=False)
-    heyoka, note = (heyoka_batch(y0s) if system.path == PENDULUM
-                    else (None, "not measured on this system"))
-    if heyoka is not None:
-        calls["heyoka batch, 1 thread"] = heyoka
+    heyokas, notes = {}, []
+    for compact in (False, True):  # the faster mode wins the comparison (compile time apart)
+        heyoka, note = heyoka_batch(system, y0s, compact)
+        notes.append(note)
+        if heyoka is not None:
+            heyokas[f"heyoka batch {'compact' if compact else 'default'}, 1 thread"] = heyoka
+    calls.update(heyokas)
     lanes_result, one_by_one = calls["lanes, 1 thread"](), calls["one by one, 1 thread"]()
     checks: dict[str, Any] = {
         "lanes_equal_one_by_one": bool(np.array_equal(lanes_result.y, one_by_one.y,
                                                       equal_nan=True)),
         "all_succeeded": bool(lanes_result.success.all()),
         "steps_per_run": float(lanes_result.nfev.mean()),
-        "heyoka": note,
+        "heyoka": "; ".join(dict.fromkeys(notes)),
     }
     reference = model.simulate_many(y0s, t_span=system.span, t_eval=system.times,
                                     method="nemc.Taylor", rtol=REFERENCE_RTOL,
                                     atol=REFERENCE_ATOL, progress=False).y
     checks["errors"] = {"lanes": errors(lanes_result.y, reference)}
-    if heyoka is not None:
-        checks["errors"]["heyoka batch"] = errors(heyoka(), reference)
+    for name, heyoka in heyokas.items():
+        checks["errors"][name.removesuffix(", 1 thread")] = errors(heyoka(), reference)
     return calls, checks
 
 
@@ -219,9 +224,8 @@ def run_system(system: System, rounds: int) -> dict[str, Any]:
         ratios[f"lanes vs one by one, {many}"] = ratio(times, f"one by one, {many}",
                                                        f"lanes, {many}")
         ratios[f"lanes, {many} vs 1"] = ratio(times, "lanes, 1 thread", f"lanes, {many}")
-    if "heyoka batch, 1 thread" in times:
-        ratios["lanes vs heyoka batch, 1 thread"] = ratio(times, "heyoka batch, 1 thread",
-                                                         "lanes, 1 thread")
+    for name in (n for n in times if n.startswith("heyoka")):
+        ratios[f"lanes vs {name}"] = ratio(times, name, "lanes, 1 thread")
     return {"runs": system.runs, "t_span": list(system.span), "checks": checks, "times": times,
             "ratios": ratios}
 
