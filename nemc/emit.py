@@ -833,7 +833,7 @@ def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, st
 
 
 def taylor_math(prefix: str, vector: str, bits: str, what: str) -> str:
-    """nemc.Taylor's sin, cos, log and exp (templates/taylor_math.c.tmpl) over one GCC vector
+    """nemc.Taylor's sin, cos, log2 and exp2 (templates/taylor_math.c.tmpl) over one GCC vector
     type: the scalar code's one-element vectors and the SIMD lanes' compute the same bits."""
     return template("taylor_math.c.tmpl").substitute(
         prefix=prefix, vec=vector, bits=bits, what=what,
