@@ -86,14 +86,13 @@ def initial_states(count: int, n_state: int, bound: float = 1.5) -> np.ndarray:
     return y0s
 
 
-def heyoka_batch(system: System, y0s: np.ndarray, compact: bool
-                 ) -> tuple[Callable[[], np.ndarray] | None, str]:
-    """A call integrating every run in heyoka's batches (states (k, n_state, n_t)) in its
-    default or compact mode, or None and why not."""
+def heyoka_equations(system: System) -> tuple[Any, list[Any] | None, str]:
+    """(heyoka, the system's equations for heyoka, "") or (None, None, why not): the
+    straight-line program of benchmarks/peers.py (LDL^T), derived once for both modes."""
     try:
         import heyoka as hy
     except ImportError:
-        return None, "not installed"
+        return None, None, "not installed"
     try:
         import peers
 
@@ -107,9 +106,18 @@ def heyoka_batch(system: System, y0s: np.ndarray, compact: bool
              for i in range(n)]
         f = [hy.from_sympy(forcing[i], s_dict=smap) for i in range(n)]
         qdd = peers.ldl_solve(m, f, lambda e: e)
-        equations = [eq for k in range(n) for eq in ((hq[k], hu[k]), (hu[k], qdd[k]))]
+    except Exception as error:  # noqa: BLE001 (recorded in the results, never hidden)
+        return None, None, f"set-up failed: {type(error).__name__}: {error}"
+    return hy, [eq for k in range(n) for eq in ((hq[k], hu[k]), (hu[k], qdd[k]))], ""
+
+
+def heyoka_batch(hy: Any, equations: list[Any], system: System, y0s: np.ndarray,
+                 compact: bool) -> tuple[Callable[[], np.ndarray] | None, str]:
+    """A call integrating every run in heyoka's batches (states (k, n_state, n_t)) in its
+    default or compact mode, or None and why not."""
+    try:
         batch = hy.recommended_simd_size()
-        ta = hy.taylor_adaptive_batch(equations, np.zeros((2 * n, batch)), tol=RTOL,
+        ta = hy.taylor_adaptive_batch(equations, np.zeros((len(equations), batch)), tol=RTOL,
                                       compact_mode=compact)
         grid = np.repeat(system.times[:, None], batch, axis=1)
     except Exception as error:  # noqa: BLE001 (recorded in the results, never hidden)
@@ -117,7 +125,7 @@ def heyoka_batch(system: System, y0s: np.ndarray, compact: bool
 
     def run() -> np.ndarray:
         k = len(y0s)
-        out = np.full((k, 2 * n, system.times.size), np.nan)
+        out = np.full((k, len(equations), system.times.size), np.nan)
         for start in range(0, k, batch):
             rows = y0s[start:start + batch]
             state = np.repeat(rows[-1:], batch, axis=0)  # a short last batch repeats a run
@@ -151,8 +159,9 @@ def contenders(system: System) -> tuple[dict[str, Callable[[], Any]], dict[str, 
                 y0s, t_span=system.span, t_eval=system.times, method="nemc.Taylor", rtol=RTOL,
                 atol=ATOL, threads=threads, lanes=lanes, progress=False)
     heyokas, notes = {}, []
-    for compact in (False, True):  # the faster mode wins the comparison (compile time apart)
-        heyoka, note = heyoka_batch(system, y0s, compact)
+    hy, equations, why_not = heyoka_equations(system)
+    for compact in (False, True) if equations else ():  # the faster mode is the comparison
+        heyoka, note = heyoka_batch(hy, equations, system, y0s, compact)
         notes.append(note)
         if heyoka is not None:
             heyokas[f"heyoka batch {'compact' if compact else 'default'}, 1 thread"] = heyoka
@@ -163,7 +172,7 @@ def contenders(system: System) -> tuple[dict[str, Callable[[], Any]], dict[str, 
                                                       equal_nan=True)),
         "all_succeeded": bool(lanes_result.success.all()),
         "steps_per_run": float(lanes_result.nfev.mean()),
-        "heyoka": "; ".join(dict.fromkeys(notes)),
+        "heyoka": "; ".join(notes) or why_not,
     }
     reference = model.simulate_many(y0s, t_span=system.span, t_eval=system.times,
                                     method="nemc.Taylor", rtol=REFERENCE_RTOL,
