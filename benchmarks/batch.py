@@ -12,10 +12,11 @@ Contenders per system, each timed once per round, interleaved, the order rotatin
 - lanes: simulate_many(method="nemc.Taylor") (the part "lanes", built before timing);
 - one by one: the same with lanes=False (integrate_many's loop);
 each on 1 thread and on all the machine's cores. The lanes' states are checked equal to the
-one-by-one runs bit for bit. heyoka (when importable): taylor_adaptive_batch at its
-recommended_simd_size, fed benchmarks/peers.py's straight-line program (LDL^T), tol 1e-8, in
-its default and its compact mode (the faster one is the comparison), propagate_grid batch by
-batch on 1 thread, its JIT compile untimed. nemc and heyoka are checked against a reference
+one-by-one runs bit for bit; nemc's lanes per batch are its build's (8 with AVX-512, else 4).
+heyoka (when importable): taylor_adaptive_batch fed benchmarks/peers.py's straight-line program
+(LDL^T), tol 1e-8, in its default mode at its recommended_simd_size and at 8 lanes, and in its
+compact mode (the fastest is the comparison), propagate_grid batch by batch on 1 thread, its JIT
+compile untimed. nemc and heyoka are checked against a reference
 (nemc.Taylor at rtol 2.5e-14, atol 1e-15): each run's largest error over its states and times,
 median and 90th percentile over the runs, so the ratio is one at equal error or says how far
 from it. Reported: medians with min-max spread, ratios of medians (throughput), the load
@@ -112,11 +113,10 @@ def heyoka_equations(system: System) -> tuple[Any, list[Any] | None, str]:
 
 
 def heyoka_batch(hy: Any, equations: list[Any], system: System, y0s: np.ndarray,
-                 compact: bool) -> tuple[Callable[[], np.ndarray] | None, str]:
-    """A call integrating every run in heyoka's batches (states (k, n_state, n_t)) in its
-    default or compact mode, or None and why not."""
+                 compact: bool, batch: int) -> tuple[Callable[[], np.ndarray] | None, str]:
+    """A call integrating every run in heyoka's batches of BATCH runs (states (k, n_state,
+    n_t)) in its default or compact mode, or None and why not."""
     try:
-        batch = hy.recommended_simd_size()
         ta = hy.taylor_adaptive_batch(equations, np.zeros((len(equations), batch)), tol=RTOL,
                                       compact_mode=compact)
         grid = np.repeat(system.times[:, None], batch, axis=1)
@@ -141,6 +141,15 @@ def heyoka_batch(hy: Any, equations: list[Any], system: System, y0s: np.ndarray,
                  f"{'compact' if compact else 'default'} mode")
 
 
+def heyoka_settings(hy: Any) -> list[tuple[bool, int]]:
+    """(compact mode?, runs per batch) of each heyoka contender: its default mode at its
+    recommended_simd_size and at 8 lanes (on this AVX-512 machine heyoka recommends 4, and 8
+    is faster on the pendulum, slower on the chains: the faster is the comparison), its compact
+    mode at the recommended size."""
+    recommended = hy.recommended_simd_size()
+    return [(False, size) for size in sorted({recommended, 8})] + [(True, recommended)]
+
+
 def threads_label(threads: int) -> str:
     return f"{threads} thread" + ("s" if threads > 1 else "")
 
@@ -160,11 +169,12 @@ def contenders(system: System) -> tuple[dict[str, Callable[[], Any]], dict[str, 
                 atol=ATOL, threads=threads, lanes=lanes, progress=False)
     heyokas, notes = {}, []
     hy, equations, why_not = heyoka_equations(system)
-    for compact in (False, True) if equations else ():  # the faster mode is the comparison
-        heyoka, note = heyoka_batch(hy, equations, system, y0s, compact)
+    for compact, batch in heyoka_settings(hy) if equations else ():
+        heyoka, note = heyoka_batch(hy, equations, system, y0s, compact, batch)
         notes.append(note)
         if heyoka is not None:
-            heyokas[f"heyoka batch {'compact' if compact else 'default'}, 1 thread"] = heyoka
+            mode = "compact" if compact else "default"
+            heyokas[f"heyoka batch {mode} ({batch} lanes), 1 thread"] = heyoka
     calls.update(heyokas)
     lanes_result, one_by_one = calls["lanes, 1 thread"](), calls["one by one, 1 thread"]()
     checks: dict[str, Any] = {
@@ -173,6 +183,7 @@ def contenders(system: System) -> tuple[dict[str, Callable[[], Any]], dict[str, 
         "all_succeeded": bool(lanes_result.success.all()),
         "steps_per_run": float(lanes_result.nfev.mean()),
         "heyoka": "; ".join(notes) or why_not,
+        "lane_count": model.metadata["lane_count"],
     }
     reference = model.simulate_many(y0s, t_span=system.span, t_eval=system.times,
                                     method="nemc.Taylor", rtol=REFERENCE_RTOL,
@@ -233,8 +244,12 @@ def run_system(system: System, rounds: int) -> dict[str, Any]:
         ratios[f"lanes vs one by one, {many}"] = ratio(times, f"one by one, {many}",
                                                        f"lanes, {many}")
         ratios[f"lanes, {many} vs 1"] = ratio(times, "lanes, 1 thread", f"lanes, {many}")
-    for name in (n for n in times if n.startswith("heyoka")):
+    heyokas = [name for name in times if name.startswith("heyoka")]
+    for name in heyokas:
         ratios[f"lanes vs {name}"] = ratio(times, name, "lanes, 1 thread")
+    if heyokas:  # the comparison: heyoka's fastest contender, by median
+        fastest = min(heyokas, key=lambda name: times[name]["median"])
+        ratios["lanes vs heyoka's fastest, 1 thread"] = ratios[f"lanes vs {fastest}"]
     return {"runs": system.runs, "t_span": list(system.span), "checks": checks, "times": times,
             "ratios": ratios}
 
@@ -254,7 +269,8 @@ def md_system(name: str, result: dict[str, Any], rounds: int) -> list[str]:
              f"{ATOL:g}; {rounds} interleaved rounds; {checks['steps_per_run']:.0f} expansions "
              "per run.", "",
              f"- lanes equal to the one-by-one runs bit for bit: "
-             f"{checks['lanes_equal_one_by_one']}; all succeeded: {checks['all_succeeded']}",
+             f"{checks['lanes_equal_one_by_one']}; all succeeded: {checks['all_succeeded']};"
+             f" {checks.get('lane_count', '?')} lanes per batch",
              f"- heyoka: {checks['heyoka']}",
              f"- errors against nemc.Taylor at rtol {REFERENCE_RTOL:g}, atol {REFERENCE_ATOL:g}"
              " (each run's largest over states and times; median, 90th percentile over the "

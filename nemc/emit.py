@@ -840,19 +840,21 @@ def taylor_math(prefix: str, vector: str, bits: str, what: str) -> str:
         inline="static inline __attribute__((always_inline))")
 
 
-# Lanes per batch: GCC's vector extension of 4 doubles, one AVX2 register (the coefficients'
-# function is cloned for AVX2; docs/decisions.md, "Ensembles in SIMD lanes").
-LANE_COUNT = 4
+# The instruction set each lane count is cloned for (build.lane_count chooses the count).
+LANE_TARGETS = {4: "avx2", 8: "avx512f"}
 
 
-def lanes_section(eqs: Equations, printer: SymbolTablePrinter, prefix: str) -> str:
-    """nemc.Taylor's ensembles in SIMD lanes (templates/batch.c.tmpl): the same coefficient code
-    in the lanes dialect. Called only with Taylor's code built (taylor_section succeeded)."""
+def lanes_section(eqs: Equations, printer: SymbolTablePrinter, prefix: str, count: int) -> str:
+    """nemc.Taylor's ensembles in SIMD lanes (templates/batch.c.tmpl), COUNT per batch: the
+    same coefficient code in the lanes dialect. Called only with Taylor's code built
+    (taylor_section succeeded)."""
     assert eqs.taylor is not None
+    if count not in LANE_TARGETS:
+        raise ValueError(f"lanes per batch: one of {sorted(LANE_TARGETS)}, got {count!r}")
     code = series_code(eqs.taylor, eqs.coordinates, eqs.speeds, taylor_rows(eqs), m.TIME,
                        series_printer(printer), LANES)
     return template("batch.c.tmpl").substitute(
-        prefix=prefix, lanes=LANE_COUNT,
+        prefix=prefix, lanes=count, target=LANE_TARGETS[count],
         taylor_math=taylor_math("lanes_math_", "lanes", "lane_bits", "NEMC_LANES lanes"),
         **coefficient_fields(eqs, code, lane_constants(code), LANES))
 
@@ -908,13 +910,14 @@ def positions_part(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
 
 
 def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
-         lanes: bool = False) -> Emitted:
+         lanes: int = 0) -> Emitted:
     """chunk_steps: the most steps of a program printed as one function (CHUNK_STEPS);
-    lanes: also nemc.Taylor's ensembles in SIMD lanes (when Taylor's code is built)."""
+    lanes: also nemc.Taylor's ensembles in SIMD lanes, this many per batch (when Taylor's code
+    is built); 0: none."""
     prefix = f"{eqs.mechanism.name}_"
     printer = SymbolTablePrinter(symbol_table(eqs, block))
     taylor, taylor_unavailable = taylor_section(eqs, printer)
-    lanes_c = lanes_section(eqs, printer, prefix) if lanes and taylor else ""
+    lanes_c = lanes_section(eqs, printer, prefix, lanes) if lanes and taylor else ""
     info = metadata(eqs, prefix)
     info.update(unit_metadata(eqs.mechanism, info["output_names"]))
     chunk_steps = chunk_steps or CHUNK_STEPS
@@ -926,7 +929,7 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
                                   else "mass matrix")
     if lanes_c:
         info["generated"].append("lanes")
-        info["lane_count"] = LANE_COUNT
+        info["lane_count"] = lanes
     if taylor_unavailable:
         info["taylor_unavailable"] = info["lanes_unavailable"] = taylor_unavailable
     interface = header(eqs, prefix)

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .build import Source, build_key, cached_package, is_intact
+from .build import Source, build_key, cached_package, is_intact, lane_count
 from .load import load_package
 from .runs import Progress
 from .runtime import Model
@@ -86,9 +86,10 @@ def compile_mechanism(
 
 def compile_source(
     source: Source, jacobian: bool | None, *, energy: bool = False,
-    taylor: bool | None = None, chunk_steps: int | None = None, lanes: bool = False,
+    taylor: bool | None = None, chunk_steps: int | None = None, lanes: int = 0,
 ) -> Compiled:
-    """lanes: also nemc.Taylor's ensembles in SIMD lanes (with taylor: the part "lanes")."""
+    """lanes: also nemc.Taylor's ensembles in SIMD lanes, this many per batch (with taylor: the
+    part "lanes"; build.lane_count() gives this machine's); 0: none."""
     timings: dict[str, float] = {}
     options: dict = {"jacobian": "auto" if jacobian is None else bool(jacobian)}
     if energy:
@@ -96,7 +97,7 @@ def compile_source(
     if taylor is not None:
         options["taylor"] = bool(taylor)
     if lanes:
-        options["lanes"] = True
+        options["lanes"] = lanes
     if chunk_steps is not None:
         options["chunk_steps"] = chunk_steps
     key = build_key(source, options)
@@ -119,7 +120,7 @@ def compile_source(
         """This mechanism built with these optional parts (Model.compiled_with)."""
         return compile_source(source, "jacobian" in parts, energy=energy,
                               taylor=bool(parts & {"taylor", "lanes"}), chunk_steps=chunk_steps,
-                              lanes="lanes" in parts).model
+                              lanes=lane_count() if "lanes" in parts else 0).model
 
     model.part_compiler = compile_parts
     model.recipe = Recipe(source, jacobian, taylor, energy, chunk_steps,
@@ -130,7 +131,7 @@ def compile_source(
 def generate_and_build(
     source: Source, key: str, jacobian: bool | None, timings: dict[str, float],
     energy: bool = False, taylor: bool | None = None, chunk_steps: int | None = None,
-    lanes: bool = False,
+    lanes: int = 0,
 ) -> Path:
     from .assembly import check_assembly
     from .build import build

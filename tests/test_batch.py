@@ -20,12 +20,12 @@ from reference import random_mechanism_yaml
 from test_taylor import FUNCTIONS, OVERFLOW
 
 import nemc
-from nemc.build import Source
+from nemc.build import Source, lane_count
 from nemc.pipeline import compile_source, read_source
 from nemc.runtime import EnsembleResult
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
-LANES = 4  # nemc.emit.LANE_COUNT
+LANE_COUNTS = (4, 8)  # nemc.emit.LANE_TARGETS: AVX2 and AVX-512
 
 # The overflowing slider of test_taylor with the growth rate a parameter: c = 1000 fails near
 # t = 0.71, c = 1 runs to the end.
@@ -90,8 +90,8 @@ def test_the_lanes_part_is_built_on_first_use_only(pendulum: nemc.Model) -> None
 def test_lanes_compile_warning_free(tmp_path: Path) -> None:
     pendulum = read_source(EXAMPLES / "double_pendulum.yaml")
     functions = Source("functions.yaml", FUNCTIONS.encode())  # every recurrence, t, a real power
-    for source in (pendulum, functions):
-        package = compile_source(source, None, taylor=True, lanes=True).package
+    for source, count in ((pendulum, 4), (pendulum, 8), (functions, lane_count())):
+        package = compile_source(source, None, taylor=True, lanes=count).package
         c_file = next(package.glob("*.c"))
         assert "taylor_coefficients_lanes" in c_file.read_text()
         done = subprocess.run(
@@ -99,6 +99,33 @@ def test_lanes_compile_warning_free(tmp_path: Path) -> None:
              "-o", str(tmp_path / "lanes.o")], capture_output=True, text=True)
         assert done.returncode == 0, done.stderr
         assert "warning" not in done.stderr and "note" not in done.stderr, done.stderr
+
+
+def test_the_lane_count_follows_the_cpu(tmp_path: Path) -> None:
+    cpuinfo = tmp_path / "cpuinfo"
+    cpuinfo.write_text("processor\t: 0\nflags\t\t: fpu sse2 avx avx2 fma\n")
+    assert lane_count(cpuinfo) == 4
+    cpuinfo.write_text("processor\t: 0\nflags\t\t: fpu sse2 avx2 avx512f avx512dq\n")
+    assert lane_count(cpuinfo) == 8
+    cpuinfo.write_text("processor\t: 0\nflags\t\t: fpu sse2 avx2 avx512fp16x\n")
+    assert lane_count(cpuinfo) == 4  # a flag that only begins with avx512f
+    assert lane_count(tmp_path / "absent") == 4
+    assert nemc.compile(EXAMPLES / "double_pendulum.yaml").compiled_with(
+        "lanes").metadata["lane_count"] == lane_count()
+
+
+@pytest.mark.parametrize("count", LANE_COUNTS)
+def test_either_lane_count_equals_the_scalar_runs(count: int) -> None:
+    """4 and 8 lanes per batch, whichever this CPU has: a count whose vector unit the CPU
+    lacks runs one run after the other (integrate_lanes' fallback), with the same results."""
+    source = read_source(EXAMPLES / "double_pendulum.yaml")
+    model = compile_source(source, None, taylor=True, lanes=count).model
+    assert model.metadata["lane_count"] == count
+    y0s = random_states(model, 19, seed=count)
+    lanes, one_by_one = both(model, y0s, params={"L2": np.linspace(0.6, 1.4, 19)},
+                             t_span=(0, 3), t_eval=np.linspace(0, 3, 13), rtol=1e-9, atol=1e-11)
+    assert_same(lanes, one_by_one)
+    assert lanes.success.all() and len(set(lanes.nfev.tolist())) > 1
 
 
 @pytest.mark.parametrize("k", [1, 3, 4, 11])
