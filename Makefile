@@ -69,6 +69,7 @@ wheel-check: $(STAMP)
 # The peers are optional: without them (no network, no wheel) the benchmarks record them as absent.
 $(PEERS_STAMP): $(STAMP)
 	$(BIN)/pip install --quiet -e '.[dev,peers]' || echo "peers not installed: benchmarks skip them"
+	$(BIN)/pip install --quiet -e '.[numbalsoda]' || echo "numbalsoda not installed: benchmarks skip it"
 	touch $(PEERS_STAMP)
 
 bench: $(PEERS_STAMP)
@@ -77,6 +78,7 @@ bench: $(PEERS_STAMP)
 	$(BIN)/python benchmarks/stiff.py
 	$(BIN)/python benchmarks/native.py
 	$(BIN)/python benchmarks/batch.py
+	$(BIN)/python benchmarks/dop853_peer.py
 	$(BIN)/python benchmarks/loops.py
 	$(BIN)/python benchmarks/sweep.py
 	$(BIN)/python benchmarks/events.py

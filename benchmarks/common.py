@@ -11,6 +11,7 @@ import argparse
 import datetime as dt
 import gc
 import importlib
+import importlib.metadata
 import json
 import math
 import os
@@ -37,10 +38,16 @@ CORE_MODULES = ("numpy", "scipy", "sympy", "cffi", "nemc", "matplotlib")
 
 
 def version_of(module: str) -> str | None:
+    """The module's version (its __version__, else its distribution's), or None when it does
+    not import."""
     try:
-        return str(importlib.import_module(module).__version__)
+        imported = importlib.import_module(module)
     except Exception:  # noqa: BLE001 (absent or broken: recorded as None)
         return None
+    try:
+        return str(getattr(imported, "__version__", None) or importlib.metadata.version(module))
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown version"
 
 
 def cpu_model() -> str:

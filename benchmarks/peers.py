@@ -1,11 +1,13 @@
-"""Peers, when installed (`pip install '.[peers]'`): PyDy (Cython backend), JiTCODE, heyoka.
+"""Peers, when installed (`pip install '.[peers]'`, numbalsoda apart): PyDy (Cython backend),
+JiTCODE, heyoka, numbalsoda's dop853.
 
 Each peer gets the same mechanism from its YAML file: `mechanics_model` builds it with
 sympy.physics.mechanics (KanesMethod; revolute and prismatic joints, gravity, joint springs), the
 way a PyDy user writes it. PyDy compiles Kane's M and F with its Cython generator (numpy solve per
-call). JiTCODE and heyoka need an explicit RHS: M qdd = F is solved by an LDL^T elimination written
-as named intermediates (JiTCODE helpers; heyoka shares the subexpressions in its expression graph),
-so the code grows as n^3 / 6 rather than as the symbolic inverse.
+call). JiTCODE, heyoka and numbalsoda need an explicit RHS: M qdd = F is solved by an LDL^T
+elimination written as named intermediates (JiTCODE helpers; heyoka shares the subexpressions in its
+expression graph; numbalsoda gets a numba cfunc of the program, one assignment a line), so the
+code grows as n^3 / 6 rather than as the symbolic inverse.
 
 Every peer runs in a worker process of its own (`python benchmarks/peers.py SPEC.json OUT.json`)
 under a time budget: a peer that fails (e.g. JiTCODE's RecursionError at 32 links) or runs out of
@@ -38,7 +40,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import common  # noqa: E402
 
-PEER_NAMES = {"pydy": "PyDy (Cython)", "jitcode": "JiTCODE", "heyoka": "heyoka"}
+PEER_NAMES = {"pydy": "PyDy (Cython)", "jitcode": "JiTCODE", "heyoka": "heyoka",
+              "numbalsoda": "numbalsoda"}
 AGREEMENT_TOLERANCE = 1e-9  # relative: a peer whose RHS differs more is not timed
 
 
@@ -195,6 +198,9 @@ class Peer:
     rhs: Callable[[float, np.ndarray], np.ndarray]
     solvers: dict[str, Callable[[tuple, np.ndarray, np.ndarray, float], tuple[np.ndarray, int]]]
     build_seconds: dict[str, float]
+    # the RHS at t = 0 over rows of states (k, n_state) in the peer's own compiled loop: its
+    # cost per call without Python (numbalsoda only)
+    rhs_loop: Callable[[np.ndarray], Any] | None = None
 
 
 def orders(model: MechanicsModel) -> tuple[np.ndarray, np.ndarray]:
@@ -313,7 +319,83 @@ def build_heyoka(model: MechanicsModel, folder: Path) -> Peer:
     return Peer(rhs, {"taylor (tol = rtol)": solve}, seconds)
 
 
-BUILDERS = {"pydy": build_pydy, "jitcode": build_jitcode, "heyoka": build_heyoka}
+def straight_line_rhs(model: MechanicsModel) -> str:
+    """The Python source of `rhs(t, u, du, p)` (numbalsoda's signature, nemc's state order):
+    Kane's M and F with their common subexpressions shared (sympy's cse), M qdd = F solved by
+    ldl_solve in named intermediates, one assignment a line, as a numba user writes it for
+    numbalsoda; p[0] counts the calls."""
+    import sympy as sp
+    from sympy.printing.pycode import PythonCodePrinter
+
+    mass, forcing, qs, us = plain_symbols(model)
+    n = len(qs)
+    lower = [(i, j) for i in range(n) for j in range(i + 1)]
+    shared, reduced = sp.cse([mass[i, j] for i, j in lower] + [forcing[i] for i in range(n)],
+                             symbols=sp.numbered_symbols("c"))
+    helpers = list(shared)
+
+    def name(expr: Any) -> Any:
+        symbol = sp.Symbol(f"h{len(helpers)}")
+        helpers.append((symbol, expr))
+        return symbol
+
+    m_low = dict(zip(lower, (name(e) for e in reduced[:len(lower)])))
+    m = [[m_low[max(i, j), min(i, j)] for j in range(n)] for i in range(n)]
+    qdd = ldl_solve(m, [name(e) for e in reduced[len(lower):]], name)
+    printer = PythonCodePrinter({"standard": "python3"})
+    lines = ["def rhs(t, u, du, p):"]
+    lines += [f"    {q} = u[{2 * k}]\n    {v} = u[{2 * k + 1}]" for k, (q, v) in
+              enumerate(zip(qs, us))]
+    lines += [f"    {symbol} = {printer.doprint(expr)}" for symbol, expr in helpers]
+    lines += [f"    du[{2 * k}] = {us[k]}\n    du[{2 * k + 1}] = {printer.doprint(qdd[k])}"
+              for k in range(n)]
+    return "\n".join([*lines, "    p[0] += 1.0"])
+
+
+def build_numbalsoda(model: MechanicsModel, folder: Path) -> Peer:
+    """numbalsoda's dop853 (Hairer's DOP853 in Fortran) on a numba cfunc of
+    straight_line_rhs: the setup of issue 19's comparison."""
+    import math
+
+    import numba
+    from numbalsoda import dop853, lsoda_sig
+
+    start = time.perf_counter()
+    namespace: dict[str, Any] = {"math": math}
+    exec(straight_line_rhs(model), namespace)  # noqa: S102 (benchmark code made from sympy)
+    jitted = numba.njit(namespace["rhs"])
+    address = numba.cfunc(lsoda_sig)(jitted).address
+    n_state = 2 * len(model.q)
+    counter = np.zeros(1)
+    jitted(0.0, np.zeros(n_state), np.zeros(n_state), counter)  # compiled here, not timed
+    seconds = time.perf_counter() - start
+
+    def rhs(t: float, y: np.ndarray) -> np.ndarray:
+        dy = np.empty(n_state)
+        jitted(t, np.ascontiguousarray(y, dtype=float), dy, counter)
+        return dy
+
+    @numba.njit
+    def rhs_loop(rows: np.ndarray) -> float:
+        dy, calls, total = np.empty(n_state), np.zeros(1), 0.0
+        for k in range(rows.shape[0]):
+            jitted(0.0, rows[k], dy, calls)
+            total += dy[-1]  # used, so the calls are not optimized away
+        return total
+
+    rhs_loop(np.zeros((1, n_state)))  # compiled here, not timed
+
+    def solve(span, y0, t_eval, rtol):
+        calls = np.zeros(1)
+        ys, success = dop853(address, np.array(y0, dtype=float), np.asarray(t_eval, float),
+                             data=calls, rtol=rtol, atol=rtol * 1e-3, mxstep=10**8)
+        return (ys.T if success else None), int(calls[0])
+
+    return Peer(rhs, {"dop853": solve}, {"sympy cse + numba cfunc": seconds}, rhs_loop)
+
+
+BUILDERS = {"pydy": build_pydy, "jitcode": build_jitcode, "heyoka": build_heyoka,
+            "numbalsoda": build_numbalsoda}
 
 
 # -- the worker (one peer, one system, in its own process) ------------------------------------

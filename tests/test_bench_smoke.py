@@ -112,3 +112,17 @@ def test_batch_smoke_mode_compares_lanes_with_one_by_one(tmp_path: Path) -> None
     assert pendulum["checks"]["errors"]["lanes"]["median"] < 1e-3  # rtol 1e-8, chaotic runs
     assert all(math.isfinite(r["median"]) for r in pendulum["ratios"].values())
     assert result["environment"]["loadavg_start"] is not None
+
+
+def test_dop853_peer_smoke_mode_measures_or_says_why_not(tmp_path: Path) -> None:
+    out = run_script("dop853_peer.py", tmp_path)
+    result = json.loads((out / "dop853_peer-latest.json").read_text())
+    if result["environment"]["numbalsoda"] is None:
+        assert "not installed" in result["note"] and not result["systems"]
+        return
+    run = result["systems"]["double pendulum"]["runs"]["1e-06"]
+    assert run["succeeded"] and run["difference"] < 1e-2  # two DOP853s at rtol 1e-6, [0, 20]
+    calls = run["rhs_calls"]
+    assert abs(calls["nemc.DOP853"] / calls["numbalsoda dop853"] - 1) < 0.2  # nearly equal steps
+    assert math.isfinite(run["ratio"]["median"])
+
