@@ -840,7 +840,7 @@ def taylor_math(prefix: str, vector: str, bits: str, what: str) -> str:
         inline="static inline __attribute__((always_inline))")
 
 
-# The instruction set each lane count is cloned for (build.lane_count chooses the count).
+# The instruction set the lanes' functions are compiled for, by lane count (build.lane_count).
 LANE_TARGETS = {4: "avx2", 8: "avx512f"}
 
 
