@@ -1,10 +1,19 @@
-"""Which native method is fastest for an ensemble (issue 19, the default method): nemc.DOP853,
-nemc.Vern9, nemc.Taylor (in SIMD lanes) and the default ("auto", whose choice is printed) on the
-same runs, 1 thread, interleaved rounds.
+"""Which native method is fastest for an ensemble at equal error (issue 19, the default
+method): nemc.DOP853, nemc.Vern9 and nemc.Taylor (in SIMD lanes, at the lane count given, default
+the machine's), 1 thread, with simulate_many's default choice beside them.
 
-Run: `python benchmarks/ensemble_default.py [--rounds 3]` (about 1 minute). Prints a Markdown
-table (median (min-max) seconds per ensemble) and the load average; writes nothing.
-docs/decisions.md, "The ensembles' default method", quotes one run.
+Run: `python benchmarks/ensemble_default.py [--rounds 3] [--lanes 4|8]` (about 2 minutes).
+Prints a Markdown table and the load average; writes nothing. docs/decisions.md, "The
+ensembles' default method", quotes one run.
+
+Ensembles: 2,000 double pendulums with angles uniform in ±2 rad over [0, 10], 400 4- and 8-link
+chains with the first angle uniform in ±0.5 rad over [0, 5] (seeded), 51 output times. Error of
+an ensemble: the median over its runs of each run's largest error over states and times,
+against nemc.Taylor at rtol 2.5e-14, atol 1e-15. Each method runs a ladder of tolerances
+(rtol 10^-2.5 ... 10^-12 by half decades, atol = rtol x 1e-3) until its error is at most each
+target (1e-3, 1e-5, 1e-7); the loosest rtol that reaches a target is then timed, the methods
+interleaved, `rounds` rounds, median and min-max. "auto": the method simulate_many chooses with
+the lanes at hand (they are built first), at nemc.Taylor's rtol for that target.
 """
 
 from __future__ import annotations
@@ -21,56 +30,85 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import ROOT, chain_yaml  # noqa: E402
 
 import nemc  # noqa: E402
+from nemc.build import lane_count  # noqa: E402
+from nemc.pipeline import compile_source  # noqa: E402
 
-METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Taylor", "auto")  # auto: simulate_many's default
-TOLERANCES = (1e-4, 1e-6, 1e-9)
+METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Taylor")
+LADDER = tuple(10 ** (-e / 2) for e in range(5, 25))  # 10^-2.5 ... 10^-12
+TARGETS = (1e-3, 1e-5, 1e-7)
+REFERENCE_RTOL, REFERENCE_ATOL = 2.5e-14, 1e-15
 
 
-def ensembles() -> list[tuple[str, object, np.ndarray, tuple[float, float]]]:
-    """(label, model, initial states, span): the double pendulum's large swings, and gentle
+def ensembles() -> list[tuple[str, str, np.ndarray, tuple[float, float]]]:
+    """(label, YAML text, initial states, span): the double pendulum's large swings, and gentle
     4- and 8-link chains (seeded)."""
     rng = np.random.default_rng(1)
-    pendulum = nemc.compile(ROOT / "examples" / "double_pendulum.yaml")
     swings = np.zeros((2000, 4))
     swings[:, 0], swings[:, 2] = rng.uniform(-2, 2, 2000), rng.uniform(-2, 2, 2000)
-    cases = [("2,000 double pendulums, ±2 rad, [0, 10]", pendulum, swings, (0.0, 10.0))]
+    cases = [("2,000 double pendulums, ±2 rad, [0, 10]",
+              (ROOT / "examples" / "double_pendulum.yaml").read_text(), swings, (0.0, 10.0))]
     for n in (4, 8):
-        chain = nemc.compile(text=chain_yaml(n))
-        starts = np.tile(chain.initial_state(), (400, 1))
+        text = chain_yaml(n)
+        starts = np.tile(nemc.compile(text=text).initial_state(), (400, 1))
         starts[:, 0] += rng.uniform(-0.5, 0.5, 400)
-        cases.append((f"400 {n}-link chains, ±0.5 rad, [0, 5]", chain, starts, (0.0, 5.0)))
+        cases.append((f"400 {n}-link chains, ±0.5 rad, [0, 5]", text, starts, (0.0, 5.0)))
     return cases
 
 
-def runs_of_auto(model, y0s: np.ndarray, span, rtol: float) -> str:
-    """The method simulate_many's default chooses for these runs."""
-    return model.ensemble_method(span, y0s[0], rtol=rtol, runs=len(y0s))
+def median_error(y: np.ndarray, reference: np.ndarray) -> float:
+    return float(np.median(np.abs(y - reference).max(axis=(1, 2))))
+
+
+def loosest_tolerances(model, y0s, span, times, reference) -> dict[str, dict[float, float]]:
+    """method -> target -> the loosest rtol of LADDER whose ensemble error is within it."""
+    found: dict[str, dict[float, float]] = {}
+    for method in METHODS:
+        found[method] = {}
+        for rtol in LADDER:
+            runs = model.simulate_many(y0s, t_span=span, t_eval=times, method=method, rtol=rtol,
+                                       atol=rtol * 1e-3, threads=1, progress=False)
+            error = median_error(runs.y, reference) if runs.success.all() else np.inf
+            for target in TARGETS:
+                if error <= target:
+                    found[method].setdefault(target, rtol)
+            if len(found[method]) == len(TARGETS):
+                break
+    return found
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--lanes", type=int, choices=(4, 8), default=None,
+                        help="lanes per batch (default: this machine's)")
     args = parser.parse_args()
-    print(f"load average at start: {os.getloadavg()}")
-    print("| ensemble | rtol | " + " | ".join(METHODS) + " |")
-    print("| --- | --- |" + " --- |" * len(METHODS))
-    for label, model, y0s, span in ensembles():
-        model.compiled_with("taylor"), model.compiled_with("lanes")  # builds, untimed
+    width = args.lanes or lane_count()
+    print(f"load average at start: {os.getloadavg()}; {width} lanes per batch")
+    print("| ensemble | median error | " + " | ".join(METHODS) + " | auto (lanes at hand) |")
+    print("| --- | --- |" + " --- |" * (len(METHODS) + 1))
+    for label, text, y0s, span in ensembles():
+        source = nemc.build.Source(f"{label}.yaml", text.encode())
+        model = compile_source(source, None, taylor=True, lanes=width).model  # untimed
         times = np.linspace(*span, 51)
-        for rtol in TOLERANCES:
-            seconds: dict[str, list[float]] = {m: [] for m in METHODS}
+        reference = model.simulate_many(y0s, t_span=span, t_eval=times, method="nemc.Taylor",
+                                        rtol=REFERENCE_RTOL, atol=REFERENCE_ATOL,
+                                        progress=False).y
+        found = loosest_tolerances(model, y0s, span, times, reference)
+        for target in TARGETS:
+            seconds: dict[str, list[float]] = {m: [] for m in METHODS if target in found[m]}
             for round_ in range(args.rounds):
-                for method in METHODS if round_ % 2 == 0 else METHODS[::-1]:
+                for method in list(seconds)[::1 if round_ % 2 == 0 else -1]:
+                    rtol = found[method][target]
                     start = time.perf_counter()
-                    runs = model.simulate_many(y0s, t_span=span, t_eval=times, method=method,
-                                               rtol=rtol, atol=rtol * 1e-3, threads=1)
+                    model.simulate_many(y0s, t_span=span, t_eval=times, method=method,
+                                        rtol=rtol, atol=rtol * 1e-3, threads=1, progress=False)
                     seconds[method].append(time.perf_counter() - start)
-                    if not runs.success.all():
-                        print(f"{label}: {method} at rtol {rtol:g}: a run failed")
-            cells = [f"{np.median(v):.3f} s ({min(v):.3f}-{max(v):.3f})"
-                     for v in seconds.values()]
-            cells[-1] += f" ({runs_of_auto(model, y0s, span, rtol)})"
-            print(f"| {label} | {rtol:g} | " + " | ".join(cells) + " |", flush=True)
+            cells = [f"{np.median(seconds[m]):.3f} s ({min(seconds[m]):.3f}-"
+                     f"{max(seconds[m]):.3f}) at rtol {found[m][target]:.1e}"
+                     if m in seconds else "not reached" for m in METHODS]
+            rtol = found["nemc.Taylor"].get(target, 1e-8)
+            auto = model.ensemble_method(span, y0s[0], rtol=rtol, runs=len(y0s))
+            print(f"| {label} | {target:g} | " + " | ".join(cells) + f" | {auto} |", flush=True)
     print(f"load average at end: {os.getloadavg()}")
     return 0
 

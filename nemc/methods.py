@@ -30,6 +30,13 @@ AUTO_TAYLOR_BUILD_RUNS = 1_000  # an ensemble this large builds nemc.Taylor's co
 #                                nemc.DOP853, 0.3 s with nemc.Taylor in lanes)
 AUTO_LANES_MIN_RUNS = 100  # simulate_many: nemc.Taylor in SIMD lanes (a build of seconds) from
 #                            this many runs, or when the build has them
+# simulate_many's default for AUTO_LANES_MIN_RUNS runs or more, when a build with nemc.Taylor's
+# lanes is at hand: nemc.Taylor up to this many coordinates, by lanes per batch. At equal error
+# (benchmarks/ensemble_default.py, 400-run ensembles) 8 lanes are 1.45-1.56x the fastest other
+# method at 4 coordinates and 0.97-1.2x at 8; 4 lanes 0.99-1.15x at 4 and 0.67-0.78x at 8. Never
+# a reason to build the lanes (an 8-link chain's: 8 s): the gain is a fraction of a second per
+# ensemble.
+AUTO_LANES_TAYLOR_MAX_COORDINATES = {4: 4, 8: 8}
 AUTO_SPECTRUM_MAX_STATES = 40  # the start's eigenvalues are computed up to this many states
 EXPLICIT_STABILITY = 6.0  # h |lambda| nemc.DOP853 stays stable to on a decaying mode (-6.1)
 
@@ -52,12 +59,14 @@ def stiff_rate(eigenvalues: list[complex]) -> float:
     return max(max(damped) - max(-min(decays), 0.0), 0.0)
 
 
-def auto_method(coordinates: int, rtol: float, has_taylor: bool, stiff_steps: float) -> str:
+def auto_method(coordinates: int, rtol: float, has_taylor: bool, stiff_steps: float,
+                taylor_max: int = AUTO_TAYLOR_MAX_COORDINATES) -> str:
     """The native method "auto" starts with. stiff_steps: the steps an explicit method would
     need over the interval for stability alone, from the decaying modes at the start (0: none
-    or not computed)."""
+    or not computed). taylor_max: nemc.Taylor up to this many coordinates (more for an
+    ensemble in lanes: AUTO_LANES_TAYLOR_MAX_COORDINATES)."""
     if stiff_steps > AUTO_STIFF_STEPS:
         return "nemc.Radau"
-    if has_taylor and coordinates <= AUTO_TAYLOR_MAX_COORDINATES:
+    if has_taylor and coordinates <= taylor_max:
         return "nemc.Taylor"
     return "nemc.Vern9" if rtol < AUTO_VERN9_BELOW_RTOL else "nemc.DOP853"

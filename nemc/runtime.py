@@ -25,9 +25,11 @@ from .loops_runtime import LoopsMixin
 from .methods import (  # noqa: F401 (re-exported: the runtime's public names)
     AUTO,
     AUTO_LANES_MIN_RUNS,
+    AUTO_LANES_TAYLOR_MAX_COORDINATES,
     AUTO_SPECTRUM_MAX_STATES,
     AUTO_STIFF_STEPS,
     AUTO_TAYLOR_BUILD_RUNS,
+    AUTO_TAYLOR_MAX_COORDINATES,
     DEFAULT_METHOD,
     EXPLICIT_STABILITY,
     IMPLICIT_METHODS,
@@ -739,10 +741,25 @@ class Model(LoopsMixin):
                     params: Any = None, runs: int = 1) -> str:
         """The native method "auto" starts a run with (methods.auto_method): from the size,
         the tolerance, whether nemc.Taylor's code is at hand, and the stiff modes at y0.
-        runs: an ensemble this large may build nemc.Taylor's code (AUTO_TAYLOR_BUILD_RUNS)."""
+        runs: an ensemble this large may build nemc.Taylor's code (AUTO_TAYLOR_BUILD_RUNS), and
+        from AUTO_LANES_MIN_RUNS on, with nemc.Taylor's lanes at hand, takes nemc.Taylor up to
+        AUTO_LANES_TAYLOR_MAX_COORDINATES."""
         p = params if isinstance(params, np.ndarray) else self.parameter_vector(params)
-        return auto_method(len(self.coordinate_names), rtol, self._taylor_at_hand(runs),
-                           self._start_stiffness(tuple(span), np.asarray(y0, dtype=float), p))
+        lanes = self._lanes_at_hand() if runs >= AUTO_LANES_MIN_RUNS else 0
+        taylor_max = max(AUTO_TAYLOR_MAX_COORDINATES,
+                         AUTO_LANES_TAYLOR_MAX_COORDINATES.get(lanes, 0))
+        return auto_method(len(self.coordinate_names), rtol,
+                           bool(lanes) or self._taylor_at_hand(runs),
+                           self._start_stiffness(tuple(span), np.asarray(y0, dtype=float), p),
+                           taylor_max)
+
+    def _lanes_at_hand(self) -> int:
+        """The lanes per batch of a build at hand with nemc.Taylor's lanes (this one, or the
+        variant compiled_with("lanes") already gave), else 0: nothing is built to find out."""
+        for model in (self, *self._variants.values()):
+            if model.has_part("lanes"):
+                return int(model.metadata.get("lane_count", 0))
+        return 0
 
     def _taylor_at_hand(self, runs: int) -> bool:
         """nemc.Taylor's code is in the build, or worth building for this many runs."""

@@ -12,19 +12,27 @@ from scipy.integrate import solve_ivp
 
 import nemc
 from nemc import methods, runtime
+from nemc.build import lane_count
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"
 TWO_LINK_ARM = EXAMPLES / "two_link_robot_arm.yaml"  # the book's stiff 5.4 (scene: nemc.Radau)
-CHAIN5 = "\n".join([
-    "name: chain5", "parameters: {m: 1, L: 1, g: 9.81}", "gravity: [0, -g]", "bodies:",
-    *[f"  l{i}: {{mass: m, inertia: m*L**2/12, com: [L/2, 0], points: {{tip: [L, 0]}}}}"
-      for i in range(1, 6)],
-    "joints:",
-    *[f"  J{i}: {{type: revolute, parent: {'ground' if i == 1 else f'l{i - 1}'}, child: l{i}, "
-      f"at: {'[0, 0]' if i == 1 else 'tip'}, coordinate: q{i}, angle: relative}}"
-      for i in range(1, 6)],
-    "simulation: {t_span: [0, 3], initial: {q1: -0.8, q2: 0.2}}", ""])
+
+
+def chain_text(n: int) -> str:
+    """An n-link chain of uniform rods whose scene names no method."""
+    return "\n".join([
+        f"name: chain{n}", "parameters: {m: 1, L: 1, g: 9.81}", "gravity: [0, -g]", "bodies:",
+        *[f"  l{i}: {{mass: m, inertia: m*L**2/12, com: [L/2, 0], points: {{tip: [L, 0]}}}}"
+          for i in range(1, n + 1)],
+        "joints:",
+        *[f"  J{i}: {{type: revolute, parent: {'ground' if i == 1 else f'l{i - 1}'}, "
+          f"child: l{i}, at: {'[0, 0]' if i == 1 else 'tip'}, coordinate: q{i}, "
+          "angle: relative}" for i in range(1, n + 1)],
+        "simulation: {t_span: [0, 3], initial: {q1: -0.8, q2: 0.2}}", ""])
+
+
+CHAIN5 = chain_text(5)
 
 
 def no_method(path: Path) -> nemc.Model:
@@ -42,6 +50,8 @@ def test_the_rules() -> None:
     assert choose(8, 1e-9, True, 0.0) == "nemc.Vern9"
     assert choose(8, 1e-3, True, 0.0) == "nemc.DOP853"
     assert choose(2, 1e-6, True, methods.AUTO_STIFF_STEPS + 1) == "nemc.Radau"
+    assert choose(8, 1e-9, True, 0.0, taylor_max=8) == "nemc.Taylor"  # an ensemble in 8 lanes
+    assert choose(8, 1e-9, True, 0.0, taylor_max=4) == "nemc.Vern9"
     assert methods.auto_builds_taylor(None, 2) and methods.auto_builds_taylor("auto", 3)
     assert not methods.auto_builds_taylor("RK45", 2) and not methods.auto_builds_taylor(None, 4)
 
@@ -173,3 +183,33 @@ def test_a_large_ensemble_builds_taylor_for_auto() -> None:
         tight = model.simulate((0, 0.5), y0s[i], method="nemc.Vern9", t_eval=[0.5],
                                rtol=1e-12, atol=1e-14)
         assert np.abs(runs.y[i] - tight.y).max() < 1e-8
+
+
+@pytest.mark.parametrize("links", [4, 5])
+def test_ensembles_with_the_lanes_at_hand_take_taylor_by_their_width(links: int) -> None:
+    """With nemc.Taylor's lanes built, an ensemble of AUTO_LANES_MIN_RUNS runs or more takes
+    nemc.Taylor up to AUTO_LANES_TAYLOR_MAX_COORDINATES (4 with 4 lanes, 8 with 8); without
+    them, or for fewer runs, the single run's rule (nothing is built to decide)."""
+    model = nemc.compile(text=chain_text(links))
+    span, many = (0.0, 1.0), methods.AUTO_LANES_MIN_RUNS
+    assert model.ensemble_method(span, rtol=1e-8, runs=many) == "nemc.Vern9"
+    lanes = model.compiled_with("lanes")
+    width = lanes.metadata["lane_count"]
+    assert width == lane_count()
+    wide_enough = links <= methods.AUTO_LANES_TAYLOR_MAX_COORDINATES[width]
+    assert model.ensemble_method(span, rtol=1e-8, runs=many) == (
+        "nemc.Taylor" if wide_enough else "nemc.Vern9")
+    assert model.ensemble_method(span, rtol=1e-8, runs=many - 1) == "nemc.Vern9"
+    assert model.simulate((0, 1), rtol=1e-8).method == "nemc.Vern9"  # a single run: unchanged
+    rng = np.random.default_rng(links)
+    y0s = np.tile(model.initial_state(), (many, 1))
+    y0s[:, 0] += rng.uniform(-0.5, 0.5, many)
+    runs = model.simulate_many(y0s, t_span=span, t_eval=[0.5, 1.0], rtol=1e-9, atol=1e-12,
+                               threads=1, progress=False)
+    assert runs.success.all() and runs.method == ("nemc.Taylor" if wide_enough
+                                                  else "nemc.Vern9")
+    for i in (0, many - 1):  # against another method at a tight tolerance
+        tight = model.simulate(span, y0s[i], method="nemc.DOP853", t_eval=[0.5, 1.0],
+                               rtol=1e-12, atol=1e-14)
+        assert np.abs(runs.y[i] - tight.y).max() < 1e-7
+
