@@ -188,17 +188,10 @@ def contenders(system: System) -> tuple[dict[str, Callable[[], Any]], dict[str, 
     reference = model.simulate_many(y0s, t_span=system.span, t_eval=system.times,
                                     method="nemc.Taylor", rtol=REFERENCE_RTOL,
                                     atol=REFERENCE_ATOL, progress=False).y
-    checks["errors"] = {"lanes": errors(lanes_result.y, reference)}
+    checks["errors"] = {"lanes": common.run_errors(lanes_result.y, reference)}
     for name, heyoka in heyokas.items():
-        checks["errors"][name.removesuffix(", 1 thread")] = errors(heyoka(), reference)
+        checks["errors"][name.removesuffix(", 1 thread")] = common.run_errors(heyoka(), reference)
     return calls, checks
-
-
-def errors(y: np.ndarray, reference: np.ndarray) -> dict[str, float]:
-    """Each run's largest error over its states and times (y: (k, n_state, n_t)): the median
-    and 90th percentile over the runs."""
-    per_run = np.abs(y - reference).max(axis=(1, 2))
-    return {"median": float(np.median(per_run)), "p90": float(np.percentile(per_run, 90))}
 
 
 def measure(calls: dict[str, Callable[[], Any]], rounds: int) -> dict[str, dict[str, Any]]:
@@ -216,10 +209,7 @@ def measure(calls: dict[str, Callable[[], Any]], rounds: int) -> dict[str, dict[
 
 def ratio(times: dict[str, dict[str, Any]], slower: str, faster: str) -> dict[str, Any]:
     """How many times faster `faster` is: the ratio of medians, and the range over rounds."""
-    a, b = times[slower]["values"], times[faster]["values"]
-    per_round = [x / y for x, y in zip(a, b)]
-    return {"median": times[slower]["median"] / times[faster]["median"],
-            "min": min(per_round), "max": max(per_round)}
+    return common.speedup(times[slower], times[faster])
 
 
 def run(config: Config) -> dict[str, Any]:

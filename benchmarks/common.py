@@ -124,6 +124,21 @@ def summary(values: Sequence[float]) -> dict[str, Any]:
             "n": len(values), "values": list(values)}
 
 
+def speedup(slower: dict[str, Any], faster: dict[str, Any]) -> dict[str, float]:
+    """How many times faster `faster` is than `slower` (summary()s of interleaved rounds): the
+    ratio of medians, and the range of the per-round ratios."""
+    per_round = [a / b for a, b in zip(slower["values"], faster["values"])]
+    return {"median": slower["median"] / faster["median"], "min": min(per_round),
+            "max": max(per_round)}
+
+
+def run_errors(y: np.ndarray, reference: np.ndarray) -> dict[str, float]:
+    """An ensemble's error: each run's largest error over its states and times (y: (k, n_state,
+    n_t)), its median and 90th percentile over the runs."""
+    per_run = np.abs(y - reference).max(axis=(1, 2))
+    return {"median": float(np.median(per_run)), "p90": float(np.percentile(per_run, 90))}
+
+
 def loop_count(call: Callable[[], Any], target: float) -> int:
     """timeit-style: the number of calls that takes about `target` seconds."""
     number = 1

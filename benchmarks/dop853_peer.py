@@ -98,17 +98,10 @@ def measure_system(name: str, path: Path, span: tuple[float, float],
             "difference": float(np.max(np.abs(result.y - their_y))) if their_y is not None
             else None,
             "seconds": seconds,
-            "ratio": ratio(seconds["numbalsoda dop853"], seconds["nemc.DOP853"]),
+            "ratio": common.speedup(seconds["numbalsoda dop853"], seconds["nemc.DOP853"]),
         }
     print(f"{name}: measured", flush=True)
     return out
-
-
-def ratio(slower: dict[str, Any], faster: dict[str, Any]) -> dict[str, float]:
-    """How many times faster `faster` is: the ratio of medians and the range over rounds."""
-    per_round = [a / b for a, b in zip(slower["values"], faster["values"])]
-    return {"median": slower["median"] / faster["median"], "min": min(per_round),
-            "max": max(per_round)}
 
 
 def run(config: Config) -> dict[str, Any]:

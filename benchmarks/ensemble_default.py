@@ -27,10 +27,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import ROOT, chain_yaml  # noqa: E402
+from common import ROOT, chain_yaml, run_errors  # noqa: E402
 
-import nemc  # noqa: E402
-from nemc.build import lane_count  # noqa: E402
+from nemc.build import Source, lane_count  # noqa: E402
 from nemc.pipeline import compile_source  # noqa: E402
 
 METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Taylor")
@@ -39,24 +38,27 @@ TARGETS = (1e-3, 1e-5, 1e-7)
 REFERENCE_RTOL, REFERENCE_ATOL = 2.5e-14, 1e-15
 
 
-def ensembles() -> list[tuple[str, str, np.ndarray, tuple[float, float]]]:
-    """(label, YAML text, initial states, span): the double pendulum's large swings, and gentle
-    4- and 8-link chains (seeded)."""
+def with_lanes(name: str, text: str, width: int):
+    """The mechanism built with nemc.Taylor's code and WIDTH lanes per batch (untimed)."""
+    return compile_source(Source(f"{name}.yaml", text.encode()), None, taylor=True,
+                          lanes=width).model
+
+
+def ensembles(width: int) -> list[tuple[str, object, np.ndarray, tuple[float, float]]]:
+    """(label, model with its lanes, initial states, span): the double pendulum's large swings,
+    and gentle 4- and 8-link chains (seeded)."""
     rng = np.random.default_rng(1)
     swings = np.zeros((2000, 4))
     swings[:, 0], swings[:, 2] = rng.uniform(-2, 2, 2000), rng.uniform(-2, 2, 2000)
+    pendulum = (ROOT / "examples" / "double_pendulum.yaml").read_text()
     cases = [("2,000 double pendulums, ±2 rad, [0, 10]",
-              (ROOT / "examples" / "double_pendulum.yaml").read_text(), swings, (0.0, 10.0))]
+              with_lanes("double_pendulum", pendulum, width), swings, (0.0, 10.0))]
     for n in (4, 8):
-        text = chain_yaml(n)
-        starts = np.tile(nemc.compile(text=text).initial_state(), (400, 1))
+        chain = with_lanes(f"chain{n}", chain_yaml(n), width)
+        starts = np.tile(chain.initial_state(), (400, 1))
         starts[:, 0] += rng.uniform(-0.5, 0.5, 400)
-        cases.append((f"400 {n}-link chains, ±0.5 rad, [0, 5]", text, starts, (0.0, 5.0)))
+        cases.append((f"400 {n}-link chains, ±0.5 rad, [0, 5]", chain, starts, (0.0, 5.0)))
     return cases
-
-
-def median_error(y: np.ndarray, reference: np.ndarray) -> float:
-    return float(np.median(np.abs(y - reference).max(axis=(1, 2))))
 
 
 def loosest_tolerances(model, y0s, span, times, reference) -> dict[str, dict[float, float]]:
@@ -67,7 +69,7 @@ def loosest_tolerances(model, y0s, span, times, reference) -> dict[str, dict[flo
         for rtol in LADDER:
             runs = model.simulate_many(y0s, t_span=span, t_eval=times, method=method, rtol=rtol,
                                        atol=rtol * 1e-3, threads=1, progress=False)
-            error = median_error(runs.y, reference) if runs.success.all() else np.inf
+            error = run_errors(runs.y, reference)["median"] if runs.success.all() else np.inf
             for target in TARGETS:
                 if error <= target:
                     found[method].setdefault(target, rtol)
@@ -86,9 +88,7 @@ def main() -> int:
     print(f"load average at start: {os.getloadavg()}; {width} lanes per batch")
     print("| ensemble | median error | " + " | ".join(METHODS) + " | auto (lanes at hand) |")
     print("| --- | --- |" + " --- |" * (len(METHODS) + 1))
-    for label, text, y0s, span in ensembles():
-        source = nemc.build.Source(f"{label}.yaml", text.encode())
-        model = compile_source(source, None, taylor=True, lanes=width).model  # untimed
+    for label, model, y0s, span in ensembles(width):
         times = np.linspace(*span, 51)
         reference = model.simulate_many(y0s, t_span=span, t_eval=times, method="nemc.Taylor",
                                         rtol=REFERENCE_RTOL, atol=REFERENCE_ATOL,

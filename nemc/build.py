@@ -217,22 +217,22 @@ def compiler() -> list[str]:
 
 # Lanes per batch of nemc.Taylor's ensembles (templates/batch.c.tmpl): one vector register of
 # doubles. Where the building CPU has AVX-512, 8 lanes in one zmm register are 1.2x faster than
-# 4 in a ymm register on the book's pendulum (docs/decisions.md, "Ensembles in SIMD lanes");
-# elsewhere 4 (AVX2; 8 lanes compiled for AVX2 are 6x slower, split through the stack).
-WIDE_LANES, LANES = 8, 4
+# 4 in a ymm register on the book's pendulum (docs/decisions.md, "8 lanes where the CPU has
+# AVX-512"); elsewhere 4 (AVX2; 8 lanes compiled for AVX2 are 6x slower, split through the stack).
+WIDE_LANES, NARROW_LANES = 8, 4
 
 
 def lane_count(cpuinfo: Path = Path("/proc/cpuinfo")) -> int:
     """The lanes per batch for a lanes build on this machine: WIDE_LANES where the CPU reports
-    AVX-512F (Linux's CPUINFO), else LANES. The build runs where it was made; a build loaded on
-    a CPU without its vector unit runs its ensembles one run after the other, with the same
-    results."""
+    AVX-512F (Linux's CPUINFO), else NARROW_LANES. The build runs where it was made; a build
+    loaded on a CPU without its vector unit runs its ensembles one run after the other, with the
+    same results."""
     try:
         with cpuinfo.open() as file:
             flags = next((line for line in file if line.startswith("flags")), "")
     except OSError:
-        return LANES
-    return WIDE_LANES if "avx512f" in flags.split() else LANES
+        return NARROW_LANES
+    return WIDE_LANES if "avx512f" in flags.split() else NARROW_LANES
 
 
 def start(command: list[str]) -> subprocess.Popen:
