@@ -13,17 +13,16 @@ comments, sanitized.
 from __future__ import annotations
 
 import dataclasses
-import math
 import re
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from string import Template
 
 import sympy
-from sympy.printing.c import C99CodePrinter
 
 from . import __version__
 from . import model as m
+from .c_text import SymbolTablePrinter
 from .derive import DynamicsLayout, Equations
 from .optimize import Block, rewrite
 from .program import Guard, Program
@@ -51,81 +50,6 @@ class Emitted:
     package_init: str
     metadata: dict
     units: tuple[str, ...] = ()  # the C of <name>_unit<k>.c, k = 1, 2, ... (long programs' parts)
-
-
-class SymbolTablePrinter(C99CodePrinter):
-    """C99 printer that refuses anything it cannot print and names symbols from a table."""
-
-    def __init__(self, names: dict[sympy.Symbol, str], order: str | None = None,
-                 memo: dict | None = None):
-        super().__init__({"strict": True, **({"order": order} if order else {})})
-        self.names = names
-        self.memo = {} if memo is None else memo  # shared with the printers made from this one
-
-    def with_names(self, more: dict[sympy.Symbol, str], order: str | None = None
-                   ) -> SymbolTablePrinter:
-        """A printer of these names too, in this printer's order of terms unless ORDER."""
-        return SymbolTablePrinter({**self.names, **more}, order or self._settings["order"],
-                                  self.memo)
-
-    def text(self, expr: sympy.Expr) -> str:
-        """doprint(expr), remembered for the same expression, order and names of its symbols:
-        the Jacobian's primal is the accelerations' program again (a long chain printed it
-        twice)."""
-        key = (expr, self._settings["order"],
-               frozenset((s, self.names.get(s)) for s in expr.free_symbols))
-        found = self.memo.get(key)
-        if found is None:
-            found = self.memo[key] = self.doprint(expr)
-        return found
-
-    def _print_Symbol(self, expr: sympy.Symbol) -> str:
-        try:
-            return self.names[expr]
-        except KeyError:
-            raise ValueError(f"no C name for symbol {expr.name!r}") from None
-
-    _print_Dummy = _print_Symbol
-
-    # Every number reaches C as a double literal, correctly rounded: an integer literal of 2**64
-    # or more was cut modulo 2**64 by gcc (a constant k: 1e20 written out became -3.88e18).
-    def _print_Integer(self, expr: sympy.Integer) -> str:
-        return double_literal(expr)
-
-    _print_Zero = _print_Integer
-
-    def _print_Rational(self, expr: sympy.Rational) -> str:
-        if max(abs(expr.p), expr.q) > EXACT_INTEGERS:
-            return double_literal(expr)
-        numerator, denominator = sympy.Integer(expr.p), sympy.Integer(expr.q)
-        return f"{double_literal(numerator)}/{double_literal(denominator)}"  # one IEEE rounding
-
-    def _print_Float(self, expr: sympy.Float) -> str:
-        return double_literal(expr)
-
-
-EXACT_INTEGERS = 2**53  # every integer up to this magnitude is a double exactly
-
-
-class NumberOutOfRange(ValueError):
-    """A number of the derived equations that no double holds (e.g. constants 1e300 * 1e300)."""
-
-
-def double_literal(number: sympy.Rational | sympy.Float) -> str:
-    """The C literal of the double nearest NUMBER (ties to even): Python's int division is
-    correctly rounded, and repr() gives the shortest text that reads back as the same double."""
-    exact = sympy.Rational(number)
-    try:
-        value = int(exact.p) / int(exact.q)
-    except OverflowError:
-        value = math.inf
-    if not math.isfinite(value) or (value == 0 and exact != 0):
-        shown = sympy.Float(number, 3)
-        raise NumberOutOfRange(f"a number of the equations, {shown}, is beyond the range of a "
-                               "double (about 1e-308 to 1e308): rescale the constants or "
-                               "parameters that make it")
-    text = repr(value)
-    return text if any(c in text for c in ".en") else text + ".0"
 
 
 def template(name: str) -> Template:
@@ -197,13 +121,13 @@ def program_body(
     lines = []
     for step in program.steps:
         if isinstance(step, Guard):
-            lines.append(f"{indent}if (!({printer.text(step.value)} > 0.0))")
+            lines.append(f"{indent}if (!({printer.doprint(step.value)} > 0.0))")
             lines.append(f"{indent}    return {step.status};")
         else:
-            lines.append(f"{indent}const double {step[0].name} = {printer.text(step[1])};")
+            lines.append(f"{indent}const double {step[0].name} = {printer.doprint(step[1])};")
             if step[0] in passed:
                 lines.append(f"{indent}{passed[step[0]]} = {step[0].name};")
-    lines += [f"{indent}{target} = {printer.text(expr)};"
+    lines += [f"{indent}{target} = {printer.doprint(expr)};"
               for target, expr in zip(targets, program.results)]
     return "\n".join(lines)
 

@@ -169,7 +169,7 @@ def generate_and_build(
 @contextmanager
 def number_range(source: Source) -> Iterator[None]:
     """A number no double holds, made by folding the file's constants, is bad input (exit 2)."""
-    from .emit import NumberOutOfRange
+    from .c_text import NumberOutOfRange
     from .errors import InputError, Problem
 
     try:

@@ -30,9 +30,10 @@ from hypothesis import strategies as st
 
 import nemc
 from nemc import build, export
+from nemc.c_text import SymbolTablePrinter, double_literal
 from nemc.cli import main
 from nemc.derive import derive, with_diagnostics, with_taylor
-from nemc.emit import SymbolTablePrinter, double_literal, emit
+from nemc.emit import emit
 from nemc.errors import InputError
 from nemc.optimize import optimize_equations
 from nemc.runtime import (
