@@ -276,23 +276,27 @@ def usable_cores() -> int:
 
 
 def run_jobs(jobs: Sequence[list[str]], workers: int) -> None:
-    """Run the compiler jobs, at most WORKERS at once; the first failure is a BuildError (the
-    jobs still running are waited for)."""
-    pending, running = list(jobs), []
-    failure = None
-    while pending or running:
-        while pending and len(running) < workers and failure is None:
-            job = pending.pop(0)
-            running.append((job, start(job)))
-        if not running:
-            break
-        job, process = running.pop(0)
+    """Run the compiler jobs in order, at most WORKERS at once, each started as soon as a
+    worker is free (one that finished early no longer waits for an older, longer job); the
+    first failure is a BuildError (no job starts after it; those running are waited for)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    failures: list[BuildError] = []
+
+    def run(job: list[str]) -> None:
+        if failures:
+            return
+        process = start(job)
         output = process.communicate()[0].decode(errors="replace")
-        if process.returncode and failure is None:
-            failure = BuildError(f"the C compiler failed on {job[-3]}:\n$ {' '.join(job)}\n"
-                                 f"{output}")
-    if failure is not None:
-        raise failure
+        if process.returncode:
+            failures.append(BuildError(f"the C compiler failed on {job[-3]}:\n"
+                                       f"$ {' '.join(job)}\n{output}"))
+
+    with ThreadPoolExecutor(workers) as pool:
+        for future in [pool.submit(run, job) for job in jobs]:
+            future.result()
+    if failures:
+        raise failures[0]
 
 
 def stable_abi() -> bool:

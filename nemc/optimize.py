@@ -18,7 +18,8 @@ from .derive import Equations
 from .program import Guard, Program
 
 # integer powers up to 4 of any base -> products (pow(x, 2) is slower and no more exact)
-REWRITES = [create_expand_pow_optimization(4, base_req=lambda base: True)]
+EXPANDED_POWERS = 4
+REWRITES = [create_expand_pow_optimization(EXPANDED_POWERS, base_req=lambda base: True)]
 
 
 @dataclass(frozen=True)
@@ -37,9 +38,17 @@ KEEP_POWERS_IN = (sympy.Min, sympy.Max, sympy.Heaviside, sympy.Piecewise)
 
 
 def rewrite(expr: sympy.Expr) -> sympy.Expr:
-    if not isinstance(expr, sympy.Basic) or expr.has(*KEEP_POWERS_IN):
+    """EXPR with REWRITES applied, unless it has none to apply (most steps of a program: one
+    walk through it, where sympy's `has` and `replace` took two and rebuilt it)."""
+    if not isinstance(expr, sympy.Basic):
         return expr
-    return optimize(expr, REWRITES)
+    expandable = False
+    for node in sympy.preorder_traversal(expr):
+        if isinstance(node, KEEP_POWERS_IN):
+            return expr
+        expandable = expandable or (node.is_Pow and node.exp.is_Integer
+                                    and abs(node.exp) <= EXPANDED_POWERS)
+    return optimize(expr, REWRITES) if expandable else expr
 
 
 def shared_cse(groups: dict[str, tuple[sympy.Expr, ...]]) -> tuple[
