@@ -63,8 +63,26 @@ def test_parts_are_emitted_only_when_forced(pair: tuple[Compiled, Compiled]) -> 
     whole, parts = pair
     assert not any(name in c_source(whole) for name in PARTS)
     text = c_source(parts)
-    assert all(f"{name}2(" in text for name in PARTS)
+    assert all(f"{name}2(" in text for name in PARTS if name != "accelerations_part")
     assert "intermediates passed between the parts" in text
+    # with the Jacobian, the accelerations run its primal's parts (emit.shares_primal)
+    assert "accelerations_part" not in text
+    accelerations = text[text.index("static int accelerations("):]
+    assert "jacobian_primal_part1(" in accelerations[: accelerations.index("\n}")]
+
+
+def test_without_the_jacobian_the_accelerations_have_parts_of_their_own(tmp_path: Path) -> None:
+    path = EXAMPLES / "double_pendulum.yaml"
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("NEMC_CACHE", str(tmp_path))
+        whole = compile_mechanism(path, False)
+        parts = compile_mechanism(path, False, chunk_steps=7)
+    text = c_source(parts)
+    assert "accelerations_part2(" in text and "jacobian_primal_part" not in text
+    rng = np.random.default_rng(5)
+    for _ in range(4):
+        y = rng.uniform(-1.5, 1.5, whole.model.n_state)
+        assert parts.model.rhs(0.3, y).tolist() == whole.model.rhs(0.3, y).tolist()
 
 
 def assert_same_numbers(whole: Compiled, other: Compiled, rng: np.random.Generator) -> None:
@@ -143,8 +161,9 @@ def test_unit_files_hold_the_parts(units: tuple[Compiled, Compiled]) -> None:
     main = (split.package / f"{name}.c").read_text()
     assert "in a unit file of its own" in main and "static void accelerations_part" not in main
     defined = "".join(path.read_text() for path in files)
-    assert f"\nvoid {name}_accelerations_part1(" in defined or \
-        f"\nint {name}_accelerations_part1(" in defined
+    # the accelerations run the Jacobian's primal parts (emit.shares_primal)
+    assert f"\nvoid {name}_jacobian_primal_part1(" in defined or \
+        f"\nint {name}_jacobian_primal_part1(" in defined
 
 
 def test_unit_files_give_the_same_numbers(units: tuple[Compiled, Compiled]) -> None:
