@@ -5,9 +5,9 @@ YAML reaches C) and numbers as correctly rounded double literals. Its `doprint` 
 `FastText`, which prints the expressions of nemc's straight-line programs (symbols, numbers,
 sums, products, integer and rational powers, sin, cos, unevaluated groupings) with sympy's own
 rules: the same order of terms and factors, the same signs and parentheses, the same text, at
-a tenth of the time or less (a 1000-body chain's programs with their Jacobian printed in a few
-seconds instead of half a minute). Anything else, or anything the fast path finds unusual, goes
-to sympy's printer unchanged. `tests/test_c_text.py` compares the two on every program of a
+a fifth to a seventh of the time (a 1000-body chain with its Jacobian: emit 37 s -> 6 s,
+docs/decisions.md "Size"). Anything else, or anything the fast path finds unusual, goes to
+sympy's printer unchanged. `tests/test_c_text.py` compares the two on every program of a
 set of models and on random expressions of the same grammar, in both orders.
 """
 
@@ -304,7 +304,7 @@ class FastText:
                 if item.exp != -1:
                     below.append(sympy.Pow(item.base, -item.exp, evaluate=False))
                 else:
-                    if len(item.args[0].args) != 1 and item.base.is_Mul:
+                    if item.base.is_Mul:
                         grouped.append(item)
                     below.append(item.base)
             else:
@@ -315,10 +315,9 @@ class FastText:
         else:
             above_text = [self.parenthesize(item, level) for item in above]
         below_text = [self.parenthesize(item, level) for item in below]
-        for item in grouped:
-            if item.base in below:
-                at = below.index(item.base)
-                below_text[at] = f"({below_text[at]})"
+        for item in grouped:  # the first equal base, as sympy's list.index finds it
+            at = below.index(item.base)
+            below_text[at] = f"({below_text[at]})"
         if not below:
             return sign + "*".join(above_text)
         if len(below) == 1:
