@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import functools
 import hashlib
 import json
 import os
@@ -128,6 +129,7 @@ def build_key(source: Source, options: dict | None = None) -> str:
         "cc": compiler(),
         "cflags": CFLAGS,
         "unit_cflags": UNIT_CFLAGS,
+        "fma": fma_available(),
     }
     return hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()[:24]
 
@@ -222,17 +224,40 @@ def compiler() -> list[str]:
 WIDE_LANES, NARROW_LANES = 8, 4
 
 
+def cpu_flags(cpuinfo: Path = Path("/proc/cpuinfo")) -> frozenset[str]:
+    """The instruction-set features the CPU reports (Linux's CPUINFO "flags"; none elsewhere)."""
+    try:
+        with cpuinfo.open() as file:
+            flags = next((line for line in file if line.startswith("flags")), "")
+    except OSError:
+        return frozenset()
+    return frozenset(flags.partition(":")[2].split())
+
+
 def lane_count(cpuinfo: Path = Path("/proc/cpuinfo")) -> int:
     """The lanes per batch for a lanes build on this machine: WIDE_LANES where the CPU reports
     AVX-512F (Linux's CPUINFO), else NARROW_LANES. The build runs where it was made; a build
     loaded on a CPU without its vector unit runs its ensembles one run after the other, with the
     same results."""
-    try:
-        with cpuinfo.open() as file:
-            flags = next((line for line in file if line.startswith("flags")), "")
-    except OSError:
-        return NARROW_LANES
-    return WIDE_LANES if "avx512f" in flags.split() else NARROW_LANES
+    return WIDE_LANES if "avx512f" in cpu_flags(cpuinfo) else NARROW_LANES
+
+
+@functools.cache
+def this_cpu_flags() -> frozenset[str]:
+    """cpu_flags of the machine this process runs on, read once (every build key asks)."""
+    return cpu_flags()
+
+
+def fma_available(cpuinfo: Path | None = None, machine: str | None = None) -> bool:
+    """Whether builds made here fuse nemc.Taylor's multiply-adds (templates/taylor.c.tmpl's
+    TAYLOR_MULADD): on x86-64 where the CPU reports FMA (Linux's CPUINFO), and on AArch64,
+    whose baseline has it. Part of the build key: a cache shared with a CPU without FMA keeps
+    that CPU's builds apart, and a build copied to one refuses nemc.Taylor (taylor_ready)."""
+    machine = machine or os.uname().machine
+    if machine in ("aarch64", "arm64"):
+        return True
+    flags = this_cpu_flags() if cpuinfo is None else cpu_flags(cpuinfo)
+    return machine in ("x86_64", "AMD64") and "fma" in flags
 
 
 def start(command: list[str]) -> subprocess.Popen:

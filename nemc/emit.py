@@ -782,8 +782,10 @@ def series_printer(printer: SymbolTablePrinter) -> Callable[[sympy.Expr], str]:
     return lambda expr: printer.doprint(rewrite(expr))
 
 
-def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, str | None]:
-    """nemc.Taylor's C when the build asks for it: (source, None), or ("", why it cannot be)."""
+def taylor_section(eqs: Equations, printer: SymbolTablePrinter,
+                   fma: bool = False) -> tuple[str, str | None]:
+    """nemc.Taylor's C when the build asks for it: (source, None), or ("", why it cannot be).
+    fma: its multiply-adds fused (templates/taylor.c.tmpl's TAYLOR_MULADD)."""
     if eqs.taylor_unavailable is not None:
         return "", eqs.taylor_unavailable
     if eqs.taylor is None:
@@ -794,7 +796,7 @@ def taylor_section(eqs: Equations, printer: SymbolTablePrinter) -> tuple[str, st
     except TaylorUnsupported as why:
         return "", str(why)
     return template("taylor.c.tmpl").substitute(
-        max_order=TAYLOR_MAX_ORDER,
+        max_order=TAYLOR_MAX_ORDER, fma=int(fma),
         taylor_math=taylor_math("math1_", "taylor_double1", "taylor_bits1", "one-element vectors"),
         **coefficient_fields(eqs, code, list(code.constants), SCALAR)
     ), None
@@ -809,7 +811,12 @@ def taylor_math(prefix: str, vector: str, bits: str, what: str) -> str:
 
 
 # The instruction set the lanes' functions are compiled for, by lane count (build.lane_count).
-LANE_TARGETS = {4: "avx2", 8: "avx512f"}
+LANE_TARGETS = {4: "avx2,fma", 8: "avx512f"}  # AVX-512F implies FMA
+
+
+def cpu_supports(target: str) -> str:
+    """The C test that this CPU has every feature of a gcc target string ("avx2,fma")."""
+    return " && ".join(f'__builtin_cpu_supports("{feature}")' for feature in target.split(","))
 
 
 def lanes_section(eqs: Equations, printer: SymbolTablePrinter, prefix: str, count: int) -> str:
@@ -823,6 +830,7 @@ def lanes_section(eqs: Equations, printer: SymbolTablePrinter, prefix: str, coun
                        series_printer(printer), LANES)
     return template("batch.c.tmpl").substitute(
         prefix=prefix, lanes=count, target=LANE_TARGETS[count],
+        cpu_supports=cpu_supports(LANE_TARGETS[count]),
         taylor_math=taylor_math("lanes_math_", "lanes", "lane_bits", "NEMC_LANES lanes"),
         **coefficient_fields(eqs, code, lane_constants(code), LANES))
 
@@ -878,13 +886,14 @@ def positions_part(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
 
 
 def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
-         lanes: int = 0) -> Emitted:
+         lanes: int = 0, fma: bool = False) -> Emitted:
     """chunk_steps: the most steps of a program printed as one function (CHUNK_STEPS);
     lanes: also nemc.Taylor's ensembles in SIMD lanes, this many per batch (when Taylor's code
-    is built); 0: none."""
+    is built); 0: none. fma: nemc.Taylor's multiply-adds fused (a CPU with FMA builds it:
+    build.fma_available)."""
     prefix = f"{eqs.mechanism.name}_"
     printer = SymbolTablePrinter(symbol_table(eqs, block))
-    taylor, taylor_unavailable = taylor_section(eqs, printer)
+    taylor, taylor_unavailable = taylor_section(eqs, printer, fma)
     lanes_c = lanes_section(eqs, printer, prefix, lanes) if lanes and taylor else ""
     info = metadata(eqs, prefix)
     info.update(unit_metadata(eqs.mechanism, info["output_names"]))
@@ -895,6 +904,7 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
         info["generated"].append("taylor")
         info["taylor_program"] = ("articulated body" if eqs.taylor is eqs.dynamics
                                   else "mass matrix")
+        info["fma"] = fma
     if lanes_c:
         info["generated"].append("lanes")
         info["lane_count"] = lanes

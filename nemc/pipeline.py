@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .build import Source, build_key, cached_package, is_intact, lane_count
+from .build import Source, build_key, cached_package, fma_available, is_intact, lane_count
 from .load import load_package
 from .runs import Progress
 from .runtime import Model
@@ -159,7 +159,7 @@ def generate_and_build(
         with timed(timings, "optimize", progress):
             block = optimize_equations(equations)
         with timed(timings, "emit", progress), number_range(source):
-            code = emit(equations, block, chunk_steps, lanes=lanes)
+            code = emit(equations, block, chunk_steps, lanes=lanes, fma=fma_available())
         with timed(timings, "build", progress):
             return build(code, key)
     finally:

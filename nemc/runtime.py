@@ -757,7 +757,7 @@ class Model(LoopsMixin):
         """The lanes per batch of a build at hand with nemc.Taylor's lanes (this one, or the
         variant compiled_with("lanes") already gave), else 0: nothing is built to find out."""
         for model in (self, *self._variants.values()):
-            if model.has_part("lanes"):
+            if model.has_part("lanes") and model._taylor_ready():
                 return int(model.metadata.get("lane_count", 0))
         return 0
 
@@ -765,8 +765,9 @@ class Model(LoopsMixin):
         """nemc.Taylor's code is in the build, or worth building for this many runs."""
         if self.has_loops or "taylor_unavailable" in self.metadata:
             return False
-        return self.has_part("taylor") or (runs >= AUTO_TAYLOR_BUILD_RUNS
-                                           and self.part_compiler is not None)
+        if self.has_part("taylor"):
+            return self._taylor_ready()
+        return runs >= AUTO_TAYLOR_BUILD_RUNS and self.part_compiler is not None
 
     def _start_stiffness(self, span: tuple[float, ...], y0: np.ndarray, p: np.ndarray) -> float:
         """The steps an explicit method would need over the span for stability alone, from the
@@ -1006,8 +1007,19 @@ class Model(LoopsMixin):
                     f"{why}; use nemc.Vern9 or nemc.DOP853" if why else "this build has no"
                     " Taylor code (compile it with taylor=True, or name nemc.Taylor as the"
                     " scene's method)"))
+            if not model._taylor_ready():
+                raise ModelError(
+                    f"{method}: this build's Taylor code was compiled for a CPU with FMA "
+                    "instructions, which this CPU lacks (a package copied from another "
+                    "machine): compile the mechanism again on this machine, or use nemc.Vern9")
             return model
         return self
+
+    def _taylor_ready(self) -> bool:
+        """Whether this CPU runs the build's Taylor code (C taylor_ready: a build for FMA on a
+        CPU without it does not)."""
+        ready = getattr(self._lib, self.metadata["c_prefix"] + "taylor_ready", None)
+        return ready is None or bool(ready())
 
     def _method_id(self, method: str) -> int:
         """The C enum nemc_method value of a native method ("nemc.Vern9" -> NEMC_VERN9)."""

@@ -20,9 +20,9 @@ from reference import random_mechanism_yaml
 from test_taylor import FUNCTIONS, OVERFLOW
 
 import nemc
-from nemc.build import Source, lane_count
+from nemc.build import Source, fma_available, lane_count
 from nemc.pipeline import compile_source, read_source
-from nemc.runtime import EnsembleResult
+from nemc.runtime import EnsembleResult, ModelError
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 LANE_COUNTS = (4, 8)  # nemc.emit.LANE_TARGETS: AVX2 and AVX-512
@@ -99,6 +99,54 @@ def test_lanes_compile_warning_free(tmp_path: Path) -> None:
              "-o", str(tmp_path / "lanes.o")], capture_output=True, text=True)
         assert done.returncode == 0, done.stderr
         assert "warning" not in done.stderr and "note" not in done.stderr, done.stderr
+
+
+def test_fused_multiply_adds_follow_the_cpu(tmp_path: Path) -> None:
+    cpuinfo = tmp_path / "cpuinfo"
+    cpuinfo.write_text("processor\t: 0\nflags\t\t: fpu sse2 avx avx2 fma\n")
+    assert fma_available(cpuinfo, "x86_64")
+    cpuinfo.write_text("processor\t: 0\nflags\t\t: fpu sse2 sse4_2 fma4\n")
+    assert not fma_available(cpuinfo, "x86_64")  # a flag that only begins with fma
+    assert not fma_available(tmp_path / "absent", "x86_64")
+    assert fma_available(tmp_path / "absent", "aarch64")  # in the baseline there
+    assert not fma_available(cpuinfo, "riscv64")
+
+
+def test_builds_with_and_without_fma_agree_and_keep_their_lanes_bit_equal(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A build for FMA fuses Taylor's multiply-adds, one without it does not: the same steps,
+    states equal to rounding, and in each build the lanes equal the runs one by one."""
+    source = read_source(EXAMPLES / "double_pendulum.yaml")
+    fused = compile_source(source, None, taylor=True, lanes=lane_count())
+    monkeypatch.setattr("nemc.build.fma_available", lambda *_: False)
+    monkeypatch.setattr("nemc.pipeline.fma_available", lambda *_: False)
+    plain = compile_source(source, None, taylor=True, lanes=lane_count())
+    assert plain.package != fused.package  # the build key tells them apart
+    fused_c, plain_c = (next(build.package.glob("*.c")).read_text() for build in (fused, plain))
+    assert f"#define NEMC_FMA {int(fma_available())}" in fused_c
+    assert "#define NEMC_FMA 0" in plain_c
+    assert fused.model.metadata["fma"] is fma_available() and plain.model.metadata["fma"] is False
+    y0s = random_states(fused.model, 12, seed=5)
+    results = [both(build.model, y0s, t_span=(0.0, 3.0), t_eval=np.linspace(0, 3, 7),
+                    rtol=1e-10, atol=1e-12) for build in (fused, plain)]
+    for lanes, one_by_one in results:
+        assert_same(lanes, one_by_one)
+    (fused_run, _), (plain_run, _) = results
+    np.testing.assert_array_equal(fused_run.nfev, plain_run.nfev)
+    np.testing.assert_allclose(fused_run.y, plain_run.y, rtol=0, atol=1e-9)
+
+
+def test_a_cpu_without_fma_refuses_a_build_for_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A package built for FMA, loaded where the CPU lacks it (taylor_ready() is 0): nemc.Taylor
+    says so and what to do, and "auto" chooses another method."""
+    model = nemc.compile(EXAMPLES / "double_pendulum.yaml").compiled_with("taylor")
+    monkeypatch.setattr(type(model), "_taylor_ready", lambda self: False)
+    with pytest.raises(ModelError, match="FMA.*compile the mechanism again"):
+        model.simulate((0.0, 1.0), method="nemc.Taylor")
+    assert model.simulate((0.0, 1.0), method="auto").method == "nemc.Vern9"
+    monkeypatch.undo()
+    assert model._taylor_ready() and model.simulate((0.0, 1.0), method="auto").method == \
+        "nemc.Taylor"
 
 
 def test_the_lane_count_follows_the_cpu(tmp_path: Path) -> None:
