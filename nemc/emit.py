@@ -24,6 +24,7 @@ from . import __version__
 from . import model as m
 from .c_text import SymbolTablePrinter
 from .derive import DynamicsLayout, Equations
+from .methods import AUTO_SPECTRUM_MAX_STATES
 from .optimize import Block, rewrite
 from .program import Guard, Program
 from .resources import read_template
@@ -580,6 +581,7 @@ def header(eqs: Equations, prefix: str) -> str:
         parameter_names=comment_text(", ".join(s.name for s in eqs.parameters)),
         state_names=comment_text(", ".join(mech.state_names)),
         equation_names=comment_text(", ".join(equation_labels(eqs))),
+        spectrum_max_states=AUTO_SPECTRUM_MAX_STATES,
     )
 
 
@@ -728,9 +730,10 @@ def native_section(eqs: Equations, prefix: str, taylor: str, lanes: str = "") ->
     has_jacobian = eqs.inverse_mass is not None  # built with the diagnostics (exact or not)
     jacobian = f"{prefix}jacobian" if has_jacobian else "NULL"
     entry = template("integrators_entry.c.tmpl").substitute(
-        name=eqs.mechanism.name, prefix=prefix, jacobian=jacobian
+        name=eqs.mechanism.name, prefix=prefix, jacobian=jacobian,
+        spectrum_max_states=AUTO_SPECTRUM_MAX_STATES,
     )
-    sections = ["run_control.c.tmpl", "integrators.c.tmpl"]
+    sections = ["run_control.c.tmpl", "integrators.c.tmpl", "spectrum.c.tmpl"]
     if has_jacobian:  # Radau needs the Jacobian: built with it, on first need
         sections.append("radau.c.tmpl")
     batch = lanes or template("batch_absent.c.tmpl").substitute(prefix=prefix)

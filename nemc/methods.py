@@ -37,7 +37,8 @@ AUTO_LANES_MIN_RUNS = 100  # simulate_many: nemc.Taylor in SIMD lanes (a build o
 # a reason to build the lanes (an 8-link chain's: 8 s): the gain is a fraction of a second per
 # ensemble.
 AUTO_LANES_TAYLOR_MAX_COORDINATES = {4: 4, 8: 8}
-AUTO_SPECTRUM_MAX_STATES = 40  # the start's eigenvalues are computed up to this many states
+AUTO_SPECTRUM_MAX_STATES = 40  # the start's eigenvalues are computed up to this many states (in
+#                                C, on the stack: templates/spectrum.c.tmpl)
 EXPLICIT_STABILITY = 6.0  # h |lambda| nemc.DOP853 stays stable to on a decaying mode (-6.1)
 
 
@@ -45,18 +46,6 @@ def auto_builds_taylor(method: str | None, coordinates: int) -> bool:
     """Whether a build whose scene names METHOD (None: none) carries nemc.Taylor's code for
     "auto" to choose: small mechanisms, where it is the fastest and costs little to build."""
     return method in (None, AUTO) and coordinates <= AUTO_TAYLOR_MAX_COORDINATES
-
-
-def stiff_rate(eigenvalues: list[complex]) -> float:
-    """The rate that holds an explicit method's step for stability alone: the fastest
-    decaying mode's (its decay beyond its frequency: damped, not an oscillation the steps must
-    resolve anyway), less the fastest growing mode's (which they must resolve too); 0 without
-    a damped mode."""
-    decays = [-value.real for value in eigenvalues]
-    damped = [decay for decay, value in zip(decays, eigenvalues) if decay > abs(value.imag)]
-    if not damped:
-        return 0.0
-    return max(max(damped) - max(-min(decays), 0.0), 0.0)
 
 
 def auto_method(coordinates: int, rtol: float, has_taylor: bool, stiff_steps: float,

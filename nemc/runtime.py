@@ -38,7 +38,6 @@ from .methods import (  # noqa: F401 (re-exported: the runtime's public names)
     SCIPY_METHODS,
     TAYLOR_METHODS,
     auto_method,
-    stiff_rate,
 )
 
 DEFAULT_T_SPAN = (0.0, 10.0)
@@ -191,20 +190,6 @@ class SimulationResult:
         return head + _html_table(self.columns(), rows=_preview_rows(len(self.t)))
 
 
-try:  # the gufunc behind np.linalg.eigvals: a 4 x 4 in 2.4 us, where eigvals takes 11
-    from numpy.linalg._umath_linalg import eigvals as _eigvals_gufunc
-except ImportError:  # pragma: no cover (a numpy without it)
-    _eigvals_gufunc = None
-
-
-def eigenvalues(matrix: np.ndarray) -> list[complex]:
-    """The eigenvalues of a finite square matrix (auto's look at the start: numpy's checks
-    cost more than the LAPACK call on the small Jacobians it sees)."""
-    if _eigvals_gufunc is None:  # pragma: no cover
-        return np.linalg.eigvals(matrix).tolist()
-    return _eigvals_gufunc(matrix, signature="d->D").tolist()
-
-
 def _real_array(value: Any, what: str) -> np.ndarray:
     """VALUE as a numpy array of real numbers (bool, int, float); anything else is refused."""
     try:
@@ -295,7 +280,7 @@ class Model(LoopsMixin):
             name: getattr(lib, prefix + name)
             for name in (
                 "rhs", "rhs_many", "checks", "initial_state", "outputs", "jacobian",
-                "inverse_mass_matrix", "integrate", "free_steps",
+                "inverse_mass_matrix", "integrate", "free_steps", "start_stiffness",
             )
             if hasattr(lib, prefix + name)
         }
@@ -770,49 +755,24 @@ class Model(LoopsMixin):
         return runs >= AUTO_TAYLOR_BUILD_RUNS and self.part_compiler is not None
 
     def _start_stiffness(self, span: tuple[float, ...], y0: np.ndarray, p: np.ndarray) -> float:
-        """The steps an explicit method would need over the span for stability alone, from the
-        Jacobian at y0 (_start_jacobian: one C call): methods.stiff_rate of its eigenvalues x
-        the span / EXPLICIT_STABILITY. The eigenvalues are computed only when the dissipation
-        (minus the trace: the decay rates' sum) is large enough to make that many steps; else
-        it is returned, an estimate that a stiffness it misses is still caught by the run's
-        test.
+        """The steps an explicit method would need over the span for stability alone: the stiff
+        rate of the Jacobian's eigenvalues at y0 x the span / EXPLICIT_STABILITY, in one C call
+        (<model>_start_stiffness, templates/spectrum.c.tmpl), with the exact Jacobian of a build
+        at hand that has it, else forward differences of the RHS (nothing is built to look).
+        The eigenvalues are computed only when the dissipation (minus the trace: the decay
+        rates' sum) is large enough to make AUTO_STIFF_STEPS; else it is returned, an estimate
+        that a stiffness it misses is still caught by the run's test.
         0 when not computed (loops, large systems, a start the RHS cannot evaluate)."""
-        n = self.n_state
-        if self.has_loops or n > AUTO_SPECTRUM_MAX_STATES:
+        if self.has_loops or self.n_state > AUTO_SPECTRUM_MAX_STATES:
             return 0.0
-        jacobian = self._start_jacobian(float(span[0]), y0, p)
-        if jacobian is None:
+        model = next((model for model in (self, *self._variants.values())
+                      if model.has_part("jacobian")), self)
+        buffer, steps = model._buffer, model._ffi.new("double *")
+        if model._c["start_stiffness"](float(span[0]), buffer(y0), buffer(p),
+                                       abs(span[1] - span[0]) / EXPLICIT_STABILITY,
+                                       float(AUTO_STIFF_STEPS), steps):
             return 0.0  # the run itself will say why
-        per_step = abs(span[1] - span[0]) / EXPLICIT_STABILITY
-        dissipation = -float(jacobian.trace()) * per_step
-        if not math.isfinite(dissipation):
-            return 0.0
-        if dissipation <= AUTO_STIFF_STEPS:
-            return max(dissipation, 0.0)
-        if not _all_finite(jacobian):
-            return 0.0
-        return stiff_rate(eigenvalues(jacobian)) * per_step
-
-    def _start_jacobian(self, t: float, y0: np.ndarray, p: np.ndarray) -> np.ndarray | None:
-        """d rhs / d y at (t, y0) or its transpose (the same eigenvalues and trace): the exact
-        one when a build at hand has it (one C call), else forward differences of the RHS
-        (one rhs_many call); None if the RHS fails there."""
-        n, buffer = self.n_state, self._buffer
-        exact = next((model for model in (self, *self._variants.values())
-                      if model.has_part("jacobian")), None)
-        if exact is not None:
-            jacobian = np.empty((n, n))
-            failed = exact._c["jacobian"](t, buffer(y0), buffer(p), buffer(jacobian))
-            return None if failed else jacobian
-        h = 6e-6 * np.maximum(1.0, np.abs(y0))
-        ys = np.tile(y0, n + 1)  # row j + 1: y0 moved along y_j
-        ys[n::n + 1] += h
-        dys = np.empty_like(ys)
-        if self._c["rhs_many"](n + 1, buffer(np.full(n + 1, t)), buffer(ys), buffer(p),
-                               buffer(dys)):
-            return None
-        dys = dys.reshape(n + 1, n)
-        return (dys[1:] - dys[0]) / h[:, None]  # row j: d rhs / d y_j
+        return steps[0]
 
     @staticmethod
     def _times_after(times: Any, t_switch: float, span: tuple[float, ...]) -> Any:

@@ -75,8 +75,9 @@ def test_larger_mechanisms_get_vern9_or_dop853_by_the_tolerance() -> None:
 
 
 def test_the_start_stiffness_agrees_with_the_analytic_jacobian() -> None:
-    """Both ways auto gets the Jacobian at the start, the build's own (one C call) and forward
-    differences of the RHS (a build without it), against numpy's eigenvalues of the
+    """Both ways auto gets the Jacobian at the start, the build's own and forward differences
+    of the RHS (a build without it), in the look's C (templates/spectrum.c.tmpl, whose
+    eigenvalues tests/test_spectrum.py checks alone), against numpy's eigenvalues of the
     Jacobian."""
     arm, differences = nemc.compile(TWO_LINK_ARM), no_method(TWO_LINK_ARM)
     assert arm.has_part("jacobian") and not differences.has_part("jacobian")
@@ -89,14 +90,6 @@ def test_the_start_stiffness_agrees_with_the_analytic_jacobian() -> None:
     assert not differences.has_part("jacobian")  # the look at the start built nothing
     assert expected > methods.AUTO_STIFF_STEPS  # so auto starts this arm with nemc.Radau
     assert arm.simulate(span, method="auto").method == "nemc.Radau"
-
-
-def test_the_stiff_rate_is_the_fastest_damped_decay_less_the_fastest_growth() -> None:
-    assert methods.stiff_rate([-100.0, -1 + 5j, -1 - 5j]) == 100.0
-    assert methods.stiff_rate([-100.0, 3.0]) == 97.0  # the growth must be resolved anyway
-    assert methods.stiff_rate([-1 + 50j, -1 - 50j]) == 0.0  # an oscillation, not damped
-    assert methods.stiff_rate([2.0, -1.0]) == 0.0
-    assert methods.stiff_rate([]) == 0.0
 
 
 def test_an_oscillation_or_an_unstable_start_is_not_stiffness() -> None:
