@@ -6,13 +6,11 @@ non-finite Jacobians) against the same rules computed here with numpy."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from types import SimpleNamespace
 
-import cffi
 import numpy as np
 import pytest
+from c_harness import compiled_harness
 from scipy.optimize import linear_sum_assignment
 
 from nemc.resources import read_template
@@ -74,16 +72,8 @@ int start_steps(int n, int differences, const double *y, const double *a, double
 def spectrum(tmp_path_factory: pytest.TempPathFactory) -> SimpleNamespace:
     """The template's functions in a cffi module, compiled warning-free (-Wall -Wextra)."""
     folder = tmp_path_factory.mktemp("spectrum")
-    ffi = cffi.FFI()
-    ffi.cdef(CDEF)
     source = HARNESS + read_template("spectrum.c.tmpl") + CALLERS
-    ffi.set_source("_nemc_spectrum_test", source, libraries=["m"],
-                   extra_compile_args=["-O2", "-std=c99", "-Wall", "-Wextra", "-Werror"])
-    library = ffi.compile(tmpdir=str(folder))
-    spec = importlib.util.spec_from_file_location("_nemc_spectrum_test", library)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    sys.modules.pop("_nemc_spectrum_test", None)
+    module = compiled_harness("_nemc_spectrum_test", CDEF, source, folder)
     buffer = module.ffi.from_buffer
 
     def eigenvalues(matrix: np.ndarray) -> np.ndarray:

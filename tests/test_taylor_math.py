@@ -6,16 +6,14 @@ whatever the other lanes hold."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 from collections.abc import Callable
 from pathlib import Path
 
-import cffi
 import mpmath
 import numpy as np
 import pytest
+from c_harness import compiled_harness
 
 from nemc.emit import taylor_math
 
@@ -87,18 +85,11 @@ def kernels(tmp_path_factory: pytest.TempPathFactory) -> Run:
     """The functions as the builds instantiate them (nemc.emit.taylor_math), in a cffi module:
     run("one_sincos" | "four_log2" | ..., x) -> (out, out2)."""
     folder = tmp_path_factory.mktemp("taylor_math")
-    ffi = cffi.FFI()
-    ffi.cdef("".join(f"void {width}_{f}(int, const double *, double *, double *);"
-                     for width in ("one", "four") for f in ("sincos", "log2", "exp2")))
+    cdef = "".join(f"void {width}_{f}(int, const double *, double *, double *);"
+                   for width in ("one", "four") for f in ("sincos", "log2", "exp2"))
     source = (HARNESS + taylor_math("math1_", "taylor_double1", "taylor_bits1", "one value")
               + taylor_math("lanes_math_", "lanes", "lane_bits", "four lanes") + CALLERS)
-    ffi.set_source("_nemc_taylor_math_test", source, libraries=["m"],
-                   extra_compile_args=["-O2", "-std=c99", "-Wall", "-Wextra", "-Werror"])
-    library = ffi.compile(tmpdir=str(folder))
-    spec = importlib.util.spec_from_file_location("_nemc_taylor_math_test", library)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    sys.modules.pop("_nemc_taylor_math_test", None)
+    module = compiled_harness("_nemc_taylor_math_test", cdef, source, folder)
 
     def run(which: str, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x = np.ascontiguousarray(x, dtype=float)
