@@ -12,8 +12,9 @@ The last file written, BUILD_OK, is a manifest of every other file's sha256. A c
 used only when every file matches it: a truncated, edited or partly deleted entry is moved
 aside and rebuilt, never imported.
 
-A cache entry holds the readable C source (a very long model's in several files, compiled in
-parallel), compiled on its own with the flags below, a cffi API-mode wrapper linked against it,
+A cache entry holds the readable C source (a very long model's in several files, and method
+auto's look at the start in <name>_spectrum.c, compiled in parallel), compiled on its own with
+the flags below, a cffi API-mode wrapper linked against it,
 and model.json; `export` adds the runtime (nemc/runtime.py
 and nemc/methods.py, as they are now) to make the standalone package.
 """
@@ -60,7 +61,8 @@ NOT_IN_BUILD_KEY = frozenset({
 RUNTIME_FILES = {"runtime.py": "_runtime.py", "methods.py": "methods.py",
                  "loops_runtime.py": "loops_runtime.py", "runs.py": "runs.py"}
 CFLAGS = ["-O2", "-fPIC", "-Wall", "-Wextra", "-std=c99"]  # never -ffast-math: it changes answers
-# A long model's unit files (straight-line parts of its programs, emit.UNIT_STEPS) at -O1: gcc
+# A long model's unit files (straight-line parts of its programs, emit.UNIT_STEPS), and every
+# model's <name>_spectrum.c (auto's look at the start: 0.07 s of gcc, 0.11 at -O2), at -O1: gcc
 # took 35% less time on a 100-body chain with its Jacobian (8.0 -> 5.2 s) for a right-hand side
 # about 2% slower (4.77 -> 4.86 us a state) and the same Jacobian. The arithmetic is the same
 # (no contraction under -std=c99): the results are bit-identical. docs/decisions.md.
@@ -350,14 +352,19 @@ def write_package(code: Emitted, folder: Path) -> None:
     (folder / "__init__.py").write_text(code.package_init)
     (folder / "model.json").write_text(json.dumps(code.metadata, indent=1) + "\n")
     (folder / f"{code.name}.c").write_text(code.c_source)
-    for path, text in zip(unit_files(code, folder), code.units):
+    for path, text in side_sources(code, folder):
         path.write_text(text)
     (folder / f"{code.name}.h").write_text(code.header)
 
 
-def unit_files(code: Emitted, folder: Path) -> list[Path]:
-    """Where the model's unit files go (nemc.emit.Units): <name>_unit<k>.c, k = 1, 2, ..."""
-    return [folder / f"{code.name}_unit{k}.c" for k in range(1, len(code.units) + 1)]
+def side_sources(code: Emitted, folder: Path) -> list[tuple[Path, str]]:
+    """The model's C files besides <name>.c, and their text, compiled in parallel with it:
+    its unit files (nemc.emit.Units: <name>_unit<k>.c, k = 1, 2, ...) and <name>_spectrum.c."""
+    files = [(folder / f"{code.name}_unit{k}.c", text)
+             for k, text in enumerate(code.units, start=1)]
+    if code.spectrum:
+        files.append((folder / f"{code.name}_spectrum.c", code.spectrum))
+    return files
 
 
 def scratch_folder(root: Path, name: str) -> Path:
@@ -402,7 +409,7 @@ def build(code: Emitted, key: str) -> Path:
         with contextlib.redirect_stdout(io.StringIO()):  # cffi announces what it writes
             ffi.emit_c_code(str(wrapper))
         extension = package / ("_native" + extension_suffix())
-        units = unit_files(code, package)
+        units = [path for path, _ in side_sources(code, package)]
         compile_c(package / f"{code.name}.c", wrapper, extension, units)
         for c_file in [package / f"{code.name}.c", *units]:
             c_file.with_suffix(".o").unlink()

@@ -51,6 +51,7 @@ class Emitted:
     package_init: str
     metadata: dict
     units: tuple[str, ...] = ()  # the C of <name>_unit<k>.c, k = 1, 2, ... (long programs' parts)
+    spectrum: str = ""  # the C of <name>_spectrum.c (method auto's look at the start)
 
 
 def template(name: str) -> Template:
@@ -727,17 +728,33 @@ def native_section(eqs: Equations, prefix: str, taylor: str, lanes: str = "") ->
     in builds with the Jacobian: it halves the compile time the integrators add elsewhere;
     Taylor (the model's own coefficients) only in builds that ask for it, and its ensembles in
     SIMD lanes (lanes: templates/batch.c.tmpl, else batch_absent.c.tmpl) only when asked."""
-    has_jacobian = eqs.inverse_mass is not None  # built with the diagnostics (exact or not)
-    jacobian = f"{prefix}jacobian" if has_jacobian else "NULL"
     entry = template("integrators_entry.c.tmpl").substitute(
-        name=eqs.mechanism.name, prefix=prefix, jacobian=jacobian,
-        spectrum_max_states=AUTO_SPECTRUM_MAX_STATES,
+        name=eqs.mechanism.name, prefix=prefix, jacobian=jacobian_function(eqs, prefix)
     )
-    sections = ["run_control.c.tmpl", "integrators.c.tmpl", "spectrum.c.tmpl"]
-    if has_jacobian:  # Radau needs the Jacobian: built with it, on first need
+    sections = ["run_control.c.tmpl", "integrators.c.tmpl"]
+    if has_jacobian(eqs):  # Radau needs the Jacobian: built with it, on first need
         sections.append("radau.c.tmpl")
     batch = lanes or template("batch_absent.c.tmpl").substitute(prefix=prefix)
     return "\n" + "".join(read_template(name) for name in sections) + taylor + entry + batch
+
+
+def has_jacobian(eqs: Equations) -> bool:
+    """Whether the build has the Jacobian (exact, or differences for loops) and M^-1."""
+    return eqs.inverse_mass is not None
+
+
+def jacobian_function(eqs: Equations, prefix: str) -> str:
+    """The C of the Jacobian function a driver is given: the build's, or NULL without it."""
+    return f"{prefix}jacobian" if has_jacobian(eqs) else "NULL"
+
+
+def spectrum_source(eqs: Equations, prefix: str) -> str:
+    """<name>_spectrum.c: method auto's look at the start (templates/spectrum.c.tmpl), in a
+    file of its own that the build compiles in parallel with <name>.c."""
+    return template("spectrum_unit.c.tmpl").substitute(
+        name=eqs.mechanism.name, version=__version__, prefix=prefix,
+        spectrum=read_template("spectrum.c.tmpl"), jacobian=jacobian_function(eqs, prefix),
+        spectrum_max_states=AUTO_SPECTRUM_MAX_STATES)
 
 
 # Taylor loops of at most this many lines are also written out for order 0 alone, where the
@@ -919,6 +936,7 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
         c_source=c_source(eqs, block, prefix, chunk_steps, units)
         + native_section(eqs, prefix, taylor, lanes_c) + positions_c,
         units=units.files(eqs.mechanism.name) if units is not None else (),
+        spectrum=spectrum_source(eqs, prefix),
         header=interface,
         cdef=cdef(interface),
         package_init=template("package_init.py.tmpl").substitute(

@@ -91,8 +91,8 @@ def test_lanes_compile_warning_free(tmp_path: Path) -> None:
     pendulum = read_source(EXAMPLES / "double_pendulum.yaml")
     functions = Source("functions.yaml", FUNCTIONS.encode())  # every recurrence, t, a real power
     for source, count in ((pendulum, 4), (pendulum, 8), (functions, lane_count())):
-        package = compile_source(source, None, taylor=True, lanes=count).package
-        c_file = next(package.glob("*.c"))
+        compiled = compile_source(source, None, taylor=True, lanes=count)
+        c_file = compiled.package / f"{compiled.model.name}.c"
         assert "taylor_coefficients_lanes" in c_file.read_text()
         done = subprocess.run(
             ["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-c", str(c_file),
@@ -122,7 +122,8 @@ def test_builds_with_and_without_fma_agree_and_keep_their_lanes_bit_equal(
     monkeypatch.setattr("nemc.pipeline.fma_available", lambda *_: False)
     plain = compile_source(source, None, taylor=True, lanes=lane_count())
     assert plain.package != fused.package  # the build key tells them apart
-    fused_c, plain_c = (next(build.package.glob("*.c")).read_text() for build in (fused, plain))
+    fused_c, plain_c = ((build.package / f"{build.model.name}.c").read_text()
+                        for build in (fused, plain))
     assert f"#define NEMC_FMA {int(fma_available())}" in fused_c
     assert "#define NEMC_FMA 0" in plain_c
     assert fused.model.metadata["fma"] is fma_available() and plain.model.metadata["fma"] is False

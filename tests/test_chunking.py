@@ -40,7 +40,7 @@ def pair(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactor
 
 
 def c_source(compiled: Compiled) -> str:
-    return next(compiled.package.glob("*.c")).read_text()
+    return (compiled.package / f"{compiled.model.name}.c").read_text()
 
 
 def evaluate(compiled: Compiled, y: np.ndarray, p: np.ndarray) -> dict[str, tuple[int, list]]:
@@ -118,7 +118,7 @@ def test_parts_return_the_same_status_at_singular_states(pair: tuple[Compiled, C
 
 
 def test_parts_compile_warning_free(pair: tuple[Compiled, Compiled], tmp_path: Path) -> None:
-    c_file = next(pair[1].package.glob("*.c"))
+    c_file = pair[1].package / f"{pair[1].model.name}.c"
     done = subprocess.run(
         ["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-c", str(c_file),
          "-o", str(tmp_path / "parts.o")],

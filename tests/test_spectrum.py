@@ -20,7 +20,6 @@ from nemc.resources import read_template
 HARNESS = """
 #include <math.h>
 #include <string.h>
-typedef int (*nemc_rhs_fn)(double t, const double *y, const double *p, double *dy);
 """
 CALLERS = """
 static int n_of_test;
