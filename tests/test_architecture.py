@@ -148,8 +148,9 @@ def test_the_cdef_is_the_headers_text() -> None:
     code = emit(eqs, block)
     assert code.cdef in code.header and "double_pendulum_integrate(" in code.cdef
     assert "#define" not in code.cdef  # cffi's part: declarations only
+    package_c = code.c_source + code.spectrum + "".join(code.units)  # every C file's text
     for function in re.findall(r"\b(double_pendulum_\w+)\(", code.cdef):
-        assert re.search(rf"\n\w+ {function}\(", code.c_source), function  # each one defined
+        assert re.search(rf"\n\w+ {function}\(", package_c), function  # each one defined
 
 
 def test_the_build_key_covers_what_makes_builds() -> None:
