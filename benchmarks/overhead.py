@@ -3,6 +3,9 @@ against the C right-hand side itself (rhs_many over 1,000 states, per state), an
 over a step-sized interval (its fixed cost: checks, settings, the interrupt flag, the result),
 each native method, on the book's double pendulum; and over an empty interval [0, 0], where
 the C returns the initial state at once and what is timed is simulate()'s fixed cost alone.
+Method "auto"'s choice (`Model.auto_method`: its look at the start, one C call) on the double
+pendulum (no Jacobian in its build: differences, the trace alone) and the book's stiff 5.4 arm
+(its exact Jacobian, and the eigenvalues).
 The drivers' own work: each explicit method over [0, 200] at rtol 1e-10 (long runs: the fixed
 cost vanishes), per right-hand-side call, against the C right-hand side alone; the excess is
 the driver's per-step work (stage sums, error norm, step control). Interleaved calibrated loops.
@@ -37,6 +40,12 @@ def main() -> int:
         "C right-hand side (rhs_many, per state)": (lambda: model.rhs_many(0.0, states), STATES),
         "model.rhs(t, y)": (lambda: model.rhs(0.0, y0), 1),
     }
+    arm = nemc.compile(ROOT / "examples" / "two_link_robot_arm.yaml")
+    for label, chooser in (("double pendulum", model), ("stiff 5.4 arm", arm)):
+        start, p = chooser.initial_state(), chooser.parameter_vector()
+        calls[f"auto's choice (auto_method), {label}"] = (
+            lambda chooser=chooser, start=start, p=p: chooser.auto_method((0.0, 15.0), start,
+                                                                          1e-6, p), 1)
     for method in native_methods():
         model.simulate((0.0, 1e-3), y0, method=method, t_eval=[1e-3])  # its parts built here
         calls[f"simulate over [0, 1e-3], {method}"] = (

@@ -360,11 +360,9 @@ def write_package(code: Emitted, folder: Path) -> None:
 def side_sources(code: Emitted, folder: Path) -> list[tuple[Path, str]]:
     """The model's C files besides <name>.c, and their text, compiled in parallel with it:
     its unit files (nemc.emit.Units: <name>_unit<k>.c, k = 1, 2, ...) and <name>_spectrum.c."""
-    files = [(folder / f"{code.name}_unit{k}.c", text)
-             for k, text in enumerate(code.units, start=1)]
-    if code.spectrum:
-        files.append((folder / f"{code.name}_spectrum.c", code.spectrum))
-    return files
+    return [*((folder / f"{code.name}_unit{k}.c", text)
+              for k, text in enumerate(code.units, start=1)),
+            (folder / f"{code.name}_spectrum.c", code.spectrum)]
 
 
 def scratch_folder(root: Path, name: str) -> Path:

@@ -50,8 +50,8 @@ class Emitted:
     cdef: str
     package_init: str
     metadata: dict
+    spectrum: str  # the C of <name>_spectrum.c (method auto's look at the start)
     units: tuple[str, ...] = ()  # the C of <name>_unit<k>.c, k = 1, 2, ... (long programs' parts)
-    spectrum: str = ""  # the C of <name>_spectrum.c (method auto's look at the start)
 
 
 def template(name: str) -> Template:

@@ -735,7 +735,7 @@ class Model(LoopsMixin):
                          AUTO_LANES_TAYLOR_MAX_COORDINATES.get(lanes, 0))
         return auto_method(len(self.coordinate_names), rtol,
                            bool(lanes) or self._taylor_at_hand(runs),
-                           self._start_stiffness(tuple(span), np.asarray(y0, dtype=float), p),
+                           self._start_stiffness(tuple(span), self._state(y0), p),
                            taylor_max)
 
     def _lanes_at_hand(self) -> int:

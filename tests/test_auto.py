@@ -92,6 +92,15 @@ def test_the_start_stiffness_agrees_with_the_analytic_jacobian() -> None:
     assert arm.simulate(span, method="auto").method == "nemc.Radau"
 
 
+def test_the_start_look_refuses_a_state_of_the_wrong_size() -> None:
+    """The look reads y0 in C: a short or long state is refused before it gets there."""
+    arm = nemc.compile(TWO_LINK_ARM)
+    for state in ([0.1, 0.0], np.zeros(6), [[0.1, 0.0, 0.2, 0.0]]):
+        with pytest.raises(runtime.ModelError, match="state must have shape"):
+            arm.auto_method((0.0, 15.0), state, 1e-6)
+    assert arm.auto_method((0.0, 15.0), [0.0, 0.0, 1.0, 0.0], 1e-6) == "nemc.Radau"
+
+
 def test_an_oscillation_or_an_unstable_start_is_not_stiffness() -> None:
     """The double pendulum's modes are undamped oscillations, the compound pendulum starts
     near its top (eigenvalues +-3.4): nothing there for Radau to step over."""
