@@ -26,6 +26,7 @@ from .kinematics import Kinematics, applied_loads, motion_substitutions
 from .loops import LoopEquations, loop_equations
 from .mass_form import MAX_COORDINATES, mass_form_program
 from .outputs import derive_outputs
+from .products import fewer_products
 from .program import Program, split_deep
 from .tangent import seed_symbols, tangent_program
 from .taylor import series_cost, unsupported_operation
@@ -236,19 +237,25 @@ def with_diagnostics(eqs: Equations) -> Equations:
 
 def with_taylor(eqs: Equations) -> Equations:
     """Ask for nemc.Taylor's code, from the program with the fewer Cauchy sums per order: the
-    articulated-body program, or on small mechanisms the mass-matrix form (nemc/mass_form.py).
+    articulated-body program, or on small mechanisms the mass-matrix form (nemc/mass_form.py),
+    each with its products shared and factored (nemc/products.py).
     A load whose expressions have no Taylor recurrence makes it unavailable, said with the
     load's FILE:LINE."""
     refusal = taylor_refusal(eqs)
     if refusal is not None:
         return dataclasses.replace(eqs, taylor_unavailable=refusal)
-    program = eqs.accelerations_program
+    varying = (*eqs.coordinates, *eqs.speeds, m.TIME)
+
+    def cost(program: Program) -> float:
+        return series_cost(program, eqs.coordinates, eqs.speeds, m.TIME)
+
+    candidates = [eqs.accelerations_program]
     if eqs.n <= MAX_COORDINATES:
-        candidate = split_deep(mass_form_program(*eqs.mass_forcing), "vt")
-        if (series_cost(candidate, eqs.coordinates, eqs.speeds, m.TIME)
-                < series_cost(program, eqs.coordinates, eqs.speeds, m.TIME)):
-            program = candidate
-    return dataclasses.replace(eqs, taylor=program)
+        candidates.append(split_deep(mass_form_program(*eqs.mass_forcing), "vt"))
+    # taking factors out nests sums: split again (other names than the first split's)
+    programs = [split_deep(fewer_products(candidate, varying, cost), "vf")
+                for candidate in candidates]
+    return dataclasses.replace(eqs, taylor=min(programs, key=cost))
 
 
 def taylor_refusal(eqs: Equations) -> str | None:

@@ -79,14 +79,18 @@ def test_linearized_collects_sines_and_cosines() -> None:
 
 def test_taylor_uses_the_cheaper_program() -> None:
     """The double pendulum: the mass-matrix form has under half the Cauchy sums; a chain past
-    MAX_COORDINATES keeps the articulated-body program (the form is not derived)."""
+    MAX_COORDINATES keeps the articulated-body program (the form is not derived; its products
+    are shared: tests/test_products.py)."""
     eqs = with_taylor(equations_of((EXAMPLES / "double_pendulum.yaml").read_text(), "dp"))
     assert eqs.taylor is not eqs.dynamics
     assert (series_cost(eqs.taylor, eqs.coordinates, eqs.speeds, m.TIME)
             < series_cost(eqs.dynamics, eqs.coordinates, eqs.speeds, m.TIME) / 2)
     chain = equations_of(random_mechanism_yaml(np.random.default_rng(5), 7, tree=False), "long")
     assert chain.n > MAX_COORDINATES
-    assert with_taylor(chain).taylor is chain.dynamics
+    taylor = with_taylor(chain).taylor  # the articulated-body program, its products shared
+    assert "mass_forcing" not in vars(chain)  # the form was not derived
+    values = random_values(chain, np.random.default_rng(6))
+    np.testing.assert_allclose(run(taylor, values), run(chain.dynamics, values), rtol=1e-11)
 
 
 @pytest.mark.parametrize("seed", range(2))
