@@ -93,12 +93,12 @@ def distributed(program: Program, varying: frozenset[sympy.Symbol]) -> Program:
         elif expr.is_Mul or expr.is_Pow:
             constant, factors = constant_and_factors(expr, varying)
             if degree(factors) >= 2:
-                named[name] = seen_through(constant, factors, varying, named)
+                named[name] = seen_through(constant, factors, named)
         steps.append((name, expr))
     return Program(tuple(steps), program.results).pruned()
 
 
-def seen_through(constant: sympy.Expr, factors: Factors, varying: frozenset[sympy.Symbol],
+def seen_through(constant: sympy.Expr, factors: Factors,
                  named: dict[sympy.Symbol, tuple[sympy.Expr, Factors]]
                  ) -> tuple[sympy.Expr, Factors]:
     """The product with each factor that names a product replaced by that product's parts."""
@@ -118,7 +118,7 @@ def factored(expr: sympy.Add, varying: frozenset[sympy.Symbol],
              named: dict[sympy.Symbol, tuple[sympy.Expr, Factors]]) -> sympy.Expr:
     """A sum with its time-varying factors taken out of its terms (greedy_factored)."""
     fixed = [term for term in expr.args if not term.free_symbols & varying]
-    terms = [seen_through(*constant_and_factors(term, varying), varying, named)
+    terms = [seen_through(*constant_and_factors(term, varying), named)
              for term in expr.args if term.free_symbols & varying]
     if not all(is_simple(factor) for _, factors in terms for factor in factors):
         return expr  # measured: taking factors out next to sums or quotients costs more
@@ -227,12 +227,12 @@ class PairIndex:
             self._index(k, factors, add=True)
 
 
-def pairs_in(factors: Factors) -> set[tuple[sympy.Symbol, sympy.Symbol]]:
-    """The distinct unordered pairs of a multiset of names (a name twice: its square)."""
+def pairs_in(factors: Factors) -> list[tuple[sympy.Symbol, sympy.Symbol]]:
+    """The distinct unordered pairs of a multiset of names (a name twice: its square), in a
+    fixed order: ties between pairs go the same way in every process, so do the builds."""
     names = sorted(factors, key=sympy.default_sort_key)
-    pairs = set(combinations(names, 2))
-    pairs |= {(name, name) for name in names if factors[name] >= 2}
-    return pairs
+    pairs = [(name, name) for name in names if factors[name] >= 2]
+    return pairs + list(combinations(names, 2))
 
 
 Rewritten = dict[sympy.Expr, tuple[Factors, Factors]]  # product -> its names before, after
