@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import sympy
 from reference import random_mechanism_yaml
+from test_hostile import chain_yaml
 from test_mass_form import equations_of, random_values, run
 
 from nemc import model as m
@@ -24,18 +25,6 @@ EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 q1, q2, u1, u2 = sympy.symbols("q1 q2 u1 u2", real=True)
 k = sympy.Symbol("k", positive=True)  # a parameter
 w = sympy.symbols("w0:6", real=True)
-
-
-def chain_text(links: int) -> str:
-    """A chain of uniform links, as benchmarks/common.py's chain_yaml."""
-    lines = ["name: chain", "parameters: {m: 1, L: 1}", "gravity: [0, -9.81]", "bodies:"]
-    lines += [f"  b{i}: {{mass: m, inertia: m*L**2/12, com: [L/2, 0], points: {{tip: [L, 0]}}}}"
-              for i in range(links)]
-    lines.append("joints:")
-    lines += [f"  j{i}: {{type: revolute, parent: {'ground' if i == 0 else f'b{i - 1}'}, "
-              f"child: b{i}, at: {'[0, 0]' if i == 0 else 'tip'}, coordinate: q{i}}}"
-              for i in range(links)]
-    return "\n".join(lines) + "\n"
 
 
 def cost_of(eqs):
@@ -112,7 +101,7 @@ def test_chains_compute_the_same_with_fewer_sums(links: int) -> None:
     both rewrites: the same accelerations, never more sums; and nemc.Taylor's program has
     fewer than either program had before (measured: 17 -> 15.5, 54.5 -> 44, 118 -> 88.5 and
     368.5 -> 337 sums per order)."""
-    eqs = equations_of(chain_text(links), f"chain{links}")
+    eqs = equations_of(chain_yaml(links), f"chain{links}")
     cost, rng = cost_of(eqs), np.random.default_rng(10 + links)
     varying = (*eqs.coordinates, *eqs.speeds, m.TIME)
     programs = [eqs.accelerations_program]
