@@ -196,25 +196,26 @@ except ImportError:  # pragma: no cover (CPython has it)
 class _InterruptWatch:
     """Ctrl-C while a run is in C: Python's SIGINT handler runs only between bytecodes, after the
     call. During a guarded run the signal wakeup fd, which Python's C-level handler writes at
-    once, is this pipe; a daemon thread reading it sets the runs' flags, which the C loops
-    read between steps. Bytes of other signals go on to the wakeup fd that was set before."""
+    once, is this pipe; a daemon thread reading it sets the active guards' flags, which the C
+    loops read between steps. Bytes of other signals go on to the wakeup fd set before."""
 
     def __init__(self) -> None:
-        self.lock = threading.Lock()
-        self.flags: list[np.ndarray] = []
+        self.guards: set[interrupt_flag] = set()  # add and discard are atomic: no lock
         self.forward = -1
-        self.pid = -1
         self.write_fd = -1
 
     def start(self) -> int:
-        """The pipe's write end, the thread started (again after a fork)."""
-        if self.pid != os.getpid():
+        """The pipe's write end, its reading thread started on first use (again in a child
+        after a fork: the thread does not cross it)."""
+        if self.write_fd < 0:
             read_fd, self.write_fd = os.pipe()
             os.set_blocking(self.write_fd, False)
-            self.pid = os.getpid()
             threading.Thread(target=self._watch, args=(read_fd,), daemon=True,
                              name="nemc-interrupts").start()
         return self.write_fd
+
+    def forget_after_fork(self) -> None:
+        self.write_fd, self.forward, self.guards = -1, -1, set()
 
     def _watch(self, read_fd: int) -> None:
         while True:
@@ -230,12 +231,12 @@ class _InterruptWatch:
                     pass
 
     def set_flags(self) -> None:
-        with self.lock:
-            for flag in self.flags:
-                flag[0] = 1
+        for guard in tuple(self.guards):  # a copy: a run may end meanwhile
+            guard.flag[0] = 1
 
 
 _WATCH = _InterruptWatch()
+os.register_at_fork(after_in_child=_WATCH.forget_after_fork)
 _RAISING = threading.local()  # interrupts_raise() is active in this thread
 
 
@@ -252,45 +253,89 @@ def interrupts_raise() -> Iterator[None]:
         _RAISING.on = before
 
 
+def _swallow_sigint(signum: int, frame: Any) -> None:
+    """SIGINT's Python handler during a guarded run: the runs' flags say it (set already by
+    the watch thread; set here too for a signal the pipe missed), nothing is raised."""
+    _WATCH.set_flags()
+
+
 class interrupt_flag:  # a class, not @contextmanager: 2 us less a run (issue 19)
-    """`with interrupt_flag() as flag`: a C int (np.intc array of one) that Ctrl-C sets to 1
-    while the block runs; the KeyboardInterrupt is not raised. Only in the main thread with
-    Python's default SIGINT handler: elsewhere (threads, SIG_IGN, a handler of the caller's)
-    the flag stays 0 and Ctrl-C behaves as it would without nemc."""
+    """`with interrupt_flag() as flag`: a C int that Ctrl-C sets to 1 while the block runs; the
+    KeyboardInterrupt is not raised. flag: np.intc array of one by default, or the caller's
+    (a cffi int *, which a nemc_run points to as is). Only in the main thread with Python's
+    default SIGINT handler: elsewhere (threads, SIG_IGN, a handler of the caller's) the flag
+    stays 0 and Ctrl-C behaves as it would without nemc. A single run in C arms its guard
+    itself once it lasts (arm_interrupts)."""
 
     __slots__ = ("flag", "guarded")
 
-    def __init__(self) -> None:
-        self.flag = np.zeros(1, dtype=np.intc)
+    def __init__(self, flag: Any = None) -> None:
+        self.flag = np.zeros(1, dtype=np.intc) if flag is None else flag
         self.guarded = False
 
-    def __enter__(self) -> np.ndarray:
+    def __enter__(self) -> Any:
         if (threading.current_thread() is not threading.main_thread()
                 or _signals.getsignal(2) is not _signals.default_int_handler):
             return self.flag
-        write_fd = _WATCH.start()
-        with _WATCH.lock:
-            _WATCH.flags.append(self.flag)
+        _WATCH.guards.add(self)  # listed before the swap: a SIGINT from then on is seen
+        _signals.signal(2, _swallow_sigint)
         self.guarded = True
-        _signals.signal(2, self._handler)
-        _WATCH.forward = _signals.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
+        _WATCH.forward = _signals.set_wakeup_fd(_WATCH.start(), warn_on_full_buffer=False)
         return self.flag
-
-    def _handler(self, signum: int, frame: Any) -> None:
-        self.flag[0] = 1
 
     def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
                  trace: Any) -> None:
-        if not self.guarded:
-            return
-        self.guarded = False
-        _signals.set_wakeup_fd(_WATCH.forward)
-        _WATCH.forward = -1
-        _signals.signal(2, _signals.default_int_handler)
-        with _WATCH.lock:
-            _WATCH.flags.remove(self.flag)
-        if kind is None and getattr(_RAISING, "on", False) and self.flag[0]:
+        if self.guarded:
+            self.guarded = False
+            _signals.set_wakeup_fd(_WATCH.forward)
+            _WATCH.forward = -1
+            _signals.signal(2, _signals.default_int_handler)
+        _WATCH.guards.discard(self)
+        if kind is None and self.flag[0] and getattr(_RAISING, "on", False):
             raise KeyboardInterrupt
+
+
+# ---- a single run in C arms its guard itself, once it lasts ------------------------------
+# Swapping the handlers costs 1.5 us, a sixth of a short simulate() (issue 19). A native run
+# calls nemc_run.arm_interrupt (a cffi callback of arm_interrupts) once it has done enough work
+# for Ctrl-C to matter (templates/run_control.c.tmpl, NEMC_ARM_WORK); after the call, after_run
+# restores the handlers. A Ctrl-C before arming raises KeyboardInterrupt when a short run
+# returns, as after any short call, or in the callback of a long one, which ends the run.
+
+_ARMED: list[interrupt_flag] = []  # guards armed by a run in C of the main thread
+
+
+def arm_interrupts(flag: Any) -> int:
+    """nemc_run.arm_interrupt: watch for Ctrl-C on the run's flag from now on. 0: go on."""
+    if threading.current_thread() is threading.main_thread():
+        guard = interrupt_flag(flag)
+        _ARMED.append(guard)
+        guard.__enter__()
+    return 0
+
+
+def interrupted_while_arming(kind: type[BaseException], error: BaseException,
+                             trace: Any) -> int:
+    """arm_interrupts' onerror: a Ctrl-C that came before it raises in the callback, which
+    cannot pass it through C; 1 ends the run as an interrupted one."""
+    if issubclass(kind, KeyboardInterrupt):
+        return 1
+    import traceback
+
+    traceback.print_exception(kind, error, trace)
+    return 0
+
+
+def after_run(flag: Any) -> None:
+    """After a run in C given arm_interrupts: the guard it armed, if any, released (handlers
+    restored); under interrupts_raise, KeyboardInterrupt if Ctrl-C stopped it."""
+    if _ARMED and threading.current_thread() is threading.main_thread():
+        while _ARMED:
+            guard = _ARMED.pop()
+            guard.flag = flag  # the owner of the int: the watch thread may still hold guard
+            guard.__exit__(None, None, None)
+    if flag[0] and getattr(_RAISING, "on", False):
+        raise KeyboardInterrupt
 
 
 # ---- progress on a terminal ------------------------------------------------------------------

@@ -108,6 +108,9 @@ class LazyOutputs(Mapping[str, np.ndarray]):
         return repr(self._get())
 
 
+NO_OUTPUTS = LazyOutputs(dict)  # the outputs of a result without any (nothing to compute)
+
+
 @dataclass
 class SimulationResult:
     """As scipy's OdeResult, plus the scene's outputs at every returned time (computed when
@@ -205,9 +208,20 @@ def _all_finite(array: np.ndarray) -> bool:
     """Whether every entry is finite. A small array's sum as Python floats (no warning on an
     overflow) says so in 0.2 us where numpy's isfinite().all() takes 1 us: a nan or inf makes
     the sum nan or inf; only then (or after an overflow) each entry is looked at."""
-    if array.size <= 64 and math.isfinite(sum(array.ravel().tolist())):
+    if array.size <= 64 and math.isfinite(sum(
+            array.tolist() if array.ndim == 1 else array.ravel().tolist())):
         return True
     return bool(np.isfinite(array).all())
+
+
+def _arm_callback(ffi: Any) -> Any:
+    """runs.arm_interrupts as a C function pointer for nemc_run.arm_interrupt (one per model,
+    kept by it); None where cffi cannot make callbacks (runs are then watched from the start)."""
+    try:
+        return ffi.callback("int(int *)", runs.arm_interrupts, error=0,
+                            onerror=runs.interrupted_while_arming)
+    except (MemoryError, NotImplementedError, TypeError):  # no write+execute memory, ...
+        return None
 
 
 def read_metadata(path: Path) -> dict:
@@ -243,22 +257,6 @@ def _html_table(columns: Mapping[str, np.ndarray], rows: list[int]) -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
 
 
-Simulate = Callable[..., SimulationResult]
-
-
-def _remembers_its_run(simulate: Simulate) -> Simulate:
-    """simulate() whose results know their model and can run again at other times."""
-
-    @functools.wraps(simulate)
-    def run(self: Model, *args: Any, **kwargs: Any) -> SimulationResult:
-        result = simulate(self, *args, **kwargs)
-        result.model = self
-        result.rerun = lambda t_eval: simulate(self, *args, **{**kwargs, "t_eval": t_eval})
-        return result
-
-    return run
-
-
 class Model(LoopsMixin):
     """A compiled mechanism: names, defaults, rhs, jacobian, outputs and simulate."""
 
@@ -275,6 +273,9 @@ class Model(LoopsMixin):
         self.scene: dict = metadata["scene"]
         self.n_state = len(self.state_names)
         self._ffi, self._lib = ffi, lib
+        # cffi's types, looked up once (a type named by a string is looked up in every call)
+        self._double_array, self._int_pointer, self._run_pointer = (
+            ffi.typeof("double[]"), ffi.typeof("int *"), ffi.typeof("nemc_run *"))
         prefix = metadata["c_prefix"]
         self._c = {
             name: getattr(lib, prefix + name)
@@ -293,6 +294,9 @@ class Model(LoopsMixin):
         self._rhs_cache: tuple[Any, Any] = (None, None)  # rhs(): (p, its closure)
         self._default_rhs: Callable[[Any, Any], np.ndarray] | None = None  # rhs(t, y)
         self._method_ids: dict[str, int] = {}  # _method_id's, looked up once
+        self._native_models: dict[str, Model] = {}  # _native_model's, found once
+        self._event_table: list[dict] = metadata.get("events") or []  # the scene's events
+        self._arm_interrupts = _arm_callback(ffi)  # nemc_run.arm_interrupt, or None
         # parameters_at(the defaults), copied for each result: never handed out itself
         self._default_params = dict(zip(self.parameter_names, self._default_p.tolist()))
 
@@ -307,7 +311,7 @@ class Model(LoopsMixin):
     # -- arguments --------------------------------------------------------------------------
 
     def _buffer(self, array: np.ndarray) -> Any:
-        return self._ffi.from_buffer("double[]", array)
+        return self._ffi.from_buffer(self._double_array, array)
 
     def parameter_vector(self, params: Mapping[str, float] | None = None) -> np.ndarray:
         """The C parameter array for these overrides, checked (finite, masses positive)."""
@@ -371,7 +375,7 @@ class Model(LoopsMixin):
 
     def _state(self, y: Any) -> np.ndarray:
         """One state as a new-or-checked contiguous float64 array of shape (n_state,)."""
-        if (type(y) is np.ndarray and y.dtype == np.float64 and y.shape == (self.n_state,)
+        if (type(y) is np.ndarray and y.dtype is FLOAT64 and y.shape == (self.n_state,)
                 and y.flags.c_contiguous):  # already what C takes
             return y
         array = _real_array(y, "state")
@@ -538,8 +542,17 @@ class Model(LoopsMixin):
         if part not in self._variants:
             have = {name for model in (self, *self._variants.values())
                     for name in model.metadata["generated"]}
-            self._variants[part] = self.part_compiler(frozenset(have & OPTIONAL_PARTS | {part}))
+            variant = self.part_compiler(frozenset(have & OPTIONAL_PARTS | {part}))
+            variant._share_defaults(self)
+            self._variants[part] = variant
         return self._variants[part]
+
+    def _share_defaults(self, model: Model) -> None:
+        """Take the default parameter vector of MODEL, the same mechanism: a run that MODEL
+        hands to this variant then finds its defaults by identity (parameters_at)."""
+        if np.array_equal(self._default_p, model._default_p):
+            self._default_p = model._default_p
+            self._checked = ((), model._default_p)
 
     def _jacobian_function(self, p: np.ndarray):
         """A fast closure d rhs/d y for implicit integrators, or None without a C Jacobian."""
@@ -595,18 +608,21 @@ class Model(LoopsMixin):
         """The scene's outputs: floats for one state, arrays for y of shape (n_state, n_t)."""
         if not self.output_names:
             return {}
+        return self._outputs_at(t, y, self.parameter_vector(params))
+
+    def _outputs_at(self, t: Any, y: Any, p: np.ndarray) -> dict[str, Any]:
+        """outputs() at the parameter vector p."""
         array = _real_array(y, "states")
         single = array.ndim == 1
         ys = self._state(array).reshape(1, -1) if single else self._states(array)
         ts = self._times_for(t, len(ys))
         out = np.empty((len(ys), len(self.output_names)))
-        self._many("outputs", ts, ys, self.parameter_vector(params), out)
+        self._many("outputs", ts, ys, p, out)
         columns = {name: out[:, k] for k, name in enumerate(self.output_names)}
         return {k: float(v[0]) for k, v in columns.items()} if single else columns
 
     # -- integration ------------------------------------------------------------------------
 
-    @_remembers_its_run
     def simulate(
         self,
         t_span: Sequence[float] | None = None,
@@ -635,6 +651,23 @@ class Model(LoopsMixin):
         switches); max_steps: the step budget (default 1,000,000 accepted steps; 0: none).
         A run that ends early (budget, stiffness, Ctrl-C, ...) returns what it has, success
         False and a message saying why (docs/decisions.md, "Runs that end")."""
+        result = self._simulate(t_span, y0, method, t_eval, rtol, atol, params, events,
+                                max_step, tstops, max_steps)
+        result.model = self  # the result knows its model, and runs again at other times
+        result.rerun = functools.partial(self._rerun, (
+            t_span, y0, method, rtol, atol, params, events, max_step, tstops, max_steps))
+        return result
+
+    def _rerun(self, arguments: tuple, t_eval: Any) -> SimulationResult:
+        """A result's run again, at the times t_eval (SimulationResult.rerun)."""
+        t_span, y0, method, rtol, atol, params, events, max_step, tstops, max_steps = arguments
+        return self._simulate(t_span, y0, method, t_eval, rtol, atol, params, events, max_step,
+                              tstops, max_steps)
+
+    def _simulate(self, t_span: Any, y0: Any, method: Any, t_eval: Any, rtol: Any, atol: Any,
+                  params: Mapping[str, float] | None, events: Any, max_step: Any, tstops: Any,
+                  max_steps: Any) -> SimulationResult:
+        """simulate()'s run, its arguments in order (positional: a call costs less)."""
         p = self.parameter_vector(params)
         span = checked_span(self.scene["t_span"] or DEFAULT_T_SPAN if t_span is None else t_span)
         method = checked_method(self.scene["method"] or DEFAULT_METHOD if method is None
@@ -951,7 +984,14 @@ class Model(LoopsMixin):
 
     def _native_model(self, method: str) -> Model:
         """The model whose build has what the native method needs: nemc.Radau the Jacobian,
-        nemc.Taylor its coefficients (compiled now when this build lacks them)."""
+        nemc.Taylor its coefficients (compiled now when this build lacks them); the same
+        from then on, kept (1 us less a run)."""
+        model = self._native_models.get(method)
+        if model is None:
+            model = self._native_models[method] = self._find_native_model(method)
+        return model
+
+    def _find_native_model(self, method: str) -> Model:
         if method in IMPLICIT_METHODS:
             model = self.compiled_with("jacobian")
             if not model.has_part("jacobian"):
@@ -999,12 +1039,11 @@ class Model(LoopsMixin):
 
     def _native_run(
         self, span: tuple[float, ...], times: np.ndarray | None, rtol: float, atol: float,
-        settings: runs.RunSettings | None = None,
+        settings: runs.RunSettings = runs.DEFAULT_SETTINGS,
     ) -> tuple[Any, list]:
         """A nemc_run with the settings of one integration, and the buffers it points into.
         times: checked already (checked_times), or None for the solver's own steps."""
-        settings = settings or runs.RunSettings()
-        run = self._ffi.new("nemc_run *")
+        run = self._ffi.new(self._run_pointer)
         run.t0, run.t_end = span
         run.rtol, run.atol = native_tolerances(rtol, atol)
         keep: list = []
@@ -1014,60 +1053,75 @@ class Model(LoopsMixin):
             times = np.ascontiguousarray(times, dtype=float)
             run.n_eval, run.t_eval = len(times), self._buffer(times)
             keep.append(times)
-        run.max_step = settings.max_step if math.isfinite(settings.max_step) else 0.0
+        if settings is not runs.DEFAULT_SETTINGS:  # the usual case: no max_step, no tstops
+            run.max_step = settings.max_step if math.isfinite(settings.max_step) else 0.0
+            run.stiff_switch = settings.stiff_switch
+            if settings.tstops.size:
+                run.n_tstops, run.tstops = settings.tstops.size, self._buffer(settings.tstops)
+                keep.append(settings.tstops)
         run.max_steps = settings.max_steps
-        run.stiff_switch = settings.stiff_switch
-        if settings.tstops.size:
-            run.n_tstops, run.tstops = settings.tstops.size, self._buffer(settings.tstops)
-            keep.append(settings.tstops)
         return run, keep
-
-    def _interrupt_pointer(self, flag: np.ndarray) -> Any:
-        """The C int* of an interrupt flag (runs.interrupt_flag) for nemc_run.interrupt."""
-        return self._ffi.from_buffer("int[]", flag)  # an int[] goes into an int * as is
 
     def _simulate_native(
         self, method: str, span: tuple[float, ...], y0: np.ndarray, times: Any,
-        rtol: float, atol: float, p: np.ndarray, settings: runs.RunSettings | None = None,
-        ending: list | None = None,
+        rtol: float, atol: float, p: np.ndarray,
+        settings: runs.RunSettings = runs.DEFAULT_SETTINGS, ending: list | None = None,
     ) -> SimulationResult:
         """simulate() with a native method: the same result as scipy's solve_ivp would give.
-        ending: a list that gets (t, state, accepted steps, stiff_from) where the run ended."""
+        ending: a list that gets (t, state, accepted steps, stiff_from) where the run ended.
+        Every step here counts towards simulate()'s fixed cost (benchmarks/overhead.py)."""
         integrate = self._native(method)
-        settings = settings or runs.RunSettings()
-        run, keep = self._native_run(span, None if times is None else np.asarray(times), rtol,
-                                     atol, settings)
-        n, buffer = self.n_state, self._buffer
-        y_eval = np.empty((max(run.n_eval, 0), n))
-        y_fail = np.empty(n)
-        run.y_eval, run.y_fail = buffer(y_eval), buffer(y_fail)
+        run, keep = self._native_run(span, times, rtol, atol, settings)
+        n, n_eval, buffer = self.n_state, run.n_eval, self._buffer
+        # the states at t_eval, then the state where a run failed: one buffer
+        out = np.empty((max(n_eval, 0) + 1, n))
+        run.y_eval = out_buffer = buffer(out)
+        run.y_fail = out_buffer + max(n_eval, 0) * n
         try:
-            with runs.interrupt_flag() as flag:
-                run.interrupt = self._interrupt_pointer(flag)
-                status = integrate(self._method_id(method), run, buffer(y0), buffer(p))
-            if run.n_eval < 0:
+            status = self._run_in_c(integrate, self._method_id(method), run, buffer(y0),
+                                    buffer(p))
+            n_out = run.n_out
+            if n_eval < 0:
                 t, y = self._take_steps(run)
+            elif n_out == n_eval:
+                t, y = keep[0], out[:-1].T
             else:
-                t, y = keep[0][: run.n_out], y_eval[: run.n_out].T
-            events = self._take_events(run)
+                t, y = keep[0][:n_out], out[:n_out].T
+            events = self._take_events(run) if self._event_table else {}
         finally:
-            self._native(method, "free_steps")(run)
+            if n_eval < 0 or self._event_table:  # else the run malloc'ed nothing
+                self._native(method, "free_steps")(run)
         if ending is not None:
-            ending.append((float(run.t_fail), y_fail.copy(), int(run.n_steps),
+            ending.append((float(run.t_fail), out[-1].copy(), int(run.n_steps),
                            float(run.stiff_from)))
         lib = self._lib
-        if status == lib.NEMC_RHS_FAILED:
+        if status == lib.NEMC_REACHED_END and math.isnan(run.stiff_from):
+            message = SUCCESS_MESSAGE  # the usual case
+        elif status == lib.NEMC_RHS_FAILED:
             cause = self._loop_failure(run.rhs_status) or (
                 self._series_failure(run.rhs_status) if method in TAYLOR_METHODS else None)
-            failure = IntegrationFailure(run.t_fail, y_fail, run.rhs_status, self.state_names,
+            failure = IntegrationFailure(run.t_fail, out[-1], run.rhs_status, self.state_names,
                                          cause)
             return self._failed(failure, method, run.rtol, run.atol, self.parameters_at(p))
+        else:
+            message = self._native_message(method, run, span, settings, out[-1], p)
+        # positional, in the fields' order: keywords cost 0.4 us more (issue 19)
         return SimulationResult(
-            t=t, y=y, outputs=self._lazy_outputs(t, y, p), nfev=int(run.nfev),
-            njev=int(run.njev), nlu=int(run.nlu), status=status, success=status >= 0,
-            method=method, message=self._native_message(method, run, span, settings, y_fail, p),
-            rtol=run.rtol, atol=run.atol, params=self.parameters_at(p), events=events,
-        )
+            t, y, self._lazy_outputs(t, y, p), run.nfev, run.njev, run.nlu, status, message,
+            status >= 0, method, run.rtol, run.atol, self.parameters_at(p), events)
+
+    def _run_in_c(self, integrate: Any, method_id: int, run: Any, y0: Any, p: Any) -> int:
+        """One native run, Ctrl-C watched for once it lasts (runs.arm_interrupts), or from its
+        start where cffi cannot make the callback."""
+        run.interrupt = flag = self._ffi.new(self._int_pointer)
+        if self._arm_interrupts is None:
+            with runs.interrupt_flag(flag):
+                return integrate(method_id, run, y0, p)
+        run.arm_interrupt = self._arm_interrupts
+        try:
+            return integrate(method_id, run, y0, p)
+        finally:
+            runs.after_run(flag)
 
     def _native_message(self, method: str, run: Any, span: tuple[float, ...],
                         settings: runs.RunSettings, y_fail: np.ndarray, p: np.ndarray) -> str:
@@ -1101,7 +1155,7 @@ class Model(LoopsMixin):
 
     def _take_events(self, run: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """The scene's events that fired in a single run, by name: (times, states before)."""
-        table = self.metadata.get("events") or []
+        table = self._event_table
         if not table:
             return {}
         count, ffi, n = run.n_event_out, self._ffi, self.n_state
@@ -1117,9 +1171,8 @@ class Model(LoopsMixin):
     def _lazy_outputs(self, t: np.ndarray, y: np.ndarray, p: np.ndarray) -> LazyOutputs:
         """The outputs along (t, y) at parameter vector p, computed when first read."""
         if not t.size or not self.output_names:
-            return LazyOutputs(dict)
-        params = self.parameters_at(p)
-        return LazyOutputs(lambda: self.outputs(t, y, params))
+            return NO_OUTPUTS
+        return LazyOutputs(lambda: self._outputs_at(t, y, p))  # p: never written to
 
     def parameters_at(self, p: np.ndarray) -> dict[str, float]:
         if p is self._default_p:  # never written to (parameter_vector copies it)
@@ -1222,8 +1275,8 @@ class Model(LoopsMixin):
             )
 
         workers = max(1, min(threads or os.cpu_count() or 1, k))
-        with runs.interrupt_flag() as flag:
-            run.interrupt = self._interrupt_pointer(flag)
+        with runs.interrupt_flag(self._ffi.new(self._int_pointer)) as flag:
+            run.interrupt = flag
             lanes_each = self.metadata.get("lane_count", 1) if in_lanes else 1
             run_chunks(chunk, ensemble_chunks(k, workers, lanes_each), workers,
                        runs.Progress(f"{self.name}: runs", k) if progress is not False else None,
@@ -1399,11 +1452,13 @@ def checked_max_events(value: Any) -> int:
 # enum nemc_method and enum nemc_status in templates/integrators.h.tmpl
 SUCCESS_MESSAGE = "The solver successfully reached the end of the integration interval."
 EPS = float(np.finfo(float).eps)
+MIN_RTOL = 100 * EPS  # as scipy's solve_ivp: a smaller rtol is raised to this
+FLOAT64 = np.dtype(np.float64)  # native float64's dtype, one object: checked with `is`
 
 
 def native_tolerances(rtol: float, atol: float) -> tuple[float, float]:
     """rtol and atol checked as scipy's validate_tol (rtol raised to 100 eps, with a warning)."""
-    if rtol < 100 * EPS:
+    if rtol < MIN_RTOL:
         warnings.warn(f"At least one element of `rtol` is too small. Setting"
                       f" `rtol = np.maximum(rtol, {100 * EPS})`.", stacklevel=4)
         rtol = 100 * EPS
@@ -1420,8 +1475,11 @@ def checked_times(times: np.ndarray, span: tuple[float, ...]) -> np.ndarray:
     if times.ndim != 1 or not times.size:
         raise ModelError(f"t_eval must be a 1-d list of at least one time (or None: the "
                          f"solver's own steps), got shape {times.shape}")
-    low, high = (times[0], times[0]) if times.size == 1 else (times.min(), times.max())
-    if not (math.isfinite(low) and math.isfinite(high)):  # a nan or inf shows in min or max
+    if times.size == 1:  # the usual short case: no numpy reduction (0.5 us less)
+        low = high = times.item()
+    else:
+        low, high = times.min(), times.max()  # a nan or inf shows in min or max
+    if not (math.isfinite(low) and math.isfinite(high)):
         raise ModelError("Values in `t_eval` are not within `t_span`: "
                          f"{times[~np.isfinite(times)][0]} is not finite")
     if low < min(t0, tf) or high > max(t0, tf):
@@ -1466,6 +1524,8 @@ def checked_tolerances(rtol: Any, atol: Any) -> tuple[float, float]:
     """rtol in (0, 1) and atol >= 0, each one finite number (scipy would take rtol 1e10, and a
     native method then returned 1e54 with success). rtol below 100 eps is raised to it with a
     warning, by scipy and native_tolerances alike."""
+    if type(rtol) is float and type(atol) is float and 0 < rtol < 1 and 0 <= atol < math.inf:
+        return rtol, atol  # the usual case (a nan fails every comparison)
     rtol, atol = _tolerance(rtol, "rtol"), _tolerance(atol, "atol")
     if not 0 < rtol < 1:
         raise ModelError(f"rtol must be > 0 and < 1 (a relative error), got {rtol:g}")

@@ -123,7 +123,7 @@ def test_interrupt_flag_restores_the_handlers_also_after_an_error() -> None:
         raise RuntimeError("inside")
     assert signal.getsignal(signal.SIGINT) is handler
     assert signal.set_wakeup_fd(-1) == -1  # none left set
-    assert not runs._WATCH.flags
+    assert not runs._WATCH.guards
 
 
 def test_a_cached_compile_imports_no_build_or_report_machinery(model: Model) -> None:
@@ -136,3 +136,46 @@ def test_a_cached_compile_imports_no_build_or_report_machinery(model: Model) -> 
     done = subprocess.run([sys.executable, "-c", code, str(COMPOUND)], capture_output=True,
                           text=True, check=True, env=env)
     assert done.stdout.strip() == ""
+
+
+def test_only_a_run_that_lasts_swaps_the_sigint_handler(model: Model, monkeypatch) -> None:
+    """The Ctrl-C guard is armed from C (nemc_run.arm_interrupt) once a run has done
+    NEMC_ARM_WORK: a short run never touches the handlers, a long one arms once, and the
+    handlers are back as they were afterwards (issue 19: 1.5 us less a short run)."""
+    import signal
+
+    armed: list[bool] = []
+    arm = runs.arm_interrupts
+
+    def counted(flag: object) -> int:
+        go_on = arm(flag)
+        armed.append(signal.getsignal(signal.SIGINT) is runs._swallow_sigint)
+        return go_on
+
+    monkeypatch.setattr(runs, "arm_interrupts", counted)
+    model = nemc.compile(COMPOUND)  # its callback made now: the counted one
+    handler = signal.getsignal(signal.SIGINT)
+    for method in ("nemc.DOP853", "nemc.Vern9", "nemc.Radau", "nemc.Taylor"):
+        armed.clear()
+        short = model.simulate((0.0, 1e-3), method=method, t_eval=[1e-3])
+        assert short.success and armed == []
+        long = model.simulate((0.0, 200.0), method=method, rtol=1e-10, t_eval=[200.0])
+        assert long.success and armed == [True], method
+        assert signal.getsignal(signal.SIGINT) is handler
+        assert signal.set_wakeup_fd(-1) == -1
+        assert not runs._WATCH.guards and not runs._ARMED
+
+
+def test_a_ctrl_c_before_the_guard_is_armed_ends_the_run(model: Model) -> None:
+    """A SIGINT that came before arming raises KeyboardInterrupt in the arming callback, which
+    cannot pass it through C: its onerror tells the run to end as an interrupted one."""
+    def interrupted(flag: object) -> int:
+        raise KeyboardInterrupt
+
+    callback = model._ffi.callback("int(int *)", interrupted, error=0,
+                                   onerror=runs.interrupted_while_arming)
+    flag = model._ffi.new("int *")
+    assert callback(flag) == 1
+    assert runs.arm_interrupts(flag) == 0 and len(runs._ARMED) == 1  # armed: watched
+    runs.after_run(flag)
+    assert not runs._ARMED and not runs._WATCH.guards
