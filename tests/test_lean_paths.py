@@ -179,3 +179,27 @@ def test_a_ctrl_c_before_the_guard_is_armed_ends_the_run(model: Model) -> None:
     assert runs.arm_interrupts(flag) == 0 and len(runs._ARMED) == 1  # armed: watched
     runs.after_run(flag)
     assert not runs._ARMED and not runs._WATCH.guards
+
+
+def test_without_callbacks_a_run_is_watched_from_its_start(monkeypatch) -> None:
+    """Where cffi cannot make the arming callback (no write+execute memory), single runs get
+    the guard from their start, as before, with the same result and the handlers restored."""
+    import signal
+
+    model = nemc.compile(COMPOUND)
+    lazy = model.simulate((0.0, 50.0), method="nemc.DOP853", t_eval=[50.0])
+    model._arm_interrupts = None
+    watched: list[bool] = []
+    enter = runs.interrupt_flag.__enter__
+
+    def entered(guard: runs.interrupt_flag) -> object:
+        flag = enter(guard)
+        watched.append(signal.getsignal(signal.SIGINT) is runs._swallow_sigint)
+        return flag
+
+    monkeypatch.setattr(runs.interrupt_flag, "__enter__", entered)
+    eager = model.simulate((0.0, 50.0), method="nemc.DOP853", t_eval=[50.0])
+    assert watched == [True]
+    np.testing.assert_array_equal(eager.y, lazy.y)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert not runs._WATCH.guards
