@@ -295,6 +295,9 @@ class Model(LoopsMixin):
         self._default_rhs: Callable[[Any, Any], np.ndarray] | None = None  # rhs(t, y)
         self._method_ids: dict[str, int] = {}  # _method_id's, looked up once
         self._native_models: dict[str, Model] = {}  # _native_model's, found once
+        self._look: tuple[int, Model | None] = (-1, None)  # _look_model's (variants, model)
+        self._taylor_cpu: bool | None = None  # _taylor_ready's answer
+        self._kept_parameters: tuple[Any, Any] = (None, None)  # _parameter_buffer's
         self._event_table: list[dict] = metadata.get("events") or []  # the scene's events
         self._arm_interrupts = _arm_callback(ffi)  # nemc_run.arm_interrupt, or None
         # parameters_at(the defaults), copied for each result: never handed out itself
@@ -312,6 +315,15 @@ class Model(LoopsMixin):
 
     def _buffer(self, array: np.ndarray) -> Any:
         return self._ffi.from_buffer(self._double_array, array)
+
+    def _parameter_buffer(self, p: np.ndarray) -> Any:
+        """_buffer(p), kept for the latest parameter vector (never written to: a run with
+        other parameters gets a new one) and handed out again while it is the same."""
+        kept, buffer = self._kept_parameters
+        if kept is not p:
+            buffer = self._buffer(p)
+            self._kept_parameters = (p, buffer)
+        return buffer
 
     def parameter_vector(self, params: Mapping[str, float] | None = None) -> np.ndarray:
         """The C parameter array for these overrides, checked (finite, masses positive)."""
@@ -717,7 +729,7 @@ class Model(LoopsMixin):
         if user_events:  # callables run in Python: scipy's LSODA switches by itself
             return self._integrate("LSODA", span, state0, times, rtol, atol, p, settings,
                                    user_events)
-        method = self.auto_method(span, state0, rtol, p)
+        method = self._auto_choice(span, state0, rtol, p)
         if method not in ("nemc.DOP853", "nemc.Vern9"):
             return self._integrate(method, span, state0, times, rtol, atol, p, settings, [])
         switch = replace(settings, stiff_switch=AUTO_STIFF_STEPS)
@@ -763,13 +775,18 @@ class Model(LoopsMixin):
         from AUTO_LANES_MIN_RUNS on, with nemc.Taylor's lanes at hand, takes nemc.Taylor up to
         AUTO_LANES_TAYLOR_MAX_COORDINATES."""
         p = params if isinstance(params, np.ndarray) else self.parameter_vector(params)
+        return self._auto_choice(tuple(span), self._state(y0), rtol, p, runs)
+
+    def _auto_choice(self, span: tuple[float, ...], y0: np.ndarray, rtol: float,
+                     p: np.ndarray, runs: int = 1) -> str:
+        """auto_method with its arguments checked already (simulate's own call)."""
         lanes = self._lanes_at_hand() if runs >= AUTO_LANES_MIN_RUNS else 0
         taylor_max = max(AUTO_TAYLOR_MAX_COORDINATES,
-                         AUTO_LANES_TAYLOR_MAX_COORDINATES.get(lanes, 0))
+                         AUTO_LANES_TAYLOR_MAX_COORDINATES.get(lanes, 0)) if lanes \
+            else AUTO_TAYLOR_MAX_COORDINATES
         return auto_method(len(self.coordinate_names), rtol,
                            bool(lanes) or self._taylor_at_hand(runs),
-                           self._start_stiffness(tuple(span), self._state(y0), p),
-                           taylor_max)
+                           self._start_stiffness(span, y0, p), taylor_max)
 
     def _lanes_at_hand(self) -> int:
         """The lanes per batch of a build at hand with nemc.Taylor's lanes (this one, or the
@@ -798,14 +815,23 @@ class Model(LoopsMixin):
         0 when not computed (loops, large systems, a start the RHS cannot evaluate)."""
         if self.has_loops or self.n_state > AUTO_SPECTRUM_MAX_STATES:
             return 0.0
-        model = next((model for model in (self, *self._variants.values())
-                      if model.has_part("jacobian")), self)
+        model = self._look_model()
         buffer, steps = model._buffer, model._ffi.new("double *")
-        if model._c["start_stiffness"](float(span[0]), buffer(y0), buffer(p),
+        if model._c["start_stiffness"](float(span[0]), buffer(y0), model._parameter_buffer(p),
                                        abs(span[1] - span[0]) / EXPLICIT_STABILITY,
                                        float(AUTO_STIFF_STEPS), steps):
             return 0.0  # the run itself will say why
         return steps[0]
+
+    def _look_model(self) -> Model:
+        """The build _start_stiffness looks with: the first at hand with the exact Jacobian
+        (this one or a variant), else this one; found again only when a variant was added."""
+        count, model = self._look
+        if count != len(self._variants):
+            model = next((model for model in (self, *self._variants.values())
+                          if model.has_part("jacobian")), self)
+            self._look = (len(self._variants), model)
+        return model
 
     @staticmethod
     def _times_after(times: Any, t_switch: float, span: tuple[float, ...]) -> Any:
@@ -1018,8 +1044,10 @@ class Model(LoopsMixin):
     def _taylor_ready(self) -> bool:
         """Whether this CPU runs the build's Taylor code (C taylor_ready: a build for FMA on a
         CPU without it does not)."""
-        ready = getattr(self._lib, self.metadata["c_prefix"] + "taylor_ready", None)
-        return ready is None or bool(ready())
+        if self._taylor_cpu is None:  # asked once: the CPU does not change
+            ready = getattr(self._lib, self.metadata["c_prefix"] + "taylor_ready", None)
+            self._taylor_cpu = ready is None or bool(ready())
+        return self._taylor_cpu
 
     def _method_id(self, method: str) -> int:
         """The C enum nemc_method value of a native method ("nemc.Vern9" -> NEMC_VERN9)."""
@@ -1079,7 +1107,7 @@ class Model(LoopsMixin):
         run.y_fail = out_buffer + max(n_eval, 0) * n
         try:
             status = self._run_in_c(integrate, self._method_id(method), run, buffer(y0),
-                                    buffer(p))
+                                    self._parameter_buffer(p))
             n_out = run.n_out
             if n_eval < 0:
                 t, y = self._take_steps(run)
