@@ -2,7 +2,8 @@
 against the C right-hand side itself (rhs_many over 1,000 states, per state), and simulate()
 over a step-sized interval (its fixed cost: checks, settings, the interrupt flag, the result),
 each native method, on the book's double pendulum; and over an empty interval [0, 0], where
-the C returns the initial state at once and what is timed is simulate()'s fixed cost alone.
+the C returns the initial state at once and what is timed is simulate()'s fixed cost alone,
+also with method "auto" (its choice included).
 Method "auto"'s choice (`Model.auto_method`: its look at the start, one C call) on the double
 pendulum (no Jacobian in its build: differences, the trace alone) and the book's stiff 5.4 arm
 (its exact Jacobian, and the eigenvalues).
@@ -63,6 +64,9 @@ def main() -> int:
         (0.0, 200.0), y0, method="nemc.DOP853", rtol=1e-10, atol=1e-12,
         t_eval=np.linspace(0.0, 200.0, STATES)).y)
     calls[ALONG] = (lambda: model.rhs_many(0.0, along), STATES)
+    chosen = model.simulate((0.0, 0.0), y0, method="auto", t_eval=[0.0]).method
+    calls[f"simulate over [0, 0], auto (chose {chosen})"] = (
+        lambda: model.simulate((0.0, 0.0), y0, method="auto", t_eval=[0.0]), 1)
     for method in ("nemc.DOP853", "nemc.Vern9", "nemc.Taylor"):
         nfev = model.simulate((0.0, 200.0), y0, method=method, rtol=1e-10, atol=1e-12,
                               t_eval=[200.0]).nfev

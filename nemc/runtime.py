@@ -732,7 +732,8 @@ class Model(LoopsMixin):
         method = self._auto_choice(span, state0, rtol, p)
         if method not in ("nemc.DOP853", "nemc.Vern9"):
             return self._integrate(method, span, state0, times, rtol, atol, p, settings, [])
-        switch = replace(settings, stiff_switch=AUTO_STIFF_STEPS)
+        switch = AUTO_SWITCH_SETTINGS if settings is runs.DEFAULT_SETTINGS else replace(
+            settings, stiff_switch=AUTO_STIFF_STEPS)
         ending: list = []
         first = self._simulate_native(method, span, state0, times, rtol, atol, p, switch,
                                       ending)
@@ -1096,7 +1097,8 @@ class Model(LoopsMixin):
         settings: runs.RunSettings = runs.DEFAULT_SETTINGS, ending: list | None = None,
     ) -> SimulationResult:
         """simulate() with a native method: the same result as scipy's solve_ivp would give.
-        ending: a list that gets (t, state, accepted steps, stiff_from) where the run ended.
+        ending: a list that gets (t, state, accepted steps, stiff_from) where a run that turned
+        stiff (NEMC_STIFF, under settings.stiff_switch) ended.
         Every step here counts towards simulate()'s fixed cost (benchmarks/overhead.py)."""
         integrate = self._native(method)
         run, keep = self._native_run(span, times, rtol, atol, settings)
@@ -1119,7 +1121,7 @@ class Model(LoopsMixin):
         finally:
             if n_eval < 0 or self._event_table:  # else the run malloc'ed nothing
                 self._native(method, "free_steps")(run)
-        if ending is not None:
+        if ending is not None and status == self._lib.NEMC_STIFF:  # method "auto" goes on
             ending.append((float(run.t_fail), out[-1].copy(), int(run.n_steps),
                            float(run.stiff_from)))
         lib = self._lib
@@ -1480,6 +1482,8 @@ def checked_max_events(value: Any) -> int:
 # enum nemc_method and enum nemc_status in templates/integrators.h.tmpl
 SUCCESS_MESSAGE = "The solver successfully reached the end of the integration interval."
 EPS = float(np.finfo(float).eps)
+# method "auto"'s explicit start under the default settings: it ends once the run turns stiff
+AUTO_SWITCH_SETTINGS = replace(runs.DEFAULT_SETTINGS, stiff_switch=AUTO_STIFF_STEPS)
 MIN_RTOL = 100 * EPS  # as scipy's solve_ivp: a smaller rtol is raised to this
 FLOAT64 = np.dtype(np.float64)  # native float64's dtype, one object: checked with `is`
 
