@@ -285,14 +285,24 @@ class interrupt_flag:  # a class, not @contextmanager: 2 us less a run (issue 19
 
     def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
                  trace: Any) -> None:
+        self.release()
+        if kind is None:
+            raise_if_interrupted(self.flag)
+
+    def release(self) -> None:
+        """The handlers and the wakeup fd as they were before; the flag no longer set."""
         if self.guarded:
             self.guarded = False
             _signals.set_wakeup_fd(_WATCH.forward)
             _WATCH.forward = -1
             _signals.signal(2, _signals.default_int_handler)
         _WATCH.guards.discard(self)
-        if kind is None and self.flag[0] and getattr(_RAISING, "on", False):
-            raise KeyboardInterrupt
+
+
+def raise_if_interrupted(flag: Any) -> None:
+    """Under interrupts_raise: KeyboardInterrupt if Ctrl-C stopped the run of this flag."""
+    if flag[0] and getattr(_RAISING, "on", False):
+        raise KeyboardInterrupt
 
 
 # ---- a single run in C arms its guard itself, once it lasts ------------------------------
@@ -333,9 +343,8 @@ def after_run(flag: Any) -> None:
         while _ARMED:
             guard = _ARMED.pop()
             guard.flag = flag  # the owner of the int: the watch thread may still hold guard
-            guard.__exit__(None, None, None)
-    if flag[0] and getattr(_RAISING, "on", False):
-        raise KeyboardInterrupt
+            guard.release()
+    raise_if_interrupted(flag)
 
 
 # ---- progress on a terminal ------------------------------------------------------------------
