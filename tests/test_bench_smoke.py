@@ -126,3 +126,17 @@ def test_dop853_peer_smoke_mode_measures_or_says_why_not(tmp_path: Path) -> None
     assert abs(calls["nemc.DOP853"] / calls["numbalsoda dop853"] - 1) < 0.2  # nearly equal steps
     assert math.isfinite(run["ratio"]["median"])
 
+
+
+def test_overhead_reports_every_row() -> None:
+    """benchmarks/overhead.py (quoted by README for the fixed costs) runs and prints its rows."""
+    env = {**os.environ,
+           "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "overhead.py"),
+                           "--rounds", "1"], capture_output=True, text=True, env=env,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    for row in ("| model.rhs(t, y) |", "| simulate over [0, 0], nemc.Taylor |",
+                "| simulate over [0, 0], auto (chose nemc.", "at the run's states",
+                "- nemc.DOP853: the driver adds "):
+        assert row in done.stdout, (row, done.stdout)
