@@ -274,8 +274,9 @@ class Model(LoopsMixin):
         self.n_state = len(self.state_names)
         self._ffi, self._lib = ffi, lib
         # cffi's types, looked up once (a type named by a string is looked up in every call)
-        self._double_array, self._int_pointer, self._run_pointer = (
-            ffi.typeof("double[]"), ffi.typeof("int *"), ffi.typeof("nemc_run *"))
+        self._double_array, self._double_pointer, self._int_pointer, self._run_pointer = (
+            ffi.typeof("double[]"), ffi.typeof("double *"), ffi.typeof("int *"),
+            ffi.typeof("nemc_run *"))
         prefix = metadata["c_prefix"]
         self._c = {
             name: getattr(lib, prefix + name)
@@ -817,10 +818,11 @@ class Model(LoopsMixin):
         if self.has_loops or self.n_state > AUTO_SPECTRUM_MAX_STATES:
             return 0.0
         model = self._look_model()
-        buffer, steps = model._buffer, model._ffi.new("double *")
-        if model._c["start_stiffness"](float(span[0]), buffer(y0), model._parameter_buffer(p),
+        steps = model._ffi.new(model._double_pointer)
+        if model._c["start_stiffness"](float(span[0]), model._buffer(y0),
+                                       model._parameter_buffer(p),
                                        abs(span[1] - span[0]) / EXPLICIT_STABILITY,
-                                       float(AUTO_STIFF_STEPS), steps):
+                                       AUTO_STIFF_STEPS_FLOAT, steps):
             return 0.0  # the run itself will say why
         return steps[0]
 
@@ -969,7 +971,10 @@ class Model(LoopsMixin):
 
     def _initial(self, y0: Any, params: Mapping[str, float] | None) -> np.ndarray:
         """The initial state of a run: finite, whatever gave it (y0, the scene, parameters)."""
-        state = self.state_vector(y0, params)
+        if type(y0) is np.ndarray and y0.dtype is FLOAT64 and y0.shape == (self.n_state,):
+            state = y0.copy()  # the usual case: state_vector's, without its calls
+        else:
+            state = self.state_vector(y0, params)
         if not _all_finite(state):
             values = ", ".join(f"{n}={v:g}" for n, v in zip(self.state_names, state))
             raise ModelError(f"the initial state must be finite, got {values}")
@@ -1482,6 +1487,7 @@ def checked_max_events(value: Any) -> int:
 # enum nemc_method and enum nemc_status in templates/integrators.h.tmpl
 SUCCESS_MESSAGE = "The solver successfully reached the end of the integration interval."
 EPS = float(np.finfo(float).eps)
+AUTO_STIFF_STEPS_FLOAT = float(AUTO_STIFF_STEPS)  # as start_stiffness takes it
 # method "auto"'s explicit start under the default settings: it ends once the run turns stiff
 AUTO_SWITCH_SETTINGS = replace(runs.DEFAULT_SETTINGS, stiff_switch=AUTO_STIFF_STEPS)
 MIN_RTOL = 100 * EPS  # as scipy's solve_ivp: a smaller rtol is raised to this
