@@ -1,10 +1,12 @@
 """Derivation: a validated Mechanism -> the equations of motion, symbolically.
 
 The compiled right-hand side comes from the articulated-body algorithm (nemc/articulated.py): a
-straight-line program whose size grows linearly with the number of bodies. The mass-matrix form
-M(q) qdd = f(t, q, dq) of the book (Newton-Euler per body, the reactions eliminated by projecting
-each body's equations onto the joints' free directions) is derived only on request: `nemc show`
-prints it, and the tests check both forms against an independent Lagrangian derivation.
+straight-line program whose size grows linearly with the number of bodies. On open trees of up to
+mass_form.MAX_COORDINATES coordinates the mass-matrix form M(q) qdd = f(t, q, dq) of the book
+(Newton-Euler per body, the reactions eliminated by projecting each body's equations onto the
+joints' free directions), solved by LDL^T in steps, is often smaller: the right-hand side runs
+whichever of the forms c_cost.estimated_ns ranks fastest (fastest_dynamics). `nemc show` prints
+M and f, and the tests check both forms against an independent Lagrangian derivation.
 
 Constants are folded and derived parameters replaced by their definitions here, so every
 expression this stage returns is in the coordinates, their rates, time and the runtime
@@ -22,15 +24,22 @@ import sympy
 
 from . import model as m
 from .articulated import dynamics_program, generalized_force_symbols, inverse_mass_program
+from .c_cost import estimated_ns
 from .kinematics import Kinematics, applied_loads, motion_substitutions
 from .loops import LoopEquations, loop_equations
-from .mass_form import MAX_COORDINATES, mass_form_program
+from .mass_form import MAX_COORDINATES, MAX_LINEARIZED_FOR_RHS, mass_form_program
 from .outputs import derive_outputs
 from .products import fewer_products
 from .program import Program, split_deep
 from .tangent import seed_symbols, tangent_program
 from .taylor import series_cost, unsupported_operation
 from .values import resolve_values
+
+# the forms of the accelerations' program (Equations.dynamics_form, model.json's
+# "dynamics_program" and "taylor_program")
+ARTICULATED = "articulated body"
+MASS_MATRIX = "mass matrix"
+LINEARIZED = "mass matrix, linearized"
 
 
 @dataclass(frozen=True)
@@ -78,6 +87,11 @@ class Equations:
     multipliers: tuple[sympy.Symbol, ...] = ()  # lambda, per constraint equation
     drives: tuple[sympy.Symbol, ...] = ()  # the drives of the driven joints, in file order
     events: tuple[m.Event, ...] = ()  # the scene's events, when and laws in runtime symbols
+    dynamics_form: str = ARTICULATED  # which program the dynamics are (fastest_dynamics)
+    forms: Mapping[str, Program] = dataclasses.field(default_factory=dict)
+    # ^ the forms of the accelerations' program derived, by name (nemc.Taylor chooses among them)
+    taylor_form: str | None = None  # the form nemc.Taylor's program was made from
+    derived_mass_forcing: tuple[sympy.Matrix, sympy.Matrix] | None = None  # M, f if derived
 
     @property
     def n(self) -> int:
@@ -99,9 +113,7 @@ class Equations:
     @cached_property
     def mass_forcing(self) -> tuple[sympy.Matrix, sympy.Matrix]:
         """M and f of the book's form M(q) qdd = f(t, q, dq), in runtime symbols."""
-        mass, forcing = newton_euler(self.mechanism, Kinematics(self.mechanism))
-        runtime = runtime_values(self.mechanism)
-        return mass.applyfunc(runtime), forcing.applyfunc(runtime)
+        return self.derived_mass_forcing or mass_and_forcing(self.mechanism)
 
     @property
     def mass_matrix(self) -> sympy.Matrix:
@@ -110,6 +122,13 @@ class Equations:
     @property
     def forcing(self) -> sympy.Matrix:
         return self.mass_forcing[1]
+
+
+def mass_and_forcing(mech: m.Mechanism) -> tuple[sympy.Matrix, sympy.Matrix]:
+    """M and f of M qdd = f in runtime symbols."""
+    mass, forcing = newton_euler(mech, Kinematics(mech))
+    runtime = runtime_values(mech)
+    return mass.applyfunc(runtime), forcing.applyfunc(runtime)
 
 
 def newton_euler(mech: m.Mechanism, kin: Kinematics) -> tuple[sympy.Matrix, sympy.Matrix]:
@@ -168,7 +187,13 @@ def derive(mech: m.Mechanism) -> Equations:
     drives = tuple(sympy.Dummy(f"drive_{joint.name}", real=True) for joint in mech.driven)
     # with loops, the program also computes G, Phi, Phi_q and Phi_t (DynamicsLayout), sharing
     # the kinematics' names
-    dynamics = dynamics_program(mech, runtime, () if loops is None else loops.results)
+    dynamics = split_deep(dynamics_program(mech, runtime, () if loops is None else loops.results),
+                          "v")
+    forms, mass_forcing = {ARTICULATED: dynamics}, None
+    if loops is None and not mech.driven and len(kin.q) <= MAX_COORDINATES:
+        mass_forcing = mass_and_forcing(mech)
+        forms.update(mass_forms(*mass_forcing))
+    form = fastest_dynamics(forms)
     return Equations(
         mechanism=mech,
         coordinates=kin.q,
@@ -177,7 +202,7 @@ def derive(mech: m.Mechanism) -> Equations:
         parameters=values.runtime_symbols,
         parameter_defaults=values.runtime_defaults,
         derived_parameters=values.derived,
-        dynamics=split_deep(dynamics, "v"),
+        dynamics=forms[form],
         outputs=tuple((name, runtime(expr)) for name, expr in
                       derive_outputs(mech, kin, dict(zip((j.name for j in mech.driven), drives)),
                                      multipliers_by_constraint(mech, multipliers))),
@@ -188,7 +213,25 @@ def derive(mech: m.Mechanism) -> Equations:
         multipliers=multipliers,
         drives=drives,
         events=runtime_events(mech, runtime),
+        dynamics_form=form,
+        forms=forms,
+        derived_mass_forcing=mass_forcing,
     )
+
+
+def mass_forms(mass: sympy.Matrix, forcing: sympy.Matrix) -> dict[str, Program]:
+    """The mass-matrix form's programs the right-hand side may run: M's and f's entries as
+    derived and, up to MAX_LINEARIZED_FOR_RHS coordinates, linearized."""
+    forms = {MASS_MATRIX: split_deep(mass_form_program(mass, forcing, linearize=False), "v")}
+    if mass.shape[0] <= MAX_LINEARIZED_FOR_RHS:
+        forms[LINEARIZED] = split_deep(mass_form_program(mass, forcing), "v")
+    return forms
+
+
+def fastest_dynamics(forms: Mapping[str, Program]) -> str:
+    """The form whose program c_cost estimates fastest as C; ties keep the articulated-body
+    program (the first)."""
+    return min(forms, key=lambda name: estimated_ns(forms[name]))
 
 
 def with_motions(mech: m.Mechanism) -> m.Mechanism:
@@ -249,13 +292,14 @@ def with_taylor(eqs: Equations) -> Equations:
     def cost(program: Program) -> float:
         return series_cost(program, eqs.coordinates, eqs.speeds, m.TIME)
 
-    candidates = [eqs.accelerations_program]
-    if eqs.n <= MAX_COORDINATES:
-        candidates.append(split_deep(mass_form_program(*eqs.mass_forcing), "vt"))
+    candidates = {**eqs.forms, eqs.dynamics_form: eqs.accelerations_program}
+    if eqs.n <= MAX_COORDINATES and LINEARIZED not in candidates:
+        candidates[LINEARIZED] = split_deep(mass_form_program(*eqs.mass_forcing), "vt")
     # taking factors out nests sums: split again (other names than the first split's)
-    programs = [split_deep(fewer_products(candidate, varying, cost), "vf")
-                for candidate in candidates]
-    return dataclasses.replace(eqs, taylor=min(programs, key=cost))
+    programs = {form: split_deep(fewer_products(candidate, varying, cost), "vf")
+                for form, candidate in candidates.items()}
+    form = min(programs, key=lambda name: cost(programs[name]))
+    return dataclasses.replace(eqs, taylor=programs[form], taylor_form=form)
 
 
 def taylor_refusal(eqs: Equations) -> str | None:

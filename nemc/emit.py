@@ -17,13 +17,14 @@ import re
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from string import Template
+from typing import NamedTuple
 
 import sympy
 
 from . import __version__
 from . import model as m
 from .c_text import SymbolTablePrinter
-from .derive import DynamicsLayout, Equations
+from .derive import ARTICULATED, LINEARIZED, MASS_MATRIX, DynamicsLayout, Equations
 from .methods import AUTO_SPECTRUM_MAX_STATES
 from .optimize import Block, rewrite
 from .program import Guard, Program
@@ -491,8 +492,10 @@ def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
     program = block.programs["dynamics"]
     if eqs.layout is None or not eqs.layout.augmented:
         dynamics = primal or print_program(printer, program, DYNAMICS, chunk_steps, units)
+        form = DYNAMICS_FORMS[eqs.dynamics_form]
         return template("tree.c.tmpl").substitute(
-            prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body)
+            prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body,
+            dynamics_form=form.label, singular_k=form.singular)
     targets = dynamics_targets(eqs.layout)
     if eqs.loops is not None:
         functions = phased_functions(printer, split_by_rates(program, targets,
@@ -600,6 +603,37 @@ def cdef(header_text: str) -> str:
     return CDEF.search(header_text).group(1)  # type: ignore[union-attr]
 
 
+class FormText(NamedTuple):
+    """How the C describes a form of the dynamics program (derive.fastest_dynamics)."""
+
+    label: str  # accelerations()'s comment
+    account: str  # the file's header
+    singular: str  # what the guard's status k + 1 means
+
+
+ARTICULATED_TEXT = "\n * ".join((
+    "The accelerations come from the articulated-body algorithm (Featherstone) in planar form,",
+    "written out for this mechanism's joint tree as straight-line code: velocities from the",
+    "ground out, articulated inertias and bias forces back to the ground, accelerations out",
+    "again. Each w<k> is one named intermediate; the cost grows linearly with the bodies."))
+MASS_MATRIX_LINES = (
+    "The accelerations solve the mass-matrix form M(q) qdd = f(t, q, dq) (Newton-Euler per",
+    "body, projected on the joints' free directions), written out as straight-line code: the",
+    "entries' common subexpressions named m<k>, then M's LDL^T factorization and the two",
+    "triangular solves. On so few coordinates this was estimated faster than the",
+    "articulated-body algorithm (nemc/c_cost.py).")
+LINEARIZED_LINE = "M's and f's entries are linearized in sines and cosines (sin^2 + cos^2 = 1)."
+PIVOT = "pivot k of M's LDL^T (0-based, in coordinate order) is not positive"
+DYNAMICS_FORMS = {
+    ARTICULATED: FormText("articulated-body algorithm", ARTICULATED_TEXT,
+                          "the articulated inertia through joint k (0-based, in file order) is "
+                          "not positive"),
+    MASS_MATRIX: FormText("mass-matrix form", "\n * ".join(MASS_MATRIX_LINES), PIVOT),
+    LINEARIZED: FormText("mass-matrix form, linearized",
+                         "\n * ".join((*MASS_MATRIX_LINES, LINEARIZED_LINE)), PIVOT),
+}
+
+
 def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
              units: Units | None = None) -> str:
     mech, printer = eqs.mechanism, SymbolTablePrinter(symbol_table(eqs, block))
@@ -614,6 +648,7 @@ def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
         description=comment_text(mech.description),
         state_names=comment_text(", ".join(mech.state_names)),
         parameter_names=comment_text(", ".join(s.name for s in eqs.parameters)),
+        dynamics_description=DYNAMICS_FORMS[eqs.dynamics_form].account,
         prefix=prefix,
         dynamics_section=dynamics_section(eqs, block, printer, prefix, chunk_steps, units,
                                           shared and shared[0]),
@@ -659,6 +694,7 @@ def metadata(eqs: Equations, prefix: str) -> dict:
         "check_names": [key for key, _ in eqs.checks],
         "output_names": [name for name, _ in eqs.outputs],
         "generated": generated_functions(eqs),
+        "dynamics_program": eqs.dynamics_form,
         "drive_names": [joint.name for joint in mech.driven],
         "constraint_equations": list(eqs.loops.owners) if eqs.loops is not None else [],
         "initial_given": [name for name in mech.state_names if name in sim.initial],
@@ -922,8 +958,7 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
     positions_c, info["drawing"] = positions_part(eqs, block, prefix, chunk_steps, units)
     if taylor:
         info["generated"].append("taylor")
-        info["taylor_program"] = ("articulated body" if eqs.taylor is eqs.dynamics
-                                  else "mass matrix")
+        info["taylor_program"] = eqs.taylor_form
         info["fma"] = fma
     if lanes_c:
         info["generated"].append("lanes")

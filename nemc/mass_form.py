@@ -1,16 +1,20 @@
 """The accelerations from the book's mass-matrix form, as a straight-line program.
 
-M(q) qdd = f(t, q, dq) (derive.newton_euler), with every entry linearized in its sines and
-cosines, the entries' common subexpressions named once, and M solved by LDL^T (Cholesky without
-square roots) written out as steps.
+M(q) qdd = f(t, q, dq) (derive.newton_euler), every entry linearized in its sines and cosines
+(or not: both forms are candidates), the entries' common subexpressions named once, and M solved
+by LDL^T (Cholesky without square roots) written out as steps.
 
-The right-hand side comes from the articulated-body program (nemc/articulated.py), whose size is
-linear in the number of bodies. Taylor's method weighs programs differently: each product of two
-time-varying values costs a Cauchy sum at every order, a sum or a constant factor almost nothing.
-On two or three bodies this form has several times fewer such products than the articulated-body
-program (the double pendulum: 13 Cauchy sums per order against 40.5), so nemc.Taylor's
-coefficients come from whichever program is cheaper (taylor.series_cost). Past MAX_COORDINATES
-the form is not derived: its symbolic cost and its size grow as n^3 and faster. Entries whose
+The articulated-body program (nemc/articulated.py) grows linearly with the bodies; this form
+grows as n^3, but on a few coordinates it is the smaller one. The right-hand side runs whichever
+program c_cost.estimated_ns ranks fastest (derive.fastest_dynamics: the 5.4 arm's RHS 13.8 ->
+2.6 ns, the double pendulum's 36.7 -> 31.5). Taylor's method weighs programs differently: each
+product of two time-varying values costs a Cauchy sum at every order, a sum or a constant factor
+almost nothing. On two or three bodies this form has several times fewer such products than the
+articulated-body program (the double pendulum: 13 Cauchy sums per order against 40.5), so
+nemc.Taylor's coefficients come from whichever program is cheaper (taylor.series_cost). Past
+MAX_COORDINATES the form is not derived: its symbolic cost and its size grow as n^3 and faster
+(the linearization past MAX_LINEARIZED_FOR_RHS for the RHS alone: 0.6 s at 4 links, where it
+is the slowest of the three forms). Entries whose
 multiplied-out polynomial would exceed MAX_TERMS terms (springs' lengths inside products) are
 left as they are.
 """
@@ -25,6 +29,7 @@ from sympy.simplify.fu import TR8
 from .program import Program, ProgramBuilder
 
 MAX_COORDINATES = 4  # chain of 4: 1.1 s to derive and linearize; chain of 6: 7 s
+MAX_LINEARIZED_FOR_RHS = 3  # the linearized form as an RHS candidate (chain of 3: 0.2 s)
 MAX_TERMS = 400  # a polynomial with more terms multiplied out is left as it is
 GROWTH = 4  # linearized entries at most this many times larger than M's and f's (count_ops)
 
@@ -71,13 +76,16 @@ def _stand_in(expr: sympy.Expr, stand_ins: dict[sympy.Expr, sympy.Symbol]) -> sy
     return stand_ins[inner]
 
 
-def mass_form_program(mass: sympy.Matrix, forcing: sympy.Matrix) -> Program:
-    """The accelerations qdd = M^-1 f as a program. Guard j + 1: pivot j of M's LDL^T is not
-    positive (the leading (j + 1) x (j + 1) block of the mass matrix is singular there)."""
+def mass_form_program(mass: sympy.Matrix, forcing: sympy.Matrix, linearize: bool = True
+                      ) -> Program:
+    """The accelerations qdd = M^-1 f as a program, M's and f's entries linearized in sines and
+    cosines unless LINEARIZE is False. Guard j + 1: pivot j of M's LDL^T is not positive (the
+    leading (j + 1) x (j + 1) block of the mass matrix is singular there)."""
     n = mass.shape[0]
     builder = ProgramBuilder("m")
     lower = [(i, j) for i in range(n) for j in range(i + 1)]
-    exprs = [linearized(mass[i, j]) for i, j in lower] + [linearized(f) for f in forcing]
+    tidy = linearized if linearize else (lambda expr: expr)
+    exprs = [tidy(mass[i, j]) for i, j in lower] + [tidy(f) for f in forcing]
     temporaries, reduced = sympy.cse(
         exprs, symbols=sympy.numbered_symbols("e", cls=sympy.Dummy, real=True), order="none")
     named: dict[sympy.Symbol, sympy.Expr] = {}

@@ -60,15 +60,19 @@ class IntegrationFailure(ArithmeticError):
                  cause: str | None = None):
         self.t, self.y, self.status = t, np.array(y), status
         state = ", ".join(f"{n}={v:.6g}" for n, v in zip(state_names, self.y))
-        cause = cause or failure_cause(self.y, status, state_names)
+        cause = failure_cause(self.y, status, state_names, cause)
         super().__init__(f"at t={t:.9g}: {cause}; state: {state}")
 
 
-def failure_cause(y: np.ndarray, status: int, state_names: Sequence[str]) -> str:
-    """What a failed evaluation of the equations most likely means, for a user."""
+def failure_cause(y: np.ndarray, status: int, state_names: Sequence[str],
+                  known: str | None = None) -> str:
+    """What a failed evaluation of the equations most likely means, for a user: a state that
+    is not finite first, then KNOWN (what the model knows of its status), else by the status."""
     if not np.all(np.isfinite(y)):
         return ("the state is not finite: the solution blew up before this step "
                 "(or the initial state holds inf or nan)")
+    if known:
+        return known
     if status == SERIES_NOT_FINITE:
         return ("nemc.Taylor's series overflows here (a Taylor coefficient, or the series' value "
                 "at the step's end, is not finite): the solution blows up, or it moves too fast "
@@ -482,7 +486,7 @@ class Model(LoopsMixin):
             dy = empty(n)
             status = c_rhs(t, from_buffer(double, y), p_buffer, from_buffer(double, dy))
             if status:
-                raise IntegrationFailure(t, y, status, names, self._loop_failure(status))
+                raise IntegrationFailure(t, y, status, names, self._status_cause(status))
             return dy
 
         return rhs
@@ -499,7 +503,7 @@ class Model(LoopsMixin):
             dy = np.empty(n)
             status = c_rhs(t, buffer(y), p_buffer, buffer(dy))
             if status:
-                raise IntegrationFailure(t, y, status, names, self._loop_failure(status))
+                raise IntegrationFailure(t, y, status, names, self._status_cause(status))
             return dy
 
         rhs.last = last  # type: ignore[attr-defined]
@@ -581,7 +585,7 @@ class Model(LoopsMixin):
             jac = np.empty((n, n))
             status = c_jac(t, buffer(y), p_buffer, buffer(jac))
             if status:
-                raise IntegrationFailure(t, y, status, names)
+                raise IntegrationFailure(t, y, status, names, self._status_cause(status))
             return jac
 
         return jacobian
@@ -878,14 +882,14 @@ class Model(LoopsMixin):
             g = np.empty(len(table))
             status = c_values(t, buffer(y), p_buffer, buffer(g))
             if status:
-                raise IntegrationFailure(t, y, status, names)
+                raise IntegrationFailure(t, y, status, names, self._status_cause(status))
             return g
 
         def impact(k: int, t: float, y: np.ndarray) -> np.ndarray:
             new = np.array(y, dtype=np.float64)
             status = c_impact(k, t, buffer(new), p_buffer)
             if status:
-                raise IntegrationFailure(t, y, status, names)
+                raise IntegrationFailure(t, y, status, names, self._status_cause(status))
             return new
 
         return runs.ModelEvents(tuple(e["name"] for e in table),
@@ -1129,8 +1133,8 @@ class Model(LoopsMixin):
         if status == lib.NEMC_REACHED_END and math.isnan(run.stiff_from):
             message = SUCCESS_MESSAGE  # the usual case
         elif status == lib.NEMC_RHS_FAILED:
-            cause = self._loop_failure(run.rhs_status) or (
-                self._series_failure(run.rhs_status) if method in TAYLOR_METHODS else None)
+            cause = self._status_cause(run.rhs_status, "taylor_program" if method in
+                                       TAYLOR_METHODS else "dynamics_program")
             failure = IntegrationFailure(run.t_fail, out[-1], run.rhs_status, self.state_names,
                                          cause)
             return self._failed(failure, method, run.rtol, run.atol, self.parameters_at(p))
@@ -1174,15 +1178,17 @@ class Model(LoopsMixin):
             y_fail, run.h_recent, run.stiff_from, run.stiffness, event, run.h_recent)
         ) + self._singularity_note(run.t_fail, y_fail, p)
 
-    def _series_failure(self, status: int) -> str | None:
-        """What a positive status of nemc.Taylor's series means when its program is the
+    def _status_cause(self, status: int, program: str = "dynamics_program") -> str | None:
+        """What a status of the C means where failure_cause cannot tell: a loop's, or a positive
+        one when the PROGRAM ("dynamics_program" or "taylor_program" in model.json) is the
         mass-matrix form (mass_form.py: pivot k of M's LDL^T), not the articulated-body one."""
-        if status <= 0 or self.metadata.get("taylor_program") != "mass matrix":
-            return None
+        form = self.metadata.get(program) or ""
+        if status <= 0 or not form.startswith("mass matrix"):
+            return self._loop_failure(status)
+        series = ", in nemc.Taylor's series," if program == "taylor_program" else ""
         return (f"the mass matrix is singular or not positive definite here (pivot {status} of"
-                " its LDL^T factorization, in nemc.Taylor's series, is not positive): likely a "
-                "mass or inertia near zero or a configuration where the coordinates lose a "
-                "degree of freedom")
+                f" its LDL^T factorization{series} is not positive): likely a mass or inertia "
+                "near zero or a configuration where the coordinates lose a degree of freedom")
 
     def _take_events(self, run: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """The scene's events that fired in a single run, by name: (times, states before)."""

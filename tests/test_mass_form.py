@@ -14,9 +14,10 @@ from reference import random_mechanism_yaml
 
 import nemc
 from nemc import model as m
-from nemc.derive import derive, with_taylor
+from nemc.derive import ARTICULATED, derive, with_taylor
 from nemc.mass_form import MAX_COORDINATES, linearized, mass_form_program
 from nemc.program import Guard, Program
+from nemc.runtime import IntegrationFailure
 from nemc.taylor import series_cost
 from nemc.validate import validate_text
 
@@ -49,12 +50,16 @@ def random_values(eqs, rng: np.random.Generator) -> dict[sympy.Symbol, float]:
 
 
 def assert_same_accelerations(eqs, rng: np.random.Generator, trials: int = 3) -> None:
-    mass_form = mass_form_program(*eqs.mass_forcing)
+    """Every form of the accelerations derived (the one the RHS runs among them) and the
+    linearized mass-matrix form against the articulated-body program."""
+    forms = [mass_form_program(*eqs.mass_forcing), eqs.dynamics, *eqs.forms.values()]
+    assert eqs.dynamics in eqs.forms.values() and len(eqs.forms) >= 2
     for _ in range(trials):
         values = random_values(eqs, rng)
-        expected = run(eqs.dynamics, values)
-        np.testing.assert_allclose(run(mass_form, values), expected, rtol=1e-11,
-                                   atol=1e-11 * max(1.0, np.abs(expected).max()))
+        expected = run(eqs.forms[ARTICULATED], values)
+        for form in forms:
+            np.testing.assert_allclose(run(form, values), expected, rtol=1e-11,
+                                       atol=1e-11 * max(1.0, np.abs(expected).max()))
 
 
 @pytest.mark.parametrize("name", BOOK)
@@ -82,13 +87,14 @@ def test_taylor_uses_the_cheaper_program() -> None:
     MAX_COORDINATES keeps the articulated-body program (the form is not derived; its products
     are shared: tests/test_products.py)."""
     eqs = with_taylor(equations_of((EXAMPLES / "double_pendulum.yaml").read_text(), "dp"))
-    assert eqs.taylor is not eqs.dynamics
+    assert eqs.taylor_form.startswith("mass matrix")
     assert (series_cost(eqs.taylor, eqs.coordinates, eqs.speeds, m.TIME)
-            < series_cost(eqs.dynamics, eqs.coordinates, eqs.speeds, m.TIME) / 2)
+            < series_cost(eqs.forms[ARTICULATED], eqs.coordinates, eqs.speeds, m.TIME) / 2)
     chain = equations_of(random_mechanism_yaml(np.random.default_rng(5), 7, tree=False), "long")
     assert chain.n > MAX_COORDINATES
     taylor = with_taylor(chain).taylor  # the articulated-body program, its products shared
-    assert "mass_forcing" not in vars(chain)  # the form was not derived
+    assert "mass_forcing" not in vars(chain) and chain.derived_mass_forcing is None  # not derived
+    assert list(chain.forms) == [ARTICULATED] and chain.dynamics_form == ARTICULATED
     values = random_values(chain, np.random.default_rng(6))
     np.testing.assert_allclose(run(taylor, values), run(chain.dynamics, values), rtol=1e-11)
 
@@ -99,7 +105,7 @@ def test_taylor_on_the_mass_form_against_vern9(tmp_path: Path, seed: int) -> Non
     path = tmp_path / f"small{seed}.yaml"
     path.write_text(random_mechanism_yaml(rng, 2, tree=False, name=f"small{seed}"))
     model = nemc.compile(path, taylor=True)
-    assert model.metadata["taylor_program"] == "mass matrix"
+    assert model.metadata["taylor_program"].startswith("mass matrix")
     y0, t_eval = model.initial_state(), np.linspace(0.0, 2.0, 9)
     result = model.simulate((0.0, 2.0), y0, method="nemc.Taylor", rtol=1e-11, atol=1e-13,
                             t_eval=t_eval)
@@ -107,3 +113,19 @@ def test_taylor_on_the_mass_form_against_vern9(tmp_path: Path, seed: int) -> Non
     reference = model.simulate((0.0, 2.0), y0, method="nemc.Vern9", rtol=1e-13, atol=1e-15,
                                t_eval=t_eval).y
     assert np.abs(result.y - reference).max() < 1e-8 * max(1.0, np.abs(reference).max())
+
+
+def test_a_singular_mass_form_names_its_pivot() -> None:
+    """The double pendulum's RHS is the mass-matrix form: with link 2 massless (parameters the
+    Model refuses, so its C is called directly) pivot 2 of M's LDL^T is zero, and the failure
+    says so rather than naming an articulated inertia."""
+    model = nemc.compile(EXAMPLES / "double_pendulum.yaml")
+    assert model.metadata["dynamics_program"] == "mass matrix"
+    p = model.parameter_vector()
+    p[model.parameter_names.index("m2")] = 0.0
+    y, dy = model.initial_state(), np.empty(model.n_state)
+    status = model._c["rhs"](0.0, model._buffer(y), model._buffer(p), model._buffer(dy))
+    assert status == 2
+    failure = IntegrationFailure(0.0, y, status, model.state_names, model._status_cause(status))
+    assert "pivot 2 of its LDL^T factorization is not positive" in str(failure)
+    assert "articulated" not in str(failure)

@@ -71,8 +71,10 @@ def chain(tmp_path_factory: pytest.TempPathFactory):
 # sums it in another order than C: steps agree to rounding times that conditioning. It is
 # worst where a step is far more accurate than asked (the first steps, states near 0: the
 # chain starts at rest) and estimate and step size then follow rounding noise. States then
-# differ by about |dy/dt| times the time points' difference.
-@pytest.mark.parametrize(("case", "t_rtol", "y_atol"), [("pendulum", 1e-9, 3e-7),
+# differ by about |dy/dt| times the time points' difference. (The pendulum's bounds were 1e-9
+# and 3e-7 with the articulated-body RHS; its mass-matrix program rounds otherwise: 1.9e-9 and
+# 4.4e-7, the same 41 steps.)
+@pytest.mark.parametrize(("case", "t_rtol", "y_atol"), [("pendulum", 1e-8, 1e-6),
                                                         ("chain", 1e-7, 1e-5)])
 def test_dop853_takes_scipys_steps(case: str, t_rtol: float, y_atol: float,
                                    request: pytest.FixtureRequest) -> None:
