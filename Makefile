@@ -79,6 +79,7 @@ bench: $(PEERS_STAMP)
 	$(BIN)/python benchmarks/native.py
 	$(BIN)/python benchmarks/batch.py
 	$(BIN)/python benchmarks/dop853_peer.py
+	$(BIN)/python benchmarks/rhs_forms.py
 	$(BIN)/python benchmarks/loops.py
 	$(BIN)/python benchmarks/sweep.py
 	$(BIN)/python benchmarks/events.py

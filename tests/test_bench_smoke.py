@@ -128,6 +128,17 @@ def test_dop853_peer_smoke_mode_measures_or_says_why_not(tmp_path: Path) -> None
 
 
 
+def test_rhs_forms_smoke_mode_times_every_form(tmp_path: Path) -> None:
+    out = run_script("rhs_forms.py", tmp_path)
+    result = json.loads((out / "rhs_forms-latest.json").read_text())
+    pendulum = result["systems"]["double pendulum"]
+    assert set(pendulum["forms"]) == {"articulated body", "mass matrix",
+                                      "mass matrix, linearized"}
+    assert pendulum["chosen"] in pendulum["forms"]
+    assert max(r["difference"] for r in pendulum["forms"].values()) < 1e-9  # one system
+    assert "chosen / fastest" in (out / "rhs_forms-latest.md").read_text()
+
+
 def test_overhead_reports_every_row() -> None:
     """benchmarks/overhead.py (quoted by README for the fixed costs) runs and prints its rows."""
     env = {**os.environ,
