@@ -443,3 +443,25 @@ def write_results(result: dict[str, Any], folder: Path, stem: str, text: str) ->
     (folder / f"{stem}-latest.md").write_text(text)
     print(text)
     print(f"written: {folder / f'{stem}-latest.json'}, {folder / f'{stem}-latest.md'}")
+
+
+def run_script(doc: str, helps: tuple[str, str], modes: dict[str, Any], stem: str,
+               run: Callable[[Any], dict[str, Any]], markdown: Callable[[dict[str, Any]], str],
+               ) -> int:
+    """A benchmark script's main: its modes (--quick, --smoke; --sizes replaces the mode's
+    config's `chains`), its run, its results written as STEM-latest.{json,md}. HELPS: the
+    --quick and --smoke help texts."""
+    import dataclasses
+
+    title = doc.splitlines()[0].rstrip(".")
+    args = mode_parser(title, *helps).parse_args()
+    mode = mode_of(args)
+    config = modes[mode]
+    if args.sizes:
+        config = dataclasses.replace(config, chains=args.sizes)
+    print(f"{title} ({mode} mode)", flush=True)
+    result = run(config)
+    result["environment"]["mode"] = mode
+    write_results(result, results_folder(args, f"nemc-bench-{stem}-"), stem, markdown(result))
+    return 0
+

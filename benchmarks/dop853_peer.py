@@ -155,20 +155,9 @@ def markdown(result: dict[str, Any]) -> str:
 
 
 def main() -> int:
-    parser = common.mode_parser(__doc__.splitlines()[0],
-                                "the pendulum and a 4-link chain, 3 rounds",
-                                "the pendulum at rtol 1e-6, 2 short rounds; a temporary folder")
-    args = parser.parse_args()
-    mode = common.mode_of(args)
-    config = MODES[mode]
-    if args.sizes:
-        config = Config(args.sizes, config.rtols, config.rounds, config.sample_seconds)
-    print(f"nemc.DOP853 against numbalsoda's dop853, {mode} mode", flush=True)
-    result = run(config)
-    result["environment"]["mode"] = mode
-    common.write_results(result, common.results_folder(args, "nemc-bench-dop853-"),
-                         "dop853_peer", markdown(result))
-    return 0
+    return common.run_script(__doc__, ("the pendulum and a 4-link chain, 3 rounds",
+                                       "the pendulum at rtol 1e-6, 2 short rounds; a temporary "
+                                       "folder"), MODES, "dop853_peer", run, markdown)
 
 
 if __name__ == "__main__":

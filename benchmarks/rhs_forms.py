@@ -162,19 +162,9 @@ def markdown(result: dict[str, Any]) -> str:
 
 
 def main() -> int:
-    parser = common.mode_parser(__doc__.splitlines()[0], "the book's four systems and a 3-link "
-                                "chain, 3 rounds", "the double pendulum, 2 short rounds")
-    args = parser.parse_args()
-    mode = common.mode_of(args)
-    config = MODES[mode]
-    if args.sizes:
-        config = dataclasses.replace(config, chains=args.sizes)
-    print(f"right-hand side forms, {mode} mode", flush=True)
-    result = run(config)
-    result["environment"]["mode"] = mode
-    common.write_results(result, common.results_folder(args, "nemc-bench-rhs-forms-"),
-                         "rhs_forms", markdown(result))
-    return 0
+    return common.run_script(__doc__, ("the book's four systems and a 3-link chain, 3 rounds",
+                                       "the double pendulum, 2 short rounds"),
+                             MODES, "rhs_forms", run, markdown)
 
 
 if __name__ == "__main__":
