@@ -6,17 +6,16 @@ by LDL^T (Cholesky without square roots) written out as steps.
 
 The articulated-body program (nemc/articulated.py) grows linearly with the bodies; this form
 grows as n^3, but on a few coordinates it is the smaller one. The right-hand side runs whichever
-program c_cost.estimated_ns ranks fastest (derive.fastest_dynamics: the 5.4 arm's RHS 13.8 ->
-2.6 ns, the double pendulum's 36.7 -> 31.5). Taylor's method weighs programs differently: each
-product of two time-varying values costs a Cauchy sum at every order, a sum or a constant factor
-almost nothing. On two or three bodies this form has several times fewer such products than the
-articulated-body program (the double pendulum: 13 Cauchy sums per order against 40.5), so
-nemc.Taylor's coefficients come from whichever program is cheaper (taylor.series_cost). Past
-MAX_COORDINATES the form is not derived: its symbolic cost and its size grow as n^3 and faster
-(the linearization past MAX_LINEARIZED_FOR_RHS for the RHS alone: 0.6 s at 4 links, where it
-is the slowest of the three forms). Entries whose
-multiplied-out polynomial would exceed MAX_TERMS terms (springs' lengths inside products) are
-left as they are.
+program c_cost.estimated_ns ranks fastest (derive.fastest_dynamics: the 5.4 arm's RHS 15 -> 3 ns,
+the double pendulum's 36 -> 30; benchmarks/rhs_forms.py). Taylor's method weighs programs
+differently: each product of two time-varying values costs a Cauchy sum at every order, a sum or
+a constant factor almost nothing. On two or three bodies this form has several times fewer such
+products than the articulated-body program (the double pendulum: 13 Cauchy sums per order
+against 40.5), so nemc.Taylor's coefficients come from whichever program is cheaper
+(taylor.series_cost). Past MAX_COORDINATES the form is not derived: its symbolic cost and its
+size grow as n^3 and faster; past MAX_LINEARIZED_FOR_RHS its linearization is derived for
+nemc.Taylor only. Entries whose multiplied-out polynomial would exceed MAX_TERMS terms (springs'
+lengths inside products) are left as they are.
 """
 
 from __future__ import annotations
@@ -29,7 +28,10 @@ from sympy.simplify.fu import TR8
 from .program import Program, ProgramBuilder
 
 MAX_COORDINATES = 4  # chain of 4: 1.1 s to derive and linearize; chain of 6: 7 s
-MAX_LINEARIZED_FOR_RHS = 3  # the linearized form as an RHS candidate (chain of 3: 0.2 s)
+# the linearized form as an RHS candidate: at 3 coordinates it costs 0.24 s to derive (a chain of
+# 3) and was never the fastest (benchmarks/rhs_forms.py: its distinct sine-cosine arguments grow
+# as n^2; chain of 3 73 ns against 64, free body 36 against 22)
+MAX_LINEARIZED_FOR_RHS = 2
 MAX_TERMS = 400  # a polynomial with more terms multiplied out is left as it is
 GROWTH = 4  # linearized entries at most this many times larger than M's and f's (count_ops)
 
