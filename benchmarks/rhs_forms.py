@@ -118,10 +118,10 @@ def measure_system(path: Path, config: Config) -> dict[str, Any]:
 
 def run(config: Config) -> dict[str, Any]:
     started = time.perf_counter()
-    env = common.environment("")
-    result: dict[str, Any] = {"environment": env, "config": vars(config), "systems": {}}
     with tempfile.TemporaryDirectory(prefix="nemc-rhs-forms-") as folder:
         os.environ["NEMC_CACHE"] = str(Path(folder) / "cache")  # the forms' builds go here
+        env = common.environment("")
+        result: dict[str, Any] = {"environment": env, "config": vars(config), "systems": {}}
         for name, path in systems(config, Path(folder)):
             result["systems"][name] = measure_system(path, config)
             print(f"{name}: measured", flush=True)

@@ -611,11 +611,11 @@ class FormText(NamedTuple):
     singular: str  # what the guard's status k + 1 means
 
 
-ARTICULATED_TEXT = "\n * ".join((
+ARTICULATED_LINES = (
     "The accelerations come from the articulated-body algorithm (Featherstone) in planar form,",
     "written out for this mechanism's joint tree as straight-line code: velocities from the",
     "ground out, articulated inertias and bias forces back to the ground, accelerations out",
-    "again. Each w<k> is one named intermediate; the cost grows linearly with the bodies."))
+    "again. Each w<k> is one named intermediate; the cost grows linearly with the bodies.")
 MASS_MATRIX_LINES = (
     "The accelerations solve the mass-matrix form M(q) qdd = f(t, q, dq) (Newton-Euler per",
     "body, projected on the joints' free directions), written out as straight-line code: the",
@@ -625,7 +625,7 @@ MASS_MATRIX_LINES = (
 LINEARIZED_LINE = "M's and f's entries are linearized in sines and cosines (sin^2 + cos^2 = 1)."
 PIVOT = "pivot k of M's LDL^T (0-based, in coordinate order) is not positive"
 DYNAMICS_FORMS = {
-    ARTICULATED: FormText("articulated-body algorithm", ARTICULATED_TEXT,
+    ARTICULATED: FormText("articulated-body algorithm", "\n * ".join(ARTICULATED_LINES),
                           "the articulated inertia through joint k (0-based, in file order) is "
                           "not positive"),
     MASS_MATRIX: FormText("mass-matrix form", "\n * ".join(MASS_MATRIX_LINES), PIVOT),

@@ -20,7 +20,8 @@ from .program import Guard, Program
 # integer powers up to 4 of any base -> products (pow(x, 2) is slower and no more exact)
 EXPANDED_POWERS = 4
 # x**(-1/2), x**(3/2), x**(-3/2) -> sqrt and products: a spring's 1/length is pow(x, -1.0/2.0) in
-# sympy's C, 20-30 ns where 1.0/sqrt(x) takes a few (free_body_on_spring's mass form: 52 -> 21 ns)
+# sympy's C, 20-30 ns where 1.0/sqrt(x) takes a few (free_body_on_spring's linearized mass form:
+# 52 -> 33 ns)
 HALF_POWERS = (sympy.Rational(-1, 2), sympy.Rational(3, 2), sympy.Rational(-3, 2))
 
 

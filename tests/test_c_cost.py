@@ -50,13 +50,13 @@ def equations(name: str):
     return derive(validate_text(path.read_bytes(), str(path)))
 
 
+# the form each ran fastest as C (benchmarks/results/rhs_forms-latest.md: 3 against 13 and 15 ns;
+# 30 against 31 and 36 ns); a closed loop has no mass-matrix candidate
 @pytest.mark.parametrize("name, form", [
     ("robot_arm", LINEARIZED),  # the 5.4 arm: sin^2 + cos^2 = 1 leaves no call at all
     ("double_pendulum", MASS_MATRIX),
-    ("fourbar", ARTICULATED),  # a closed loop: the mass-matrix form is not a candidate
+    ("fourbar", ARTICULATED),
 ])
-def test_the_right_hand_side_runs_the_cheapest_form(name: str, form: str) -> None:
+def test_the_right_hand_side_runs_the_form_measured_fastest(name: str, form: str) -> None:
     eqs = equations(name)
     assert eqs.dynamics_form == form and eqs.dynamics is eqs.forms[form]
-    costs = {name: estimated_ns(program) for name, program in eqs.forms.items()}
-    assert costs[form] == min(costs.values())
