@@ -583,6 +583,10 @@ def run_dask(client: Any, ref: ModelRef, settings: Settings, inputs: Inputs,
     try:
         fill()
         for future in completed:
+            if future.status not in ("finished", "error", "cancelled"):
+                # done, then lost with its worker's memory: Dask computes it again
+                completed.add(future)
+                continue
             a, b = in_flight.pop(future)
             if future.status == "finished":
                 tracker.accept(future.result())
