@@ -246,6 +246,16 @@ def chain_yaml(n: int, mixed: bool = False, method: str = "DOP853") -> str:
     return "\n".join(lines) + "\n"
 
 
+def with_scene_tolerances(text: str, rtol: float, atol: float) -> str:
+    """A mechanism's YAML with its scene's rtol and atol set (nemc.Taylor writes its
+    coefficients out for the orders of the scene's tolerances)."""
+    import yaml
+
+    document = yaml.safe_load(text)
+    document.setdefault("simulation", {}).update(rtol=rtol, atol=atol)
+    return yaml.safe_dump(document, sort_keys=False)
+
+
 def chain_name(n: int, mixed: bool = False) -> str:
     return f"{'mixed' if mixed else 'chain'}{n}"
 

@@ -13,6 +13,7 @@ comments, sanitized.
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -25,7 +26,7 @@ from . import __version__
 from . import model as m
 from .c_text import SymbolTablePrinter
 from .derive import ARTICULATED, LINEARIZED, MASS_MATRIX, DynamicsLayout, Equations
-from .methods import AUTO_SPECTRUM_MAX_STATES
+from .methods import AUTO_SPECTRUM_MAX_STATES, DEFAULT_ATOL, DEFAULT_RTOL
 from .optimize import Block, rewrite
 from .program import Guard, Program
 from .resources import read_template
@@ -797,6 +798,35 @@ def spectrum_source(eqs: Equations, prefix: str) -> str:
 # recurrences' k == 0 cases fold away (the double pendulum's steps: 3-5% faster); longer ones
 # would double their compile time for that.
 PEEL_MAX_LINES = 300
+# nemc.Taylor's coefficients are also written out in full, as straight-line code, for the
+# orders of the scene's rtol and atol (taylor_order in templates/taylor.c.tmpl), as long as
+# what is written out has at most this many terms: a program of L lines and S Cauchy sums
+# per order costs L p + S p (p - 1) / 2 at order p (gcc: about 0.2 ms a term). Written out,
+# the double pendulum's coefficients cost 1.2-1.4x less at orders 8-15; an 8-link chain's
+# (30,000 terms at order 12) nothing, for 7 s of gcc (docs/decisions.md, "nemc.Taylor
+# written out for the scene's orders").
+WRITTEN_OUT_TERMS = 4000
+
+
+def taylor_order(eps: float) -> int:
+    """Jorba & Zou's order for tolerance eps, as templates/taylor.c.tmpl's taylor_order."""
+    order = math.ceil(-math.log(eps) / 2 + 1)
+    return min(max(order, 2), TAYLOR_MAX_ORDER)
+
+
+def written_out_orders(code: SeriesCode, simulation: m.Simulation) -> list[int]:
+    """The orders whose coefficients are written out: rtol's, then atol's, each while the
+    terms written out stay within WRITTEN_OUT_TERMS."""
+    rtol = simulation.rtol or DEFAULT_RTOL
+    atol = simulation.atol or DEFAULT_ATOL
+    orders: list[int] = []
+    terms = 0.0
+    for order in dict.fromkeys((taylor_order(rtol), taylor_order(atol))):
+        cost = len(code.loop) * order + code.cost * order * (order - 1) / 2
+        if terms + cost <= WRITTEN_OUT_TERMS:
+            orders.append(order)
+            terms += cost
+    return orders
 
 
 def taylor_rows(eqs: Equations) -> dict[sympy.Symbol, str]:
@@ -816,20 +846,61 @@ def block_lines(lines: Iterable[str], indent: str) -> str:
     return "\n".join(indent + line for line in lines)
 
 
+def constants_read(code: SeriesCode) -> list[str]:
+    """The parameter-only values the coefficients' loop reads, in the order they are defined."""
+    read = set(re.findall(r"\b\w+\b", "\n".join(code.loop)))
+    return [name for name in code.constant_names if name in read]
+
+
 def coefficient_fields(eqs: Equations, code: SeriesCode, constants: list[str],
                        dialect: Dialect) -> dict[str, object]:
-    """The fields of the coefficients' function, shared by taylor.c.tmpl and batch.c.tmpl."""
-    peel = len(code.loop) <= PEEL_MAX_LINES
-    order_zero = ["{", "    const int k = 0; /* order 0 apart: its branches fold away */",
-                  *("    " + line for line in code.loop), "}"] if peel else []
+    """The fields of the coefficients' functions, shared by taylor.c.tmpl and batch.c.tmpl:
+    the program at order k (declarations, its constants by name, the loop body), the loop
+    over the orders, and (one run's code only) the functions of the orders written out."""
+    names = constants_read(code)
+    orders = [] if dialect.lanes else written_out_orders(code, eqs.mechanism.simulation)
     return dict(
         n_series=max(code.n_series, 1),
         declarations=block_lines(taylor_declarations(eqs, dialect) + list(code.declarations),
                                  "    "),
+        constant_names=block_lines(
+            [f"const {dialect.value_type} {name} = constants[{j}];"
+             for j, name in enumerate(names)], "    "),
         constants=block_lines(constants, "    "), start=block_lines(code.start, "    "),
-        order_zero=block_lines(order_zero, "    "), first_order=1 if peel else 0,
-        loop=block_lines(code.loop, "        "),
+        loop=block_lines(code.loop, "    "),
+        orders=block_lines(order_loop(code, dialect), "    "),
+        order_functions="".join(order_function(order) for order in orders),
+        order_cases=block_lines([f"case {order}: return taylor_coefficients_order{order}"
+                                 "(t, y, p, x, work);" for order in orders], "    "),
     )
+
+
+def order_loop(code: SeriesCode, dialect: Dialect) -> list[str]:
+    """The loop over the orders (templates/taylor.c.tmpl's TAYLOR_LOOP), order 0 apart when
+    the program is short (PEEL_MAX_LINES). A guard fails at order 0 only."""
+    if dialect.lanes:
+        call = "lanes_coefficient_k({k}, x, work, constants, status);"
+        if len(code.loop) > PEEL_MAX_LINES:
+            return [f"TAYLOR_LOOP(k, 0, order, {call.format(k='k')});"]
+        return [call.format(k=0) + " /* order 0 apart: its branches fold away */",
+                f"TAYLOR_LOOP(k, 1, order, {call.format(k='k')});"]
+    call = "taylor_coefficient_k({k}, x, work, constants)"
+    if len(code.loop) > PEEL_MAX_LINES:
+        return [f"TAYLOR_LOOP(k, 0, order, const int status = {call.format(k='k')};",
+                "                          if (status)",
+                "                              return status;);"]
+    return [f"const int status = {call.format(k=0)}; /* order 0 apart: its branches fold away */",
+            "if (status)", "    return status;",
+            f"TAYLOR_LOOP(k, 1, order, (void){call.format(k='k')};);"]
+
+
+def order_function(order: int) -> str:
+    """The function of one order written out: taylor_coefficients_to inlined with that order
+    (noinline itself: inlined in the dispatcher, several made each order slower)."""
+    return (f"TAYLOR_FMA_TARGET __attribute__((noinline))\n"
+            f"static int taylor_coefficients_order{order}(\n"
+            f"    double t, const double *y, const double *p, double *x, double *work)\n{{\n"
+            f"    return taylor_coefficients_to(t, y, p, {order}, x, work);\n}}\n\n")
 
 
 def series_printer(printer: SymbolTablePrinter) -> Callable[[sympy.Expr], str]:
@@ -838,24 +909,41 @@ def series_printer(printer: SymbolTablePrinter) -> Callable[[sympy.Expr], str]:
     return lambda expr: printer.doprint(rewrite(expr))
 
 
-def taylor_section(eqs: Equations, printer: SymbolTablePrinter,
-                   fma: bool = False) -> tuple[str, str | None]:
-    """nemc.Taylor's C when the build asks for it: (source, None), or ("", why it cannot be).
-    fma: its multiply-adds fused (templates/taylor.c.tmpl's TAYLOR_MULADD)."""
+class TaylorC(NamedTuple):
+    """nemc.Taylor's C: its source ("" when the build has none), why it cannot be built (None
+    when it can), and the orders written out in full (written_out_orders)."""
+
+    source: str
+    unavailable: str | None = None
+    written_out: tuple[int, ...] = ()
+
+
+def taylor_section(eqs: Equations, printer: SymbolTablePrinter, fma: bool = False) -> TaylorC:
+    """nemc.Taylor's C when the build asks for it. fma: its multiply-adds fused
+    (templates/taylor.c.tmpl's TAYLOR_MULADD)."""
     if eqs.taylor_unavailable is not None:
-        return "", eqs.taylor_unavailable
+        return TaylorC("", eqs.taylor_unavailable)
     if eqs.taylor is None:
-        return "", None
+        return TaylorC("")
     try:
         code = series_code(eqs.taylor, eqs.coordinates, eqs.speeds, taylor_rows(eqs), m.TIME,
                            series_printer(printer))
     except TaylorUnsupported as why:
-        return "", str(why)
-    return template("taylor.c.tmpl").substitute(
+        return TaylorC("", str(why))
+    source = template("taylor.c.tmpl").substitute(
         max_order=TAYLOR_MAX_ORDER, fma=int(fma),
         taylor_math=taylor_math("math1_", "taylor_double1", "taylor_bits1", "one-element vectors"),
-        **coefficient_fields(eqs, code, list(code.constants), SCALAR)
-    ), None
+        constant_array=block_lines([scalar_constants(code)], "    "),
+        **coefficient_fields(eqs, code, list(code.constants), SCALAR))
+    return TaylorC(source, None, tuple(written_out_orders(code, eqs.mechanism.simulation)))
+
+
+def scalar_constants(code: SeriesCode) -> str:
+    """taylor_coefficients' array of the constants its loop reads (taylor_coefficient_k's)."""
+    names = constants_read(code)
+    if not names:
+        return "const double *constants = NULL;"
+    return f"const double constants[{len(names)}] = {{{', '.join(names)}}};"
 
 
 def taylor_math(prefix: str, vector: str, bits: str, what: str) -> str:
@@ -893,17 +981,18 @@ def lanes_section(eqs: Equations, printer: SymbolTablePrinter, prefix: str, coun
 
 def lane_constants(code: SeriesCode) -> list[str]:
     """The parameter-only values of each lane: the scalar lines in a loop over the lanes, each
-    lane with its own p, then as lanes values under the same names (those the loop reads)."""
+    lane with its own p, gathered in lanes values (those the loop reads: lanes_coefficient_k's
+    constants)."""
+    names = constants_read(code)
+    declaration = (f"lanes constants[{len(names)}];" if names
+                   else "const lanes *constants = NULL;")
     if not code.constants:
-        return []
-    read = set(re.findall(r"\b\w+\b", "\n".join(code.loop)))
-    kept = [name for name in code.constant_names if name in read]
-    lines = [f"lanes constant_lanes[{max(len(kept), 1)}];",
-             "for (int l = 0; l < NEMC_LANES; ++l) {",
-             "    const double *p = lane_p[l];", "    (void)p;",
-             *("    " + line for line in code.constants),
-             *(f"    constant_lanes[{j}][l] = {name};" for j, name in enumerate(kept)), "}"]
-    return lines + [f"const lanes {name} = constant_lanes[{j}];" for j, name in enumerate(kept)]
+        return [declaration]
+    return [declaration,
+            "for (int l = 0; l < NEMC_LANES; ++l) {",
+            "    const double *p = lane_p[l];", "    (void)p;",
+            *("    " + line for line in code.constants),
+            *(f"    constants[{j}][l] = {name};" for j, name in enumerate(names)), "}"]
 
 
 # ---- the drawing's point positions (issue 20): appended to every model's C ------------------
@@ -949,7 +1038,8 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
     build.fma_available)."""
     prefix = f"{eqs.mechanism.name}_"
     printer = SymbolTablePrinter(symbol_table(eqs, block))
-    taylor, taylor_unavailable = taylor_section(eqs, printer, fma)
+    taylor_c = taylor_section(eqs, printer, fma)
+    taylor, taylor_unavailable = taylor_c.source, taylor_c.unavailable
     lanes_c = lanes_section(eqs, printer, prefix, lanes) if lanes and taylor else ""
     info = metadata(eqs, prefix)
     info.update(unit_metadata(eqs.mechanism, info["output_names"]))
@@ -959,6 +1049,7 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
     if taylor:
         info["generated"].append("taylor")
         info["taylor_program"] = eqs.taylor_form
+        info["taylor_written_out"] = list(taylor_c.written_out)
         info["fma"] = fma
     if lanes_c:
         info["generated"].append("lanes")

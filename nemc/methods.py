@@ -13,6 +13,8 @@ METHODS = SCIPY_METHODS + NATIVE_METHODS + (AUTO,)
 IMPLICIT_METHODS = ("Radau", "BDF", "LSODA", "nemc.Radau")  # these get the analytic Jacobian
 TAYLOR_METHODS = ("nemc.Taylor",)  # these need the build's Taylor coefficients
 DEFAULT_METHOD = AUTO
+DEFAULT_RTOL = 1e-6  # a run's tolerances when neither the call nor the scene sets them
+DEFAULT_ATOL = 1e-9
 
 # -- method "auto" ------------------------------------------------------------------------------
 # Measured with benchmarks/auto.py (docs/decisions.md, "method auto"): each native method's time

@@ -30,7 +30,9 @@ from .methods import (  # noqa: F401 (re-exported: the runtime's public names)
     AUTO_STIFF_STEPS,
     AUTO_TAYLOR_BUILD_RUNS,
     AUTO_TAYLOR_MAX_COORDINATES,
+    DEFAULT_ATOL,
     DEFAULT_METHOD,
+    DEFAULT_RTOL,
     EXPLICIT_STABILITY,
     IMPLICIT_METHODS,
     METHODS,
@@ -44,8 +46,6 @@ DEFAULT_T_SPAN = (0.0, 10.0)
 SERIES_NOT_FINITE = -3  # the model status NEMC_SERIES_NOT_FINITE (templates/model.h.tmpl)
 OPTIONAL_PARTS = frozenset({"jacobian", "taylor", "lanes"})  # C a build has only when asked for
 KINEMATIC_POINTS = 201  # the default times of a kinematic analysis over t_span
-DEFAULT_RTOL = 1e-6
-DEFAULT_ATOL = 1e-9
 SOLVER_STEPS = "steps"  # simulate(t_eval="steps"): the solver's own steps, whatever the scene says
 
 

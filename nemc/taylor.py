@@ -349,15 +349,18 @@ def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
                  else writer.coefficient(result))
         writer.loop.append(f"{q_row}[k + 1] = {dq_row}[k] * (1.0 / (k + 1));")
         writer.loop.append(f"{dq_row}[k + 1] = {value} * (1.0 / (k + 1));")
-    start = ("tt[0] = t;", "for (int j = 1; j <= order; ++j)",
-             f"    tt[j] = {dialect.broadcast('j == 1 ? 1.0 : 0.0')};")
-    # lines are relative to the block they sit in: "    " marks one more level
+    # the time's series, filled before the loop over the orders (its row is declared for the
+    # loop's body too); lines are relative to the block they sit in: "    " marks one more level
+    start: tuple[str, ...] = ()
     if writer.uses_time:
-        writer.declarations.append(f"{dialect.value_type} *tt = TAYLOR_ROW(work, {writer._rows});")
+        declaration = f"{dialect.value_type} *tt = TAYLOR_ROW(work, {writer._rows});"
+        writer.declarations.append(declaration)
         writer._rows += 1
+        start = ("{", "    " + declaration, "    tt[0] = t;",
+                 "    for (int j = 1; j <= order; ++j)",
+                 f"        tt[j] = {dialect.broadcast('j == 1 ? 1.0 : 0.0')};", "}")
     return SeriesCode(writer._rows, tuple(writer.declarations), tuple(writer.constants),
-                      tuple(writer.constant_names), start if writer.uses_time else (),
-                      tuple(writer.loop), writer.cost)
+                      tuple(writer.constant_names), start, tuple(writer.loop), writer.cost)
 
 
 # Cauchy sums per order of each recurrence: what a program costs nemc.Taylor (sums and constant

@@ -12,7 +12,11 @@ import pytest
 from reference import random_mechanism_yaml
 
 import nemc
+from nemc.emit import taylor_order, written_out_orders
+from nemc.model import Simulation
+from nemc.pipeline import Source, compile_source
 from nemc.runtime import ModelError
+from nemc.taylor import SeriesCode
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"
@@ -176,3 +180,55 @@ def test_ensemble_equals_single_runs(pendulum) -> None:
         one = pendulum.simulate((0.0, 2.0), y0s[k], method="nemc.Taylor", rtol=1e-10,
                                 atol=1e-12, t_eval=t_eval)
         np.testing.assert_array_equal(many.y[k], one.y)
+
+
+def with_tolerances(text: str, rtol: float, atol: float) -> str:
+    """The mechanism's text with its scene's rtol and atol set."""
+    text = re.sub(r"\n  (rtol|atol): .*", "", text)
+    return text.replace("\nsimulation:\n", f"\nsimulation:\n  rtol: {rtol}\n  atol: {atol}\n", 1)
+
+
+@pytest.mark.parametrize("name", ["double_pendulum", "functions"])
+def test_orders_written_out_give_the_loops_bits(tmp_path: Path, name: str) -> None:
+    """The orders of the scene's rtol and atol run their coefficients written out in full
+    (emit.written_out_orders), every other order the loop over the orders and the sums. Both
+    must do the same operations in the same order: a build whose scene names other tolerances
+    runs the loop at these orders, and gives the same bits, steps and all, on a pendulum and on
+    every recurrence (functions of time and of the state)."""
+    text = PENDULUM.read_text() if name == "double_pendulum" else FUNCTIONS
+    written = compile_source(Source(f"{name}.yaml", with_tolerances(text, 1e-8, 1e-10).encode()),
+                             None, taylor=True)
+    looped = compile_source(Source(f"{name}.yaml", with_tolerances(text, 1e-3, 1e-4).encode()),
+                            None, taylor=True)
+    written_c = (written.package / f"{name}.c").read_text()
+    looped_c = (looped.package / f"{name}.c").read_text()
+    assert "taylor_coefficients_order11(" in written_c  # rtol 1e-8's order
+    assert "taylor_coefficients_order13(" in written_c  # atol 1e-10's
+    assert "taylor_coefficients_order11(" not in looped_c and "order5(" in looped_c
+    assert written.model.metadata["taylor_written_out"] == [11, 13]
+    assert looped.model.metadata["taylor_written_out"] == [5, 6]
+    y0 = written.model.initial_state()
+    for rtol, atol in ((1e-8, 1e-10), (1e-3, 1e-4)):
+        runs = [compiled.model.simulate((0.0, 3.0), y0, method="nemc.Taylor", rtol=rtol,
+                                        atol=atol, t_eval="steps")
+                for compiled in (written, looped)]
+        assert all(run.success for run in runs)
+        assert runs[0].nfev == runs[1].nfev
+        np.testing.assert_array_equal(runs[0].t, runs[1].t)
+        np.testing.assert_array_equal(runs[0].y, runs[1].y)
+
+
+def series(lines: int, sums: float) -> SeriesCode:
+    """A program's coefficient code of this many lines and Cauchy sums per order."""
+    return SeriesCode(1, (), (), (), (), ("line;",) * lines, sums)
+
+
+def test_which_orders_are_written_out() -> None:
+    assert [taylor_order(eps) for eps in (1e-6, 1e-8, 1e-9, 1e-12, 0.9, 1e-300)] == [
+        8, 11, 12, 15, 2, 40]
+    scene = Simulation(rtol=1e-6, atol=1e-9)
+    assert written_out_orders(series(27, 13.0), scene) == [8, 12]  # the double pendulum
+    assert written_out_orders(series(27, 13.0), Simulation()) == [8, 12]  # the defaults
+    assert written_out_orders(series(27, 13.0), Simulation(rtol=1e-6, atol=1e-6)) == [8]
+    assert written_out_orders(series(169, 88.5), scene) == [8]  # 4-link chain: 12 too large
+    assert written_out_orders(series(653, 337.0), scene) == []  # 8-link chain: none
