@@ -802,10 +802,11 @@ PEEL_MAX_LINES = 300
 # orders of the scene's rtol and atol (taylor_order in templates/taylor.c.tmpl), as long as
 # what is written out has at most this many terms: a program of L lines and S Cauchy sums
 # per order costs L p + S p (p - 1) / 2 at order p (gcc: about 0.2 ms a term). Written out,
-# the double pendulum's coefficients cost 1.2-1.4x less at orders 8-15; an 8-link chain's
-# (30,000 terms at order 12) nothing, for 7 s of gcc (docs/decisions.md, "nemc.Taylor
-# written out for the scene's orders").
-WRITTEN_OUT_TERMS = 4000
+# a run costs 1.15-1.5x less (the double pendulum, a 3-link chain: the mechanisms "auto" gives
+# nemc.Taylor); a 4-link chain's order 8 (3,830 terms) gains 1.2x for 0.7-1.2 s more gcc, an
+# 8-link chain's order 12 (30,078) nothing for 7 s (docs/decisions.md, "nemc.Taylor written
+# out for the scene's orders").
+WRITTEN_OUT_TERMS = 2000
 
 
 def taylor_order(eps: float) -> int:
