@@ -801,11 +801,12 @@ PEEL_MAX_LINES = 300
 # nemc.Taylor's coefficients are also written out in full, as straight-line code, for the
 # orders of the scene's rtol and atol (taylor_order in templates/taylor.c.tmpl), as long as
 # what is written out has at most this many terms: a program of L lines and S Cauchy sums
-# per order costs L p + S p (p - 1) / 2 at order p (gcc: about 0.2 ms a term). Written out,
-# a run costs 1.15-1.5x less (the double pendulum, a 3-link chain: the mechanisms "auto" gives
-# nemc.Taylor); a 4-link chain's order 8 (3,830 terms) gains 1.2x for 0.7-1.2 s more gcc, an
-# 8-link chain's order 12 (30,078) nothing for 7 s (docs/decisions.md, "nemc.Taylor written
-# out for the scene's orders").
+# per order costs L p + S p (p - 1) / 2 at order p (gcc: about 0.2 ms a term, and as much
+# again in the lanes' variant). Written out, a run costs 1.15-1.5x less (the double pendulum, a
+# 3-link chain: the mechanisms "auto" gives nemc.Taylor), an ensemble in lanes 2-8% less; a
+# 4-link chain's order 8 (3,830 terms) gains 1.2x for 0.7-1.2 s more gcc, an 8-link chain's
+# order 12 (30,078) nothing for 7 s (docs/decisions.md, "nemc.Taylor written out for the
+# scene's orders").
 WRITTEN_OUT_TERMS = 2000
 
 
@@ -857,9 +858,9 @@ def coefficient_fields(eqs: Equations, code: SeriesCode, constants: list[str],
                        dialect: Dialect) -> dict[str, object]:
     """The fields of the coefficients' functions, shared by taylor.c.tmpl and batch.c.tmpl:
     the program at order k (declarations, its constants by name, the loop body), the loop
-    over the orders, and (one run's code only) the functions of the orders written out."""
+    over the orders, and the functions of the orders written out."""
     names = constants_read(code)
-    orders = [] if dialect.lanes else written_out_orders(code, eqs.mechanism.simulation)
+    orders = written_out_orders(code, eqs.mechanism.simulation)
     return dict(
         n_series=max(code.n_series, 1),
         declarations=block_lines(taylor_declarations(eqs, dialect) + list(code.declarations),
@@ -870,9 +871,8 @@ def coefficient_fields(eqs: Equations, code: SeriesCode, constants: list[str],
         constants=block_lines(constants, "    "), start=block_lines(code.start, "    "),
         loop=block_lines(code.loop, "    "),
         orders=block_lines(order_loop(code, dialect), "    "),
-        order_functions="".join(order_function(order) for order in orders),
-        order_cases=block_lines([f"case {order}: return taylor_coefficients_order{order}"
-                                 "(t, y, p, x, work);" for order in orders], "    "),
+        order_functions="".join(order_function(order, dialect) for order in orders),
+        order_cases=block_lines([order_case(order, dialect) for order in orders], "    "),
     )
 
 
@@ -895,13 +895,27 @@ def order_loop(code: SeriesCode, dialect: Dialect) -> list[str]:
             f"TAYLOR_LOOP(k, 1, order, (void){call.format(k='k')};);"]
 
 
-def order_function(order: int) -> str:
-    """The function of one order written out: taylor_coefficients_to inlined with that order
-    (noinline itself: inlined in the dispatcher, several made each order slower)."""
+def order_function(order: int, dialect: Dialect) -> str:
+    """The function of one order written out: the coefficients' function inlined with that
+    order (noinline itself: inlined in the dispatcher, several made each order slower)."""
+    if dialect.lanes:
+        return (f"LANES_TARGET __attribute__((noinline))\n"
+                f"static void taylor_coefficients_lanes_order{order}(\n"
+                f"    const lanes *time, const lanes *y, const double *const *lane_p, lanes *x,\n"
+                f"    lanes *work, int *status)\n{{\n"
+                f"    lanes_coefficients_to(time, y, lane_p, {order}, x, work, status);\n}}\n\n")
     return (f"TAYLOR_FMA_TARGET __attribute__((noinline))\n"
             f"static int taylor_coefficients_order{order}(\n"
             f"    double t, const double *y, const double *p, double *x, double *work)\n{{\n"
             f"    return taylor_coefficients_to(t, y, p, {order}, x, work);\n}}\n\n")
+
+
+def order_case(order: int, dialect: Dialect) -> str:
+    """The dispatcher's case of an order written out."""
+    if dialect.lanes:
+        return (f"case {order}: taylor_coefficients_lanes_order{order}(time, y, lane_p, x, work,"
+                f" status); break;")
+    return f"case {order}: return taylor_coefficients_order{order}(t, y, p, x, work);"
 
 
 def series_printer(printer: SymbolTablePrinter) -> Callable[[sympy.Expr], str]:

@@ -189,6 +189,18 @@ def test_pendulum_runs_equal_the_scalar_runs_bit_for_bit(pendulum: nemc.Model, k
         assert len(set(lanes.nfev.tolist())) > 1  # the lanes took different numbers of steps
 
 
+def test_orders_written_out_in_lanes_equal_the_scalar_runs(pendulum: nemc.Model) -> None:
+    """The book's scene (rtol 1e-6, atol 1e-9): orders 8 and 12 written out in lanes and in the
+    one-run code (emit.written_out_orders); the runs at both, and at order 11 (the loops)."""
+    assert pendulum.compiled_with("lanes").metadata["taylor_written_out"] == [8, 12]
+    y0s = random_states(pendulum, 9, seed=8)
+    for rtol, atol in ((1e-6, 1e-9), (1e-9, 1e-12), (1e-8, 1e-10)):
+        lanes, one_by_one = both(pendulum, y0s, t_span=(0, 3), t_eval=np.linspace(0, 3, 7),
+                                 rtol=rtol, atol=atol)
+        assert_same(lanes, one_by_one)
+        assert lanes.success.all()
+
+
 def test_single_runs_equal_the_lanes(pendulum: nemc.Model) -> None:
     y0s, times = random_states(pendulum, 6, seed=3), np.linspace(0, 2, 9)
     masses = np.linspace(0.5, 2.0, 6)
