@@ -801,8 +801,8 @@ PEEL_MAX_LINES = 300
 # nemc.Taylor's coefficients are also written out in full, as straight-line code, for the
 # orders of the scene's rtol and atol (taylor_order in templates/taylor.c.tmpl), as long as
 # what is written out has at most this many terms: a program of L lines and S Cauchy sums
-# per order costs L p + S p (p - 1) / 2 at order p (gcc: about 0.2 ms a term, and as much
-# again in the lanes' variant). Written out, a run costs 1.15-1.5x less (the double pendulum, a
+# per order costs L p + S p (p - 1) / 2 at order p (gcc: about 0.2 ms a term in the one-run
+# code, 0.35 ms in the lanes'). Written out, a run costs 1.15-1.5x less (the double pendulum, a
 # 3-link chain: the mechanisms "auto" gives nemc.Taylor), an ensemble in lanes 2-8% less; a
 # 4-link chain's order 8 (3,830 terms) gains 1.2x for 0.7-1.2 s more gcc, an 8-link chain's
 # order 12 (30,078) nothing for 7 s (docs/decisions.md, "nemc.Taylor written out for the
