@@ -4,8 +4,9 @@ Run: `python benchmarks/native.py [--quick | --smoke] [--sizes 8,16] [--out DIR]
 `make bench`. Results: benchmarks/results/native-latest.{json,md} (smoke: a temporary folder).
 
 1. Equal error. Systems: the book's double pendulum over [0, 20] and chains of n uniform rods
-   (`common.chain_yaml(n)`, full: n = 8, 16) over [0, 5] (over [0, 10] the 16-link chain's tight
-   solutions agree only to about 4e-10, so a 1e-12 target could not be resolved). Targets: final
+   (`common.chain_yaml(n)`, full: n = 4, 8, 16; quick: 4, 8) over [0, 5] (over [0, 10] the
+   16-link chain's tight solutions agree only to about 4e-10, so a 1e-12 target could not be
+   resolved). Targets: final
    errors 1e-6, 1e-9, 1e-12, error = max |y(t_end) - reference|. Each contender runs at the
    loosest rtol of a quarter-decade ladder (1e-3 ... 10^-13.5; atol = rtol x 1e-3) whose error
    is at most the target, found for that contender itself. Contenders:
@@ -21,7 +22,9 @@ Run: `python benchmarks/native.py [--quick | --smoke] [--sizes 8,16] [--out DIR]
      for its tol (each build made before its first timed run, untimed, and cached); only where
      the build writes orders out (model.json's `taylor_written_out`: small systems);
    - heyoka's Taylor integrator (benchmarks/peers.py, in a worker process of its own, when
-     installed), tol from the same ladder (each tol JIT-compiled once, untimed).
+     installed), tol from the same ladder (each tol JIT-compiled once, untimed); on the double
+     pendulum and the 4-link chain (the cells of issue 19's targets), in full mode also on
+     the 8- and 16-link chains.
    The nemc and lambdify contenders of a cell are timed interleaved in this process (medians over
    rounds; a run longer than `cell_cap` is timed once); heyoka is timed in its worker (median of
    repeated runs). Speed-up = lambdify(cse) time / contender time; vs heyoka = heyoka time /
@@ -91,10 +94,10 @@ class Config:
 
 MODES = {
     "smoke": Config("smoke", (), (1e-6,), 1, 0.01, 1.0, 60.0, ("double_pendulum",), 120.0, 100),
-    "quick": Config("quick", (8,), (1e-6, 1e-9, 1e-12), 3, 0.05, 2.0, 60.0, ("double_pendulum",),
-                    120.0, 1000),
-    "full": Config("full", (8, 16), (1e-6, 1e-9, 1e-12), 5, 0.1, 10.0, 300.0,
-                   ("double_pendulum", "chain8", "chain16"), 600.0, 10000),
+    "quick": Config("quick", (4, 8), (1e-6, 1e-9, 1e-12), 3, 0.05, 2.0, 60.0,
+                    ("double_pendulum", "chain4"), 120.0, 1000),
+    "full": Config("full", (4, 8, 16), (1e-6, 1e-9, 1e-12), 5, 0.1, 10.0, 300.0,
+                   ("double_pendulum", "chain4", "chain8", "chain16"), 600.0, 10000),
 }
 
 

@@ -6,9 +6,9 @@ Results: benchmarks/results/rhs_forms-latest.{json,md} (quick: results/quick; sm
 temporary folder).
 
 Each system is derived once; its forms are the articulated-body program and, up to
-mass_form.MAX_COORDINATES coordinates, the mass-matrix form as derived and linearized (here
-also at 4 coordinates, where nemc does not derive the linearized one for the RHS: to show what
-that skips). Each form is built as a model of its own (the system's `dynamics` replaced) and its
+mass_form.MAX_COORDINATES coordinates, the mass-matrix form as derived, linearized, and
+linearized with the sines and cosines of sums from those of their parts (nemc/angle_sums.py).
+Each form is built as a model of its own (the system's `dynamics` replaced) and its
 `rhs_many` timed over 10,000 random states (angles and rates uniform in [-1.5, 1.5]),
 interleaved rounds with the order rotating; the forms' results are checked against the
 articulated-body program's. The table gives each form's median time per call, nemc's estimate
@@ -63,19 +63,6 @@ def systems(config: Config, folder: Path) -> list[tuple[str, Path]]:
     return found
 
 
-def all_forms(eqs: Any) -> dict[str, Any]:
-    """The forms derive considered, and the linearized one past its limit (up to 4)."""
-    from nemc.derive import LINEARIZED
-    from nemc.mass_form import MAX_COORDINATES, mass_form_program
-    from nemc.program import split_deep
-
-    forms = dict(eqs.forms)
-    if LINEARIZED not in forms and eqs.n <= MAX_COORDINATES and eqs.derived_mass_forcing:
-        forms[LINEARIZED + " (not derived)"] = split_deep(
-            mass_form_program(*eqs.derived_mass_forcing), "v")
-    return forms
-
-
 def built(eqs: Any, program: Any, tag: str) -> Any:
     """A model whose right-hand side runs PROGRAM."""
     from nemc.build import build
@@ -94,7 +81,7 @@ def measure_system(path: Path, config: Config) -> dict[str, Any]:
     from nemc.validate import validate_text
 
     eqs = derive(validate_text(path.read_bytes(), str(path)))
-    forms = all_forms(eqs)
+    forms = dict(eqs.forms)
     models = {form: built(eqs, program, str(k)) for k, (form, program) in
               enumerate(forms.items())}
     states = common.random_states(2 * eqs.n, STATES)
@@ -136,8 +123,10 @@ def markdown(result: dict[str, Any]) -> str:
              "rounds: median time per call (min-max), nemc's estimate (c_cost.estimated_ns, a "
              "ranking without its offset) in brackets. **Bold**: the form nemc chose.", "",
              "| system | n | articulated body | mass matrix | mass matrix, linearized | "
-             "chosen / fastest |", "| --- | --- | --- | --- | --- | --- |"]
-    columns = ("articulated body", "mass matrix", "mass matrix, linearized")
+             "linearized, addition formulas | chosen / fastest |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    columns = ("articulated body", "mass matrix", "mass matrix, linearized",
+               "mass matrix, linearized, addition formulas")
     for name, system in result["systems"].items():
         cells = []
         for column in columns:
@@ -148,7 +137,6 @@ def markdown(result: dict[str, Any]) -> str:
                 continue
             form, r = found[0]
             text = f"{common.spread(r['seconds'])} [{r['estimate_ns']:.0f}]"
-            text += " (not derived)" if form.endswith("(not derived)") else ""
             cells.append(f"**{text}**" if form == system["chosen"] else text)
         lines.append(f"| {name} | {system['coordinates']} | {' | '.join(cells)} | "
                      f"{system['chosen_over_fastest']:.2f}x |")

@@ -27,7 +27,7 @@ from .articulated import dynamics_program, generalized_force_symbols, inverse_ma
 from .c_cost import estimated_ns
 from .kinematics import Kinematics, applied_loads, motion_substitutions
 from .loops import LoopEquations, loop_equations
-from .mass_form import MAX_COORDINATES, MAX_LINEARIZED_FOR_RHS, mass_form_program
+from .mass_form import MAX_COORDINATES, mass_form_entries, mass_form_program, program_of_entries
 from .outputs import derive_outputs
 from .products import fewer_products
 from .program import Program, split_deep
@@ -40,6 +40,7 @@ from .values import resolve_values
 ARTICULATED = "articulated body"
 MASS_MATRIX = "mass matrix"
 LINEARIZED = "mass matrix, linearized"
+ADDITION_FORMULAS = "mass matrix, linearized, addition formulas"  # nemc/angle_sums.py
 
 
 @dataclass(frozen=True)
@@ -221,11 +222,12 @@ def derive(mech: m.Mechanism) -> Equations:
 
 def mass_forms(mass: sympy.Matrix, forcing: sympy.Matrix) -> dict[str, Program]:
     """The mass-matrix form's programs the right-hand side may run: M's and f's entries as
-    derived and, up to MAX_LINEARIZED_FOR_RHS coordinates, linearized."""
-    forms = {MASS_MATRIX: split_deep(mass_form_program(mass, forcing, linearize=False), "v")}
-    if mass.shape[0] <= MAX_LINEARIZED_FOR_RHS:
-        forms[LINEARIZED] = split_deep(mass_form_program(mass, forcing), "v")
-    return forms
+    derived, linearized, and linearized with the sines and cosines of sums of angles from those
+    of their parts (nemc/angle_sums.py), the entries linearized once for both."""
+    linear = mass_form_entries(mass, forcing)
+    return {MASS_MATRIX: split_deep(mass_form_program(mass, forcing, linearize=False), "v"),
+            LINEARIZED: split_deep(program_of_entries(linear), "v"),
+            ADDITION_FORMULAS: split_deep(program_of_entries(linear, addition_formulas=True), "v")}
 
 
 def fastest_dynamics(forms: Mapping[str, Program]) -> str:
@@ -292,7 +294,11 @@ def with_taylor(eqs: Equations) -> Equations:
     def cost(program: Program) -> float:
         return series_cost(program, eqs.coordinates, eqs.speeds, m.TIME)
 
-    candidates = {**eqs.forms, eqs.dynamics_form: eqs.accelerations_program}
+    # the addition formulas trade a sine-cosine pair (two Cauchy sums an order) for four
+    # products: never fewer sums, so not a candidate here
+    candidates = {form: program for form, program in
+                  {**eqs.forms, eqs.dynamics_form: eqs.accelerations_program}.items()
+                  if form != ADDITION_FORMULAS}
     if eqs.n <= MAX_COORDINATES and LINEARIZED not in candidates:
         candidates[LINEARIZED] = split_deep(mass_form_program(*eqs.mass_forcing), "vt")
     # taking factors out nests sums: split again (other names than the first split's)

@@ -25,7 +25,14 @@ import sympy
 from . import __version__
 from . import model as m
 from .c_text import SymbolTablePrinter
-from .derive import ARTICULATED, LINEARIZED, MASS_MATRIX, DynamicsLayout, Equations
+from .derive import (
+    ADDITION_FORMULAS,
+    ARTICULATED,
+    LINEARIZED,
+    MASS_MATRIX,
+    DynamicsLayout,
+    Equations,
+)
 from .methods import AUTO_SPECTRUM_MAX_STATES, DEFAULT_ATOL, DEFAULT_RTOL
 from .optimize import Block, rewrite
 from .program import Guard, Program
@@ -624,6 +631,8 @@ MASS_MATRIX_LINES = (
     "triangular solves. On so few coordinates this was estimated faster than the",
     "articulated-body algorithm (nemc/c_cost.py).")
 LINEARIZED_LINE = "M's and f's entries are linearized in sines and cosines (sin^2 + cos^2 = 1)."
+ADDITION_LINE = ("The sines and cosines of sums of angles come from those of their parts (the "
+                 "addition formulas).")
 PIVOT = "pivot k of M's LDL^T (0-based, in coordinate order) is not positive"
 DYNAMICS_FORMS = {
     ARTICULATED: FormText("articulated-body algorithm", "\n * ".join(ARTICULATED_LINES),
@@ -632,6 +641,9 @@ DYNAMICS_FORMS = {
     MASS_MATRIX: FormText("mass-matrix form", "\n * ".join(MASS_MATRIX_LINES), PIVOT),
     LINEARIZED: FormText("mass-matrix form, linearized",
                          "\n * ".join((*MASS_MATRIX_LINES, LINEARIZED_LINE)), PIVOT),
+    ADDITION_FORMULAS: FormText(
+        "mass-matrix form, linearized, addition formulas",
+        "\n * ".join((*MASS_MATRIX_LINES, LINEARIZED_LINE, ADDITION_LINE)), PIVOT),
 }
 
 

@@ -12,10 +12,13 @@ differently: each product of two time-varying values costs a Cauchy sum at every
 a constant factor almost nothing. On two or three bodies this form has several times fewer such
 products than the articulated-body program (the double pendulum: 13 Cauchy sums per order
 against 40.5), so nemc.Taylor's coefficients come from whichever program is cheaper
-(taylor.series_cost). Past MAX_COORDINATES the form is not derived: its symbolic cost and its
-size grow as n^3 and faster; past MAX_LINEARIZED_FOR_RHS its linearization is derived for
-nemc.Taylor only. Entries whose multiplied-out polynomial would exceed MAX_TERMS terms (springs'
-lengths inside products) are left as they are.
+(taylor.series_cost). For the right-hand side, the linearized entries also come with the sines
+and cosines of sums of angles from those of their parts (nemc/angle_sums.py): linearizing turns
+a chain's absolute angles into sums of its relative ones, and the addition formulas then leave
+one sincos call per joint (the 4-link chain's RHS 138 -> 111 ns, benchmarks/rhs_forms.py).
+Past MAX_COORDINATES the form is not derived: its symbolic cost and its size grow as n^3 and
+faster. Entries whose multiplied-out polynomial would exceed MAX_TERMS terms (springs' lengths
+inside products) are left as they are.
 """
 
 from __future__ import annotations
@@ -25,13 +28,12 @@ import math
 import sympy
 from sympy.simplify.fu import TR8
 
+from .angle_sums import split_angle_sums
 from .program import Program, ProgramBuilder
 
-MAX_COORDINATES = 4  # chain of 4: 1.1 s to derive and linearize; chain of 6: 7 s
-# the linearized form as an RHS candidate: at 3 coordinates it costs 0.24 s to derive (a chain of
-# 3) and was never the fastest (benchmarks/rhs_forms.py: its distinct sine-cosine arguments grow
-# as n^2; chain of 3 73 ns against 64, free body 36 against 22)
-MAX_LINEARIZED_FOR_RHS = 2
+# chain of 4: 1.0 s to derive and linearize (0.7 s of it linearizing: a cold compile 1.6 ->
+# 2.4 s); chain of 6: 7 s
+MAX_COORDINATES = 4
 MAX_TERMS = 400  # a polynomial with more terms multiplied out is left as it is
 GROWTH = 4  # linearized entries at most this many times larger than M's and f's (count_ops)
 
@@ -78,24 +80,57 @@ def _stand_in(expr: sympy.Expr, stand_ins: dict[sympy.Expr, sympy.Symbol]) -> sy
     return stand_ins[inner]
 
 
-def mass_form_program(mass: sympy.Matrix, forcing: sympy.Matrix, linearize: bool = True
-                      ) -> Program:
+def mass_form_program(mass: sympy.Matrix, forcing: sympy.Matrix, linearize: bool = True,
+                      addition_formulas: bool = False) -> Program:
     """The accelerations qdd = M^-1 f as a program, M's and f's entries linearized in sines and
-    cosines unless LINEARIZE is False. Guard j + 1: pivot j of M's LDL^T is not positive (the
-    leading (j + 1) x (j + 1) block of the mass matrix is singular there)."""
+    cosines unless LINEARIZE is False (mass_form_entries), then program_of_entries."""
+    return program_of_entries(mass_form_entries(mass, forcing, linearize), addition_formulas)
+
+
+def mass_form_entries(mass: sympy.Matrix, forcing: sympy.Matrix, linearize: bool = True
+                      ) -> tuple[list[sympy.Expr], list[sympy.Expr]]:
+    """(M's lower triangle row by row, f), linearized in sines and cosines unless LINEARIZE is
+    False."""
     n = mass.shape[0]
+    tidy = linearized if linearize else (lambda expr: expr)
+    return ([tidy(mass[i, j]) for i in range(n) for j in range(i + 1)],
+            [tidy(f) for f in forcing])
+
+
+def program_of_entries(entries: tuple[list[sympy.Expr], list[sympy.Expr]],
+                       addition_formulas: bool = False) -> Program:
+    """The accelerations qdd = M^-1 f from ENTRIES (mass_form_entries): their common
+    subexpressions named once, M solved by LDL^T in steps; with ADDITION_FORMULAS, the sines and
+    cosines of sums of angles come from those of their parts where those are computed anyway
+    (nemc/angle_sums.py). Guard j + 1: pivot j of M's LDL^T is not positive (the leading
+    (j + 1) x (j + 1) block of the mass matrix is singular there)."""
+    lower_triangle, forcing = entries
+    n = len(forcing)
     builder = ProgramBuilder("m")
     lower = [(i, j) for i in range(n) for j in range(i + 1)]
-    tidy = linearized if linearize else (lambda expr: expr)
-    exprs = [tidy(mass[i, j]) for i, j in lower] + [tidy(f) for f in forcing]
+    exprs = [*lower_triangle, *forcing]
+    if addition_formulas:
+        exprs = with_angle_sums(builder, exprs)
     temporaries, reduced = sympy.cse(
         exprs, symbols=sympy.numbered_symbols("e", cls=sympy.Dummy, real=True), order="none")
     named: dict[sympy.Symbol, sympy.Expr] = {}
     for symbol, expr in temporaries:
         named[symbol] = builder.let(expr.xreplace(named))
     values = [builder.let(expr.xreplace(named)) for expr in reduced]
-    entries = dict(zip(lower, values))
-    return builder.finish(ldl_solve(builder, entries, values[len(lower):]))
+    return builder.finish(ldl_solve(builder, dict(zip(lower, values)), values[len(lower):]))
+
+
+def with_angle_sums(builder: ProgramBuilder, exprs: list[sympy.Expr]) -> list[sympy.Expr]:
+    """exprs with the sines and cosines of sums split (angle_sums.split_angle_sums), each call
+    left and each formula a step of BUILDER (so that a call is made once)."""
+    definitions, exprs = split_angle_sums(exprs)
+    calls = {node: builder.let(node) for expr in [*(value for _, value in definitions), *exprs]
+             for node in sympy.preorder_traversal(expr)
+             if isinstance(node, (sympy.sin, sympy.cos))}
+    named: dict[sympy.Symbol, sympy.Expr] = {}
+    for symbol, value in definitions:
+        named[symbol] = builder.let(value.xreplace(calls).xreplace(named))
+    return [expr.xreplace(calls).xreplace(named) for expr in exprs]
 
 
 def ldl_solve(builder: ProgramBuilder, mass: dict[tuple[int, int], sympy.Expr],

@@ -133,7 +133,8 @@ def test_rhs_forms_smoke_mode_times_every_form(tmp_path: Path) -> None:
     result = json.loads((out / "rhs_forms-latest.json").read_text())
     pendulum = result["systems"]["double pendulum"]
     assert set(pendulum["forms"]) == {"articulated body", "mass matrix",
-                                      "mass matrix, linearized"}
+                                      "mass matrix, linearized",
+                                      "mass matrix, linearized, addition formulas"}
     assert pendulum["chosen"] in pendulum["forms"]
     assert max(r["difference"] for r in pendulum["forms"].values()) < 1e-9  # one system
     assert "chosen / fastest" in (out / "rhs_forms-latest.md").read_text()

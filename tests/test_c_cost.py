@@ -10,7 +10,7 @@ import pytest
 import sympy
 
 from nemc.c_cost import NS_PER_FUNCTION, NS_PER_PRODUCT, NS_PER_SUM, estimated_ns
-from nemc.derive import ARTICULATED, LINEARIZED, MASS_MATRIX, derive
+from nemc.derive import ADDITION_FORMULAS, ARTICULATED, LINEARIZED, derive
 from nemc.program import Guard, Program
 from nemc.validate import validate_text
 
@@ -50,11 +50,11 @@ def equations(name: str):
     return derive(validate_text(path.read_bytes(), str(path)))
 
 
-# the form each ran fastest as C (benchmarks/results/rhs_forms-latest.md: 3 against 13 and 15 ns;
-# 30 against 31 and 36 ns); a closed loop has no mass-matrix candidate
+# the form each ran fastest as C (benchmarks/results/rhs_forms-latest.md: the arm 3 ns against
+# 16 and 18; the pendulum 35 ns against 39, 44 and 46); a closed loop has no mass-matrix candidate
 @pytest.mark.parametrize("name, form", [
     ("robot_arm", LINEARIZED),  # the 5.4 arm: sin^2 + cos^2 = 1 leaves no call at all
-    ("double_pendulum", MASS_MATRIX),
+    ("double_pendulum", ADDITION_FORMULAS),
     ("fourbar", ARTICULATED),
 ])
 def test_the_right_hand_side_runs_the_form_measured_fastest(name: str, form: str) -> None:

@@ -120,7 +120,7 @@ def test_a_singular_mass_form_names_its_pivot() -> None:
     Model refuses, so its C is called directly) pivot 2 of M's LDL^T is zero, and the failure
     says so rather than naming an articulated inertia."""
     model = nemc.compile(EXAMPLES / "double_pendulum.yaml")
-    assert model.metadata["dynamics_program"] == "mass matrix"
+    assert model.metadata["dynamics_program"].startswith("mass matrix")
     p = model.parameter_vector()
     p[model.parameter_names.index("m2")] = 0.0
     y, dy = model.initial_state(), np.empty(model.n_state)
