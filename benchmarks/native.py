@@ -1,6 +1,6 @@
 """nemc's native integrators against solve_ivp and heyoka at equal final error (issue 9's table).
 
-Run: `python benchmarks/native.py [--quick | --smoke] [--sizes 8,16] [--out DIR]`; part of
+Run: `python benchmarks/native.py [--quick | --smoke] [--sizes 4,8,16] [--out DIR]`; part of
 `make bench`. Results: benchmarks/results/native-latest.{json,md} (smoke: a temporary folder).
 
 1. Equal error. Systems: the book's double pendulum over [0, 20] and chains of n uniform rods

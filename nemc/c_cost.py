@@ -6,8 +6,11 @@ The estimate is a linear model in the program's operations, fitted to 36 program
 and free joints and springs; each as the articulated-body program and the mass-matrix form with
 and without linearization; gcc -O2, x86-64, rhs_many over 10,000 random states, best of 15;
 docs/decisions.md "Which program computes the right-hand side"). It ranks the three forms of
-each of the 12 mechanisms as measured. Counting operations alone does not (sympy's count_ops
-ranked the linearized form first everywhere, 1.2x slower than the best at 4 links):
+each of the 12 mechanisms as measured; the fourth, the linearized form with the addition
+formulas (nemc/angle_sums.py), came later, unfitted: on the same 12 on an AMD EPYC the form it
+ranks first runs within 1.05x of the fastest (benchmarks/results/rhs_forms-latest.md).
+Counting operations alone does not rank them (sympy's count_ops ranked the linearized form
+first everywhere, 1.2x slower than the best at 4 links):
 
 - a sine-cosine pair of one argument (gcc makes it one sincos call) costs about 7.4 ns, as
   much as 20 sums; other functions (sqrt, exp, pow, ...) are counted the same, a bound;
