@@ -4,8 +4,10 @@ Run: `python benchmarks/auto.py [--quick | --smoke] [--out DIR]`; part of `make 
 Results: benchmarks/results/auto-latest.{json,md} (quick: benchmarks/results/quick/; smoke: a
 temporary folder).
 
-Systems: the book's double pendulum over [0, 20] and chains of 4 and 8 uniform rods over [0, 5]
-(`common.chain_yaml`), each from a scene that names no method, so `simulate()` runs "auto"; and
+Systems: the book's double pendulum over [0, 20], chains of 3, 4 and 8 uniform rods over [0, 5]
+(`common.chain_yaml`) and examples/free_body_on_spring.yaml over [0, 10] (3 coordinates, as the
+3-link chain: where "auto"'s bound for nemc.Taylor falls), each from a scene that names no
+method, so `simulate()` runs "auto"; and
 the book's stiff 5.4 arm over [0, 15] and with its gains x100 over [0, 2] (benchmarks/stiff.py's
 case), whose scene names nemc.Radau, run with method="auto" named.
 Contenders: "auto" and nemc.DOP853, nemc.Vern9, nemc.Taylor, nemc.Radau. For each target final
@@ -56,9 +58,13 @@ def systems(mode: str) -> list[tuple[str, Any, tuple[float, float], dict[str, fl
     pendulum = (ROOT / "examples" / "double_pendulum.yaml").read_text()
     cases = [("double pendulum [0, 20]", nemc.compile(text=without_method(pendulum)),
               (0.0, 20.0), {})]
-    for n in (4,) if mode == "smoke" else (4, 8):
+    for n in (4,) if mode == "smoke" else (3, 4, 8):
         cases.append((f"{n}-link chain [0, 5]",
                       nemc.compile(text=without_method(common.chain_yaml(n))), (0.0, 5.0), {}))
+    if mode != "smoke":  # 3 coordinates too, a free body: where the rule's bound falls
+        body = (ROOT / "examples" / "free_body_on_spring.yaml").read_text()
+        cases.append(("free body on a spring [0, 10]", nemc.compile(text=without_method(body)),
+                      (0.0, 10.0), {}))
     arm = nemc.compile(ROOT / "examples" / "two_link_robot_arm.yaml")
     cases.append(("5.4 stiff arm [0, 15]", arm, (0.0, 15.0), {}))
     if mode != "smoke":

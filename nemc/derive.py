@@ -92,6 +92,7 @@ class Equations:
     forms: Mapping[str, Program] = dataclasses.field(default_factory=dict)
     # ^ the forms of the accelerations' program derived, by name (nemc.Taylor chooses among them)
     taylor_form: str | None = None  # the form nemc.Taylor's program was made from
+    taylor_sums: float | None = None  # its Cauchy sums per order (taylor.series_cost)
     derived_mass_forcing: tuple[sympy.Matrix, sympy.Matrix] | None = None  # M, f if derived
 
     @property
@@ -305,7 +306,18 @@ def with_taylor(eqs: Equations) -> Equations:
     programs = {form: split_deep(fewer_products(candidate, varying, cost), "vf")
                 for form, candidate in candidates.items()}
     form = min(programs, key=lambda name: cost(programs[name]))
-    return dataclasses.replace(eqs, taylor=programs[form], taylor_form=form)
+    return dataclasses.replace(eqs, taylor=programs[form], taylor_form=form,
+                               taylor_sums=cost(programs[form]))
+
+
+def taylor_cost_ratio(eqs: Equations) -> float:
+    """nemc.Taylor's Cauchy sums per order over the right-hand side's estimated ns
+    (c_cost.estimated_ns): a step of nemc.Taylor costs about the first times p^2, one of
+    nemc.Vern9 about 16 times the second, and their steps' ratio changes little from one
+    smooth mechanism to the next, so this ratio decides which a single run takes
+    (methods.AUTO_TAYLOR_MAX_COST_RATIO). Called with Taylor's program built."""
+    assert eqs.taylor_sums is not None
+    return eqs.taylor_sums / max(estimated_ns(eqs.dynamics), 1.0)
 
 
 def taylor_refusal(eqs: Equations) -> str | None:

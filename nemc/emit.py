@@ -32,6 +32,7 @@ from .derive import (
     MASS_MATRIX,
     DynamicsLayout,
     Equations,
+    taylor_cost_ratio,
 )
 from .methods import AUTO_SPECTRUM_MAX_STATES, DEFAULT_ATOL, DEFAULT_RTOL
 from .optimize import Block, rewrite
@@ -1076,6 +1077,7 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
     if taylor:
         info["generated"].append("taylor")
         info["taylor_program"] = eqs.taylor_form
+        info["taylor_cost_ratio"] = round(taylor_cost_ratio(eqs), 3)
         info["taylor_written_out"] = list(taylor_c.written_out)
         info["fma"] = fma
     if lanes_c:

@@ -21,6 +21,11 @@ DEFAULT_ATOL = 1e-9
 # to the same final error on the double pendulum, 4- and 8-link chains and the book's stiff arm.
 AUTO_TAYLOR_MAX_COORDINATES = 3  # nemc.Taylor up to this many coordinates (2: 2-3x Vern9's
 #                                  speed; 4: even; 8: 3-4x slower), when the build has its code
+AUTO_TAYLOR_MAX_COST_RATIO = 0.85  # and when its Cauchy sums per order over the RHS's estimated
+#   ns (derive.taylor_cost_ratio, model.json's "taylor_cost_ratio") are at most this: measured
+#   (benchmarks/auto.py), nemc.Taylor is the fastest at 0.54 (a free body on a spring, 3
+#   coordinates) and 0.62 (the double pendulum), and 1.2-1.5x slower than nemc.DOP853 or
+#   nemc.Vern9 at 0.99 (a 3-link chain: at 1e-6 and 1e-9; even at 1e-12) and 1.10 (4 links)
 AUTO_VERN9_BELOW_RTOL = 1e-4  # nemc.Vern9 below (the same error as nemc.DOP853 in as much or
 #                               less time: 1.3x on the double pendulum), nemc.DOP853 above
 AUTO_STIFF_STEPS = 200  # nemc.Radau from the start when the decaying modes at y0 alone would
@@ -45,9 +50,16 @@ EXPLICIT_STABILITY = 6.0  # h |lambda| nemc.DOP853 stays stable to on a decaying
 
 
 def auto_builds_taylor(method: str | None, coordinates: int) -> bool:
-    """Whether a build whose scene names METHOD (None: none) carries nemc.Taylor's code for
-    "auto" to choose: small mechanisms, where it is the fastest and costs little to build."""
+    """Whether a build whose scene names METHOD (None: none) derives nemc.Taylor's program for
+    "auto" to choose: small mechanisms, where it may be the fastest and costs little to build
+    (it is kept only where auto_takes_taylor)."""
     return method in (None, AUTO) and coordinates <= AUTO_TAYLOR_MAX_COORDINATES
+
+
+def auto_takes_taylor(cost_ratio: float) -> bool:
+    """Whether "auto" gives a single run to nemc.Taylor, by its program's cost ratio
+    (derive.taylor_cost_ratio)."""
+    return cost_ratio <= AUTO_TAYLOR_MAX_COST_RATIO
 
 
 def auto_method(coordinates: int, rtol: float, has_taylor: bool, stiff_steps: float,

@@ -135,9 +135,9 @@ def generate_and_build(
 ) -> Path:
     from .assembly import check_assembly
     from .build import build
-    from .derive import derive, with_diagnostics, with_taylor
+    from .derive import derive, taylor_cost_ratio, with_diagnostics, with_taylor
     from .emit import emit
-    from .methods import IMPLICIT_METHODS, auto_builds_taylor
+    from .methods import IMPLICIT_METHODS, auto_builds_taylor, auto_takes_taylor
     from .optimize import optimize_equations
     from .validate import validate_text
 
@@ -153,9 +153,12 @@ def generate_and_build(
             equations = derive(mechanism)
             if jacobian or (jacobian is None and method in IMPLICIT_METHODS):
                 equations = with_diagnostics(equations)
-            if taylor or (taylor is None and (method == "nemc.Taylor" or auto_builds_taylor(
-                    method, equations.n))):
+            if taylor or (taylor is None and method == "nemc.Taylor"):
                 equations = with_taylor(equations)
+            elif taylor is None and auto_builds_taylor(method, equations.n):
+                for_auto = with_taylor(equations)  # kept where auto would take it (or refused)
+                if for_auto.taylor is None or auto_takes_taylor(taylor_cost_ratio(for_auto)):
+                    equations = for_auto
         with timed(timings, "optimize", progress):
             block = optimize_equations(equations)
         with timed(timings, "emit", progress), number_range(source):

@@ -40,6 +40,7 @@ from .methods import (  # noqa: F401 (re-exported: the runtime's public names)
     SCIPY_METHODS,
     TAYLOR_METHODS,
     auto_method,
+    auto_takes_taylor,
 )
 
 DEFAULT_T_SPAN = (0.0, 10.0)
@@ -790,8 +791,14 @@ class Model(LoopsMixin):
         taylor_max = max(AUTO_TAYLOR_MAX_COORDINATES,
                          AUTO_LANES_TAYLOR_MAX_COORDINATES.get(lanes, 0))
         return auto_method(len(self.coordinate_names), rtol,
-                           bool(lanes) or self._taylor_at_hand(runs),
+                           bool(lanes) or (self._taylor_at_hand(runs) and self._taylor_cheap()),
                            self._start_stiffness(span, y0, p), taylor_max)
+
+    def _taylor_cheap(self) -> bool:
+        """Whether the build's nemc.Taylor program is cheap enough against its right-hand side
+        for "auto" to give it a run (methods.auto_takes_taylor; a build without Taylor's code,
+        built later for an ensemble, counts as cheap, as before)."""
+        return auto_takes_taylor(self.metadata.get("taylor_cost_ratio", 0.0))
 
     def _lanes_at_hand(self) -> int:
         """The lanes per batch of a build at hand with nemc.Taylor's lanes (this one, or the

@@ -54,6 +54,27 @@ def test_the_rules() -> None:
     assert choose(8, 1e-9, True, 0.0, taylor_max=4) == "nemc.Vern9"
     assert methods.auto_builds_taylor(None, 2) and methods.auto_builds_taylor("auto", 3)
     assert not methods.auto_builds_taylor("RK45", 2) and not methods.auto_builds_taylor(None, 4)
+    assert methods.auto_takes_taylor(0.62) and not methods.auto_takes_taylor(0.99)
+
+
+def test_a_taylor_program_dear_against_its_rhs_is_left_to_vern9() -> None:
+    """The cost ratio (Taylor's Cauchy sums per order over the RHS's estimated ns) decides
+    between mechanisms of the same size: a 3-link chain's program (44 sums, RHS estimated 44.5
+    ns: 0.99) is left to nemc.Vern9 (1.2-1.5x faster there at 1e-6 and 1e-9,
+    benchmarks/auto.py), and is not even built for auto; a free body on a spring (3
+    coordinates too: 11 sums, 20 ns) and a 2-link chain (0.74) keep nemc.Taylor. A build that
+    has Taylor's code for another reason (taylor=True) still gives auto's single runs to
+    nemc.Vern9, by the ratio its model.json records."""
+    chain3 = nemc.compile(text=chain_text(3))
+    assert not chain3.has_part("taylor") and chain3.simulate(rtol=1e-8).method == "nemc.Vern9"
+    built = nemc.compile(text=chain_text(3), taylor=True)
+    assert built.metadata["taylor_cost_ratio"] > methods.AUTO_TAYLOR_MAX_COST_RATIO
+    assert built.simulate(rtol=1e-8).method == "nemc.Vern9"
+    assert built.simulate(rtol=1e-8, method="nemc.Taylor").success  # still there when named
+    for model in (no_method(EXAMPLES / "free_body_on_spring.yaml"),
+                  nemc.compile(text=chain_text(2))):
+        assert model.metadata["taylor_cost_ratio"] <= methods.AUTO_TAYLOR_MAX_COST_RATIO
+        assert model.simulate(rtol=1e-8).method == "nemc.Taylor"
 
 
 def test_a_scene_naming_no_method_runs_taylor_on_a_small_mechanism() -> None:
