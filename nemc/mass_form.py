@@ -15,7 +15,7 @@ against 40.5), so nemc.Taylor's coefficients come from whichever program is chea
 (taylor.series_cost). For the right-hand side, the linearized entries also come with the sines
 and cosines of sums of angles from those of their parts (nemc/angle_sums.py): linearizing turns
 a chain's absolute angles into sums of its relative ones, and the addition formulas then leave
-one sincos call per joint (the 4-link chain's RHS 138 -> 111 ns, benchmarks/rhs_forms.py).
+one sincos call per joint (the 4-link chain's RHS 148 -> 115 ns, benchmarks/rhs_forms.py).
 Past MAX_COORDINATES the form is not derived: its symbolic cost and its size grow as n^3 and
 faster. Entries whose multiplied-out polynomial would exceed MAX_TERMS terms (springs' lengths
 inside products) are left as they are.
