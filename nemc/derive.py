@@ -305,9 +305,10 @@ def with_taylor(eqs: Equations) -> Equations:
     # taking factors out nests sums: split again (other names than the first split's)
     programs = {form: split_deep(fewer_products(candidate, varying, cost), "vf")
                 for form, candidate in candidates.items()}
-    form = min(programs, key=lambda name: cost(programs[name]))
+    sums = {form: cost(program) for form, program in programs.items()}
+    form = min(sums, key=sums.__getitem__)
     return dataclasses.replace(eqs, taylor=programs[form], taylor_form=form,
-                               taylor_sums=cost(programs[form]))
+                               taylor_sums=sums[form])
 
 
 def taylor_cost_ratio(eqs: Equations) -> float:

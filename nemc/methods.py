@@ -24,8 +24,9 @@ AUTO_TAYLOR_MAX_COORDINATES = 3  # nemc.Taylor up to this many coordinates (2: 2
 AUTO_TAYLOR_MAX_COST_RATIO = 0.85  # and when its Cauchy sums per order over the RHS's estimated
 #   ns (derive.taylor_cost_ratio, model.json's "taylor_cost_ratio") are at most this: measured
 #   (benchmarks/auto.py), nemc.Taylor is the fastest at 0.54 (a free body on a spring, 3
-#   coordinates) and 0.62 (the double pendulum), and 1.2-1.5x slower than nemc.DOP853 or
-#   nemc.Vern9 at 0.99 (a 3-link chain: at 1e-6 and 1e-9; even at 1e-12) and 1.10 (4 links)
+#   coordinates), 0.62 (the double pendulum) and 0.74 (a 2-link chain), and 1.2-1.5x slower
+#   than nemc.DOP853 or nemc.Vern9 at 0.99 (a 3-link chain: at 1e-6 and 1e-9; even at 1e-12)
+#   and 1.10 (4 links)
 AUTO_VERN9_BELOW_RTOL = 1e-4  # nemc.Vern9 below (the same error as nemc.DOP853 in as much or
 #                               less time: 1.3x on the double pendulum), nemc.DOP853 above
 AUTO_STIFF_STEPS = 200  # nemc.Radau from the start when the decaying modes at y0 alone would
