@@ -24,6 +24,7 @@ import sympy
 
 from . import __version__
 from . import model as m
+from .angles import angle_calls
 from .c_text import SymbolTablePrinter
 from .derive import (
     ADDITION_FORMULAS,
@@ -36,7 +37,7 @@ from .derive import (
 )
 from .methods import AUTO_SPECTRUM_MAX_STATES, DEFAULT_ATOL, DEFAULT_RTOL
 from .optimize import Block, rewrite
-from .program import Guard, Program
+from .program import Guard, Program, prune
 from .resources import read_template
 from .taylor import (
     LANES,
@@ -386,22 +387,25 @@ TANGENT = Caller("jacobian_tangent", "The derivative of the accelerations along 
 
 
 def jacobian_programs(
-    printer: SymbolTablePrinter, primal: Program, tangent: Program, chunk_steps: int,
-    units: Units | None = None,
+    eqs: Equations, printer: SymbolTablePrinter, primal: Program, tangent: Program,
+    chunk_steps: int, units: Units | None = None,
 ) -> tuple[Printed, Printed]:
     """The primal (run once) and its tangent (once per column): in parts when either is long,
     the primal then also passing on every value the tangent reads. The tangent's sums are
     printed in sympy's canonical order of their terms (order "none"), not sorted for print,
     more than half of printing's time; the primal, as the RHS, keeps the sorted order and its
     bits (docs/decisions.md, "Printing order")."""
+    angles = angles_c(eqs, printer, primal, symbols_used(tangent))
     if max(primal.size, tangent.size) <= chunk_steps:
-        return (Printed("", program_body(printer, primal, PRIMAL.results[0])),
+        return (Printed("", angles.prologue + program_body(angles.printer, angles.program,
+                                                           PRIMAL.results[0])),
                 Printed("", program_body(printer.with_names({}, order="none"), tangent,
                                          TANGENT.results[0], TANGENT.indent)))
-    primal_code, passed = in_parts(printer, primal, PRIMAL, chunk_steps, symbols_used(tangent),
-                                   units)
+    primal_code, passed = in_parts(angles.printer, angles.program, angles.caller(PRIMAL),
+                                   chunk_steps, symbols_used(tangent), units)
     tangent_printer = printer.with_names(passed, order="none")
-    return primal_code, in_parts(tangent_printer, tangent, TANGENT, chunk_steps, units=units)[0]
+    return (Printed(primal_code.functions, angles.prologue + primal_code.body),
+            in_parts(tangent_printer, tangent, TANGENT, chunk_steps, units=units)[0])
 
 
 # ---- the sections of the C source ------------------------------------------------------------
@@ -500,7 +504,12 @@ def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
     the tree's accelerations run (shares_primal)."""
     program = block.programs["dynamics"]
     if eqs.layout is None or not eqs.layout.augmented:
-        dynamics = primal or print_program(printer, program, DYNAMICS, chunk_steps, units)
+        if primal is None:
+            angles = angles_c(eqs, printer, program)
+            printed = print_program(angles.printer, angles.program, angles.caller(DYNAMICS),
+                                    chunk_steps, units)
+            primal = Printed(printed.functions, angles.prologue + printed.body)
+        dynamics = primal
         form = DYNAMICS_FORMS[eqs.dynamics_form]
         return template("tree.c.tmpl").substitute(
             prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body,
@@ -517,6 +526,56 @@ def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
     return template("loops.c.tmpl").substitute(
         prefix=prefix, dynamics_functions=functions,
         constraint_values=constraint_values(eqs, block, printer))
+
+
+@dataclass(frozen=True)
+class AnglesC:
+    """A program whose sines and cosines of its angles are computed first, together
+    (nemc/angles.py): the program reading them, its printer, the lines that compute them."""
+
+    program: Program
+    printer: SymbolTablePrinter
+    prologue: str  # "" when the program has no such angle
+
+    def caller(self, caller: Caller) -> Caller:
+        """CALLER whose part functions also read the arrays sine and cosine."""
+        if not self.prologue:
+            return caller
+        return dataclasses.replace(caller, inputs=(*caller.inputs, *ANGLE_INPUTS))
+
+
+ANGLE_INPUTS: tuple[Parameter, ...] = (("const double *", "sine"), ("const double *", "cosine"))
+ANGLES_CALL = "angles_sincos("  # the prologue's call: a C file that has it gets the kernel
+
+
+def angles_c(eqs: Equations, printer: SymbolTablePrinter, program: Program,
+             read_elsewhere: Iterable[sympy.Symbol] = ()) -> AnglesC:
+    """PROGRAM with its angles' sines and cosines as sine[k] and cosine[k], computed before its
+    first step by one call (templates/angles.c.tmpl). The steps that only computed an angle
+    go, unless READ_ELSEWHERE (the Jacobian's tangent reads the primal's steps)."""
+    inputs = frozenset((*eqs.coordinates, *eqs.speeds, *eqs.parameters, m.TIME))
+    calls = angle_calls(program, inputs)
+    if not calls.angles:
+        return AnglesC(program, printer, "")
+    count = len(calls.angles)
+    printer = printer.with_names({**{s: f"sine[{k}]" for k, s in enumerate(calls.sines)},
+                                  **{c: f"cosine[{k}]" for k, c in enumerate(calls.cosines)}})
+    angles = ", ".join(printer.doprint(angle) for angle in calls.angles)
+    prologue = (f"    /* the sines and cosines of the angles, together (angles_sincos) */\n"
+                f"    const double angle[{count}] = {{{angles}}};\n"
+                f"    double sine[{count}], cosine[{count}];\n"
+                f"    {ANGLES_CALL}{count}, angle, sine, cosine);\n")
+    renamed = calls.program
+    kept = prune(list(renamed.steps), (*renamed.results, *read_elsewhere))
+    return AnglesC(Program(kept, renamed.results), printer, prologue)
+
+
+def angles_kernel(c_text: str) -> str:
+    """The angles' kernel (templates/angles.c.tmpl) for a C file that calls it, else ""."""
+    if ANGLES_CALL not in c_text:
+        return ""
+    return template("angles.c.tmpl").substitute(angles_math=taylor_math(
+        "angles_math_", "angles_double2", "angles_bits2", "two-element vectors (the RHS's angles)"))
 
 
 def constraint_values(eqs: Equations, block: Block, printer: SymbolTablePrinter) -> str:
@@ -561,7 +620,7 @@ def jacobian_section(
         return template("jacobian_differences.c.tmpl").substitute(prefix=prefix) + inverse_mass_text
     if printed is None:
         primal, tangent = jacobian_programs(
-            printer, programs.get("primal", programs["dynamics"]), programs["jacobian"],
+            eqs, printer, programs.get("primal", programs["dynamics"]), programs["jacobian"],
             chunk_steps, units)
         functions = primal.functions + tangent.functions
     else:
@@ -651,9 +710,12 @@ DYNAMICS_FORMS = {
 def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
              units: Units | None = None) -> str:
     mech, printer = eqs.mechanism, SymbolTablePrinter(symbol_table(eqs, block))
-    shared = (jacobian_programs(printer, block.programs["dynamics"], block.programs["jacobian"],
-                                chunk_steps, units)
+    shared = (jacobian_programs(eqs, printer, block.programs["dynamics"],
+                                block.programs["jacobian"], chunk_steps, units)
               if shares_primal(eqs, block, chunk_steps) else None)
+    dynamics = dynamics_section(eqs, block, printer, prefix, chunk_steps, units,
+                                shared and shared[0])
+    jacobian = jacobian_section(eqs, block, printer, prefix, chunk_steps, units, shared)
     return template("model.c.tmpl").substitute(
         name=mech.name,
         version=__version__,
@@ -664,14 +726,12 @@ def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
         parameter_names=comment_text(", ".join(s.name for s in eqs.parameters)),
         dynamics_description=DYNAMICS_FORMS[eqs.dynamics_form].account,
         prefix=prefix,
-        dynamics_section=dynamics_section(eqs, block, printer, prefix, chunk_steps, units,
-                                          shared and shared[0]),
+        dynamics_section=angles_kernel(dynamics + jacobian) + dynamics,
         check_names=comment_text(", ".join(key for key, _ in eqs.checks)),
         checks=body(printer, block, indexed("out", block.groups["checks"])),
         initial=body(printer, block, indexed("y0", block.groups["initial"])),
         outputs_section=outputs_section(eqs, block, printer, prefix),
-        jacobian_section=jacobian_section(eqs, block, printer, prefix, chunk_steps, units,
-                                          shared),
+        jacobian_section=jacobian,
         loops_absent="" if eqs.loops is not None else
         template("loops_absent.c.tmpl").substitute(prefix=prefix),
     ) + events_section(eqs, block, printer, prefix)

@@ -506,3 +506,25 @@ def random_mechanism_yaml(
         builder.loads_for(i)
     builder.joint_springs()
     return builder.text(name)
+
+
+def relative_chain_yaml(n: int, name: str, mass: float, length: float) -> str:
+    """An n-link chain of uniform rods under gravity, revolute joints in relative angles."""
+    links = "".join(f"  link{i}: {{mass: m, inertia: m*L**2/12, com: [L/2, 0], "
+                    f"points: {{tip: [L, 0]}}}}\n" for i in range(1, n + 1))
+    joints = "".join(f"  J{i}: {{parent: {'ground' if i == 1 else f'link{i - 1}'}, "
+                     f"child: link{i}, at: {'[0, 0]' if i == 1 else 'tip'}, type: revolute, "
+                     f"coordinate: q{i}, angle: relative}}\n" for i in range(1, n + 1))
+    initial = ", ".join(f"q{i}: {(-0.7, 0.3, -0.2, 0.5)[(i - 1) % 4]}" for i in range(1, n + 1))
+    return (f"name: {name}\nparameters: {{m: {mass}, L: {length}, g: 9.81}}\n"
+            f"gravity: [0, -g]\nbodies:\n{links}joints:\n{joints}"
+            f"simulation: {{t_span: [0, 2], initial: {{{initial}}}}}\n")
+
+
+def program_results(program, values: Mapping) -> list[float]:
+    """A straight-line program's results at VALUES of its inputs, its steps computed in order
+    at 30 digits."""
+    env = dict(values)
+    for name, expr in program.assignments():
+        env[name] = expr.xreplace(env).evalf(30)
+    return [float(sp.sympify(result).xreplace(env).evalf(30)) for result in program.results]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import sympy
+from reference import program_results, relative_chain_yaml
 
 import nemc
 from nemc.angle_sums import split_angle_sums
@@ -49,18 +50,7 @@ def test_no_call_is_added() -> None:
         assert definitions == [] and rewritten == exprs
 
 
-CHAIN = """\
-name: chain4
-parameters: {m: 1.3, L: 0.8, g: 9.81}
-gravity: [0, -g]
-bodies:
-""" + "".join(f"  link{i}: {{mass: m, inertia: m*L**2/12, com: [L/2, 0], "
-              f"points: {{tip: [L, 0]}}}}\n" for i in range(1, 5)) + "joints:\n" + "".join(
-    f"  J{i}: {{parent: {'ground' if i == 1 else f'link{i - 1}'}, child: link{i}, "
-    f"at: {'[0, 0]' if i == 1 else 'tip'}, type: revolute, coordinate: q{i}, "
-    f"angle: relative}}\n" for i in range(1, 5)) + """\
-simulation: {t_span: [0, 2], initial: {q1: -0.7, q2: 0.3, q3: -0.2, q4: 0.5}}
-"""
+CHAIN = relative_chain_yaml(4, "chain4", mass=1.3, length=0.8)
 
 
 def test_a_chain_in_relative_angles_keeps_one_call_per_joint(tmp_path) -> None:
@@ -86,5 +76,5 @@ def test_a_chain_in_relative_angles_keeps_one_call_per_joint(tmp_path) -> None:
     for y in states:
         env = {eqs.parameters[k]: v for k, v in enumerate(eqs.parameter_defaults)}
         env.update(zip((*eqs.coordinates, *eqs.speeds), (*y[0::2], *y[1::2])))
-        expected = evaluated(list(program.assignments()), program.results, env)
+        expected = program_results(program, env)
         np.testing.assert_allclose(model.rhs(0.0, y)[1::2], expected, rtol=1e-12, atol=1e-12)
