@@ -13,7 +13,10 @@ Counting operations alone does not rank them (sympy's count_ops ranked the linea
 first everywhere, 1.2x slower than the best at 4 links):
 
 - a sine-cosine pair of one argument (gcc makes it one sincos call) costs about 7.4 ns, as
-  much as 20 sums; other functions (sqrt, exp, pow, ...) are counted the same, a bound;
+  much as 20 sums; other functions (sqrt, exp, pow, ...) are counted the same, a bound. (The
+  right-hand side now computes the pairs of its angles together, two at a time: nemc/angles.py.
+  The weight overstates them since, but its ranking was measured to hold: within 1.02x of
+  the fastest form on 11 of the 12, benchmarks/results/rhs_forms-latest.md);
 - a sum costs 0.35 ns and a product 0.08: the model's weights are each operation's share of
   the time, latency included (a sum's chain is serial; products of a step run side by side);
 - divisions (a few per program, overlapped with the rest) add nothing measurable.
