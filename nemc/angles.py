@@ -31,6 +31,21 @@ class AngleCalls:
     sines: tuple[sympy.Symbol, ...]
     cosines: tuple[sympy.Symbol, ...]
     program: Program
+    values: dict[sympy.Symbol, sympy.Expr]  # its steps that are sums and products of inputs
+
+    def names_in(self, program: Program) -> Program:
+        """PROGRAM, one that reads this program's steps (the Jacobian's tangent reads its
+        primal's), with the sines and cosines of these angles as these names too."""
+        index = {angle: k for k, angle in enumerate(self.angles)}
+        names: dict[sympy.Expr, sympy.Symbol] = {}
+        for expr in step_expressions(program):
+            for node in sympy.preorder_traversal(expr):
+                if isinstance(node, (sympy.sin, sympy.cos)) and node not in names:
+                    k = index.get(node.args[0].xreplace(self.values))
+                    if k is not None:
+                        names[node] = (self.sines if isinstance(node, sympy.sin)
+                                       else self.cosines)[k]
+        return renamed(program, names)
 
 
 def step_expressions(program: Program) -> Iterable[sympy.Expr]:
@@ -57,11 +72,11 @@ def input_values(program: Program, inputs: frozenset[sympy.Symbol]) -> dict[symp
     return values
 
 
-def trig_calls(program: Program, inputs: frozenset[sympy.Symbol]
-               ) -> dict[sympy.Expr, sympy.Expr]:
-    """The program's sines and cosines whose argument is made of inputs, each once, in the order
-    the program first uses them, with that argument as an expression of the inputs."""
-    values = input_values(program, inputs)
+def trig_calls(program: Program, inputs: frozenset[sympy.Symbol],
+               values: dict[sympy.Symbol, sympy.Expr]) -> dict[sympy.Expr, sympy.Expr]:
+    """The program's sines and cosines whose argument is made of inputs and of the steps in
+    VALUES, each once, in the order the program first uses them, with that argument as an
+    expression of the inputs."""
     known = inputs | values.keys()
     found: dict[sympy.Expr, sympy.Expr] = {}
     for expr in step_expressions(program):
@@ -72,22 +87,27 @@ def trig_calls(program: Program, inputs: frozenset[sympy.Symbol]
     return found
 
 
+def renamed(program: Program, names: dict[sympy.Expr, sympy.Symbol]) -> Program:
+    """PROGRAM with each call in NAMES replaced by its name."""
+    if not names:
+        return program
+
+    def rename(expr: sympy.Expr) -> sympy.Expr:
+        return sympy.sympify(expr).xreplace(names)
+
+    steps = tuple(Guard(rename(step.value), step.status) if isinstance(step, Guard)
+                  else (step[0], rename(step[1])) for step in program.steps)
+    return Program(steps, tuple(rename(r) for r in program.results))
+
+
 def angle_calls(program: Program, inputs: frozenset[sympy.Symbol]) -> AngleCalls:
     """The program with the sines and cosines of its input angles as names (none: as it is)."""
-    calls = trig_calls(program, inputs)
+    values = input_values(program, inputs)
+    calls = trig_calls(program, inputs, values)
     angles = tuple(dict.fromkeys(calls.values()))
-    if not angles:
-        return AngleCalls((), (), (), program)
     sines = tuple(sympy.Dummy(f"sine{k}", real=True) for k in range(len(angles)))
     cosines = tuple(sympy.Dummy(f"cosine{k}", real=True) for k in range(len(angles)))
     index = {angle: k for k, angle in enumerate(angles)}
     names = {call: (sines if isinstance(call, sympy.sin) else cosines)[index[angle]]
              for call, angle in calls.items()}
-
-    def renamed(expr: sympy.Expr) -> sympy.Expr:
-        return sympy.sympify(expr).xreplace(names)
-
-    steps = tuple(Guard(renamed(step.value), step.status) if isinstance(step, Guard)
-                  else (step[0], renamed(step[1])) for step in program.steps)
-    return AngleCalls(angles, sines, cosines,
-                      Program(steps, tuple(renamed(r) for r in program.results)))
+    return AngleCalls(angles, sines, cosines, renamed(program, names), values)

@@ -395,17 +395,20 @@ def jacobian_programs(
     printed in sympy's canonical order of their terms (order "none"), not sorted for print,
     more than half of printing's time; the primal, as the RHS, keeps the sorted order and its
     bits (docs/decisions.md, "Printing order")."""
-    angles = angles_c(eqs, printer, primal, symbols_used(tangent))
+    angles = angles_c(eqs, printer, primal, tangent)
+    assert angles.reader is not None
+    tangent = angles.reader
     if max(primal.size, tangent.size) <= chunk_steps:
         return (Printed("", angles.prologue + program_body(angles.printer, angles.program,
                                                            PRIMAL.results[0])),
-                Printed("", program_body(printer.with_names({}, order="none"), tangent,
+                Printed("", program_body(angles.printer.with_names({}, order="none"), tangent,
                                          TANGENT.results[0], TANGENT.indent)))
     primal_code, passed = in_parts(angles.printer, angles.program, angles.caller(PRIMAL),
                                    chunk_steps, symbols_used(tangent), units)
-    tangent_printer = printer.with_names(passed, order="none")
+    tangent_printer = angles.printer.with_names(passed, order="none")
     return (Printed(primal_code.functions, angles.prologue + primal_code.body),
-            in_parts(tangent_printer, tangent, TANGENT, chunk_steps, units=units)[0])
+            in_parts(tangent_printer, tangent, angles.caller(TANGENT), chunk_steps,
+                     units=units)[0])
 
 
 # ---- the sections of the C source ------------------------------------------------------------
@@ -536,6 +539,7 @@ class AnglesC:
     program: Program
     printer: SymbolTablePrinter
     prologue: str  # "" when the program has no such angle
+    reader: Program | None = None  # the program reading its steps, reading its angles too
 
     def caller(self, caller: Caller) -> Caller:
         """CALLER whose part functions also read the arrays sine and cosine."""
@@ -549,14 +553,15 @@ ANGLES_CALL = "angles_sincos("  # the prologue's call: a C file that has it gets
 
 
 def angles_c(eqs: Equations, printer: SymbolTablePrinter, program: Program,
-             read_elsewhere: Iterable[sympy.Symbol] = ()) -> AnglesC:
+             reader: Program | None = None) -> AnglesC:
     """PROGRAM with its angles' sines and cosines as sine[k] and cosine[k], computed before its
-    first step by one call (templates/angles.c.tmpl). The steps that only computed an angle
-    go, unless READ_ELSEWHERE (the Jacobian's tangent reads the primal's steps)."""
+    first step by one call (templates/angles.c.tmpl), and READER, a program that reads its
+    steps (the Jacobian's tangent reads its primal's), reading them too. The steps that only
+    computed an angle go, unless the reader reads them."""
     inputs = frozenset((*eqs.coordinates, *eqs.speeds, *eqs.parameters, m.TIME))
     calls = angle_calls(program, inputs)
     if not calls.angles:
-        return AnglesC(program, printer, "")
+        return AnglesC(program, printer, "", reader)
     count = len(calls.angles)
     printer = printer.with_names({**{s: f"sine[{k}]" for k, s in enumerate(calls.sines)},
                                   **{c: f"cosine[{k}]" for k, c in enumerate(calls.cosines)}})
@@ -565,9 +570,10 @@ def angles_c(eqs: Equations, printer: SymbolTablePrinter, program: Program,
                 f"    const double angle[{count}] = {{{angles}}};\n"
                 f"    double sine[{count}], cosine[{count}];\n"
                 f"    {ANGLES_CALL}{count}, angle, sine, cosine);\n")
-    renamed = calls.program
-    kept = prune(list(renamed.steps), (*renamed.results, *read_elsewhere))
-    return AnglesC(Program(kept, renamed.results), printer, prologue)
+    reader = calls.names_in(reader) if reader is not None else None
+    read = symbols_used(reader) if reader is not None else set()
+    kept = prune(list(calls.program.steps), (*calls.program.results, *read))
+    return AnglesC(Program(kept, calls.program.results), printer, prologue, reader)
 
 
 def angles_kernel(c_text: str) -> str:
