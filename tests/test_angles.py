@@ -82,3 +82,14 @@ def test_the_compiled_rhs_at_ordinary_large_and_huge_angles(tmp_path, scale: flo
         env.update(zip((*eqs.coordinates, *eqs.speeds), (*y[0::2], *y[1::2])))
         expected = program_results(program, env)
         np.testing.assert_allclose(model.rhs(0.0, y)[1::2], expected, rtol=1e-12, atol=1e-11)
+
+
+def test_a_reader_of_the_program_reads_its_sines_and_cosines_too() -> None:
+    """The Jacobian's tangent reads its primal's steps: its sines and cosines of the primal's
+    angles (through a step that names one, w2) become the primal's names; others keep libm."""
+    primal = Program(((w2, q1 - q2), (w0, sympy.sin(w2) * p)), (w0,))
+    calls = angle_calls(primal, frozenset({q1, q2, p}))
+    reader = Program(((w1, sympy.cos(w2) * sympy.sin(q1 + 1) + sympy.sin(q1 - q2)),), (w1,))
+    renamed = calls.names_in(reader)
+    (_, value), = renamed.assignments()
+    assert value == calls.cosines[0] * sympy.sin(q1 + 1) + calls.sines[0]
