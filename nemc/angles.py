@@ -6,10 +6,12 @@ its critical path: every mass-matrix entry waits for them (the double pendulum's
 as an integrator calls it, one call's result feeding the next: 34-40 ns with libm, 21 with the
 angles computed together). `angle_calls` finds the sines and cosines whose argument is made
 of the program's inputs (coordinates, rates, parameters, time: known when it starts), directly
-or through steps that only add and multiply them (q1 - q2, named by the CSE), and rewrites
-them as names that the generated C fills in one go, before the program's first step, with
-nemc.Taylor's branch-free kernel over two-element vectors (templates/angles.c.tmpl,
-templates/taylor_math.c.tmpl). A sine or cosine of another intermediate value keeps libm.
+or through steps that only add and multiply them (a chain's absolute angles q1 + q2, q1 + q2 +
+q3, ... each one step from the one before), and rewrites them as names that the generated C
+fills in one go, before the program's first step, with nemc.Taylor's branch-free kernel over
+two-element vectors (templates/angles.c.tmpl, templates/taylor_math.c.tmpl). Those steps are
+computed once more for it, ahead (`AngleCalls.ahead`): one addition per joint on a chain. A
+sine or cosine of another intermediate value keeps libm.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ class AngleCalls:
     sines: tuple[sympy.Symbol, ...]
     cosines: tuple[sympy.Symbol, ...]
     program: Program
-    values: dict[sympy.Symbol, sympy.Expr]  # its steps that are sums and products of inputs
+    ahead: tuple[tuple[sympy.Symbol, sympy.Expr], ...]  # the steps the angles read, in order
 
     def names_in(self, program: Program) -> Program:
         """PROGRAM, one that reads this program's steps (the Jacobian's tangent reads its
@@ -41,7 +43,7 @@ class AngleCalls:
         for expr in step_expressions(program):
             for node in sympy.preorder_traversal(expr):
                 if isinstance(node, (sympy.sin, sympy.cos)) and node not in names:
-                    k = index.get(node.args[0].xreplace(self.values))
+                    k = index.get(node.args[0])
                     if k is not None:
                         names[node] = (self.sines if isinstance(node, sympy.sin)
                                        else self.cosines)[k]
@@ -61,30 +63,39 @@ def is_arithmetic(expr: sympy.Expr) -> bool:
                for node in sympy.preorder_traversal(expr))
 
 
-def input_values(program: Program, inputs: frozenset[sympy.Symbol]) -> dict[sympy.Symbol,
-                                                                           sympy.Expr]:
-    """The steps that are sums and products of inputs (an angle q1 - q2 the program names), as
-    expressions of the inputs."""
-    values: dict[sympy.Symbol, sympy.Expr] = {}
+def input_steps(program: Program, inputs: frozenset[sympy.Symbol]
+                ) -> dict[sympy.Symbol, sympy.Expr]:
+    """The steps that only add and multiply inputs and each other (q1 - q2, a chain's absolute
+    angles), in order."""
+    steps: dict[sympy.Symbol, sympy.Expr] = {}
+    known = set(inputs)
     for name, expr in program.assignments():
-        if is_arithmetic(expr) and expr.free_symbols <= inputs | values.keys():
-            values[name] = expr.xreplace(values)
-    return values
+        if expr.free_symbols <= known and is_arithmetic(expr):
+            steps[name] = expr
+            known.add(name)
+    return steps
 
 
-def trig_calls(program: Program, inputs: frozenset[sympy.Symbol],
-               values: dict[sympy.Symbol, sympy.Expr]) -> dict[sympy.Expr, sympy.Expr]:
-    """The program's sines and cosines whose argument is made of inputs and of the steps in
-    VALUES, each once, in the order the program first uses them, with that argument as an
-    expression of the inputs."""
-    known = inputs | values.keys()
-    found: dict[sympy.Expr, sympy.Expr] = {}
+def trig_calls(program: Program, known: frozenset[sympy.Symbol]) -> list[sympy.Expr]:
+    """The program's sines and cosines whose argument is made of KNOWN symbols, each once, in
+    the order the program first uses them."""
+    found: dict[sympy.Expr, None] = {}
     for expr in step_expressions(program):
         for node in sympy.preorder_traversal(expr):
             if (isinstance(node, (sympy.sin, sympy.cos)) and node not in found
                     and node.args[0].free_symbols <= known):
-                found[node] = node.args[0].xreplace(values)
-    return found
+                found[node] = None
+    return list(found)
+
+
+def read_ahead(angles: tuple[sympy.Expr, ...], steps: dict[sympy.Symbol, sympy.Expr]
+               ) -> tuple[tuple[sympy.Symbol, sympy.Expr], ...]:
+    """The STEPS the angles read, directly or through each other, in the program's order."""
+    needed = set().union(*(angle.free_symbols for angle in angles)) & steps.keys()
+    for name in reversed(list(steps)):
+        if name in needed:
+            needed |= steps[name].free_symbols & steps.keys()
+    return tuple((name, expr) for name, expr in steps.items() if name in needed)
 
 
 def renamed(program: Program, names: dict[sympy.Expr, sympy.Symbol]) -> Program:
@@ -102,12 +113,13 @@ def renamed(program: Program, names: dict[sympy.Expr, sympy.Symbol]) -> Program:
 
 def angle_calls(program: Program, inputs: frozenset[sympy.Symbol]) -> AngleCalls:
     """The program with the sines and cosines of its input angles as names (none: as it is)."""
-    values = input_values(program, inputs)
-    calls = trig_calls(program, inputs, values)
-    angles = tuple(dict.fromkeys(calls.values()))
+    steps = input_steps(program, inputs)
+    calls = trig_calls(program, frozenset(inputs | steps.keys()))
+    angles = tuple(dict.fromkeys(call.args[0] for call in calls))
     sines = tuple(sympy.Dummy(f"sine{k}", real=True) for k in range(len(angles)))
     cosines = tuple(sympy.Dummy(f"cosine{k}", real=True) for k in range(len(angles)))
     index = {angle: k for k, angle in enumerate(angles)}
-    names = {call: (sines if isinstance(call, sympy.sin) else cosines)[index[angle]]
-             for call, angle in calls.items()}
-    return AngleCalls(angles, sines, cosines, renamed(program, names), values)
+    names = {call: (sines if isinstance(call, sympy.sin) else cosines)[index[call.args[0]]]
+             for call in calls}
+    return AngleCalls(angles, sines, cosines, renamed(program, names),
+                      read_ahead(angles, steps))

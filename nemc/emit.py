@@ -507,12 +507,12 @@ def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
     the tree's accelerations run (shares_primal)."""
     program = block.programs["dynamics"]
     if eqs.layout is None or not eqs.layout.augmented:
-        if primal is None:
+        dynamics = primal
+        if dynamics is None:
             angles = angles_c(eqs, printer, program)
             printed = print_program(angles.printer, angles.program, angles.caller(DYNAMICS),
                                     chunk_steps, units)
-            primal = Printed(printed.functions, angles.prologue + printed.body)
-        dynamics = primal
+            dynamics = Printed(printed.functions, angles.prologue + printed.body)
         form = DYNAMICS_FORMS[eqs.dynamics_form]
         return template("tree.c.tmpl").substitute(
             prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body,
@@ -563,13 +563,17 @@ def angles_c(eqs: Equations, printer: SymbolTablePrinter, program: Program,
     if not calls.angles:
         return AnglesC(program, printer, "", reader)
     count = len(calls.angles)
+    ahead = printer.with_names({name: f"angle_{printer.names[name]}" for name, _ in calls.ahead})
+    angles = ", ".join(ahead.doprint(angle) for angle in calls.angles)
+    prologue = "".join(
+        ["    /* the sines and cosines of the angles, together (angles_sincos) */\n",
+         *(f"    const double {ahead.doprint(name)} = {ahead.doprint(expr)};\n"
+           for name, expr in calls.ahead),
+         f"    const double angle[{count}] = {{{angles}}};\n"
+         f"    double sine[{count}], cosine[{count}];\n"
+         f"    {ANGLES_CALL}{count}, angle, sine, cosine);\n"])
     printer = printer.with_names({**{s: f"sine[{k}]" for k, s in enumerate(calls.sines)},
                                   **{c: f"cosine[{k}]" for k, c in enumerate(calls.cosines)}})
-    angles = ", ".join(printer.doprint(angle) for angle in calls.angles)
-    prologue = (f"    /* the sines and cosines of the angles, together (angles_sincos) */\n"
-                f"    const double angle[{count}] = {{{angles}}};\n"
-                f"    double sine[{count}], cosine[{count}];\n"
-                f"    {ANGLES_CALL}{count}, angle, sine, cosine);\n")
     reader = calls.names_in(reader) if reader is not None else None
     read = symbols_used(reader) if reader is not None else set()
     kept = prune(list(calls.program.steps), (*calls.program.results, *read))

@@ -32,16 +32,20 @@ def test_the_sines_and_cosines_of_inputs_become_names_and_keep_their_values() ->
                (w1, sympy.sin(w0) + sympy.cos(q1) * sympy.sin(p * q2) + sympy.sin(q1 - q2))),
         results=(w1 * sympy.sin(q1), w0))
     calls = angle_calls(program, frozenset({q1, q2, p}))
-    assert calls.angles == (q1 - q2, q1, q2, p * q2)  # in the order of first use
+    assert calls.angles == (w2, q1, q2, p * q2, q1 - q2)  # in the order of first use
+    assert calls.ahead == ((w2, q1 - q2),)  # computed ahead for the angles
     left = {node for step in calls.program.assignments() for node in
             sympy.preorder_traversal(step[1]) if isinstance(node, (sympy.sin, sympy.cos))}
     assert left == {sympy.sin(w0)}  # an intermediate's sine keeps libm
     rng = np.random.default_rng(3)
     for _ in range(5):
         values = {q1: rng.uniform(-9, 9), q2: rng.uniform(-9, 9), p: rng.uniform(-2, 2)}
-        names = {s: sympy.sin(a.xreplace(values)).evalf(30) for s, a in
+        ahead = dict(values)
+        for name, expr in calls.ahead:
+            ahead[name] = expr.xreplace(ahead)
+        names = {s: sympy.sin(a.xreplace(ahead)).evalf(30) for s, a in
                  zip(calls.sines, calls.angles)}
-        names.update({c: sympy.cos(a.xreplace(values)).evalf(30) for c, a in
+        names.update({c: sympy.cos(a.xreplace(ahead)).evalf(30) for c, a in
                       zip(calls.cosines, calls.angles)})
         before, after = dict(values), {**values, **names}
         for (name, expr), (_, renamed) in zip(program.assignments(),
@@ -86,10 +90,21 @@ def test_the_compiled_rhs_at_ordinary_large_and_huge_angles(tmp_path, scale: flo
 
 def test_a_reader_of_the_program_reads_its_sines_and_cosines_too() -> None:
     """The Jacobian's tangent reads its primal's steps: its sines and cosines of the primal's
-    angles (through a step that names one, w2) become the primal's names; others keep libm."""
+    angles (here the step w2) become the primal's names; others keep libm."""
     primal = Program(((w2, q1 - q2), (w0, sympy.sin(w2) * p)), (w0,))
     calls = angle_calls(primal, frozenset({q1, q2, p}))
-    reader = Program(((w1, sympy.cos(w2) * sympy.sin(q1 + 1) + sympy.sin(q1 - q2)),), (w1,))
+    reader = Program(((w1, sympy.cos(w2) * sympy.sin(q1 + 1) + sympy.sin(w2)),), (w1,))
     renamed = calls.names_in(reader)
     (_, value), = renamed.assignments()
     assert value == calls.cosines[0] * sympy.sin(q1 + 1) + calls.sines[0]
+
+
+def test_a_chains_absolute_angles_cost_one_addition_a_joint_ahead() -> None:
+    """On a 6-link chain (the articulated-body program) the angles are the links' absolute
+    angles, each its parent's plus its joint's: computed ahead one addition each, not as sums
+    from the first joint (quadratic in the links)."""
+    eqs = derive(validate_text(relative_chain_yaml(6, "chain6", 1.0, 1.0).encode(), "c6.yaml"))
+    inputs = frozenset((*eqs.coordinates, *eqs.speeds, *eqs.parameters))
+    calls = angle_calls(eqs.dynamics, inputs)
+    assert len(calls.angles) == 6 and len(calls.ahead) == 5
+    assert all(expr.is_Add and len(expr.args) == 2 for _, expr in calls.ahead)
