@@ -1,17 +1,19 @@
 """The sines and cosines of a program's angles, computed together (issue 19).
 
 libm's sin and cos take one value at a time: a call each, with branches on the argument's size
-that a chaotic motion mispredicts. In a right-hand side of a few coordinates they are most of
-its critical path: every mass-matrix entry waits for them (the double pendulum's RHS, called
-as an integrator calls it, one call's result feeding the next: 34-40 ns with libm, 21 with the
-angles computed together). `angle_calls` finds the sines and cosines whose argument is made
-of the program's inputs (coordinates, rates, parameters, time: known when it starts), directly
-or through steps that only add and multiply them (a chain's absolute angles q1 + q2, q1 + q2 +
-q3, ... each one step from the one before), and rewrites them as names that the generated C
-fills in one go, before the program's first step, with nemc.Taylor's branch-free kernel over
-two-element vectors (templates/angles.c.tmpl, templates/taylor_math.c.tmpl). Those steps are
-computed once more for it, ahead (`AngleCalls.ahead`): one addition per joint on a chain. A
-sine or cosine of another intermediate value keeps libm.
+that a chaotic motion mispredicts. In a right-hand side of a few coordinates they are a large
+part of its critical path: every mass-matrix entry waits for them (`python
+benchmarks/rhs_forms.py`: the double pendulum's RHS 36 -> 27 ns, the 4-link chain's 115 -> 88;
+docs/decisions.md, "The right-hand side's sines and cosines together").
+
+`angle_calls` finds the sines and cosines whose argument is made of the program's inputs
+(coordinates, rates, parameters, time: known when it starts), directly or through steps that
+only add and multiply them (a chain's absolute angles q1 + q2, q1 + q2 + q3, ... each one step
+from the one before), and rewrites them as names that the generated C fills in one go, before
+the program's first step, with nemc.Taylor's branch-free kernel over two-element vectors
+(templates/angles.c.tmpl, templates/sincos.c.tmpl). Those steps are computed once more for it,
+ahead (`AngleCalls.ahead`): one addition per joint on a chain. A sine or cosine of another
+intermediate value keeps libm.
 """
 
 from __future__ import annotations

@@ -584,7 +584,7 @@ def angles_kernel(c_text: str) -> str:
     """The angles' kernel (templates/angles.c.tmpl) for a C file that calls it, else ""."""
     if ANGLES_CALL not in c_text:
         return ""
-    return template("angles.c.tmpl").substitute(angles_math=taylor_math(
+    return template("angles.c.tmpl").substitute(angles_math=sincos_kernel(
         "angles_math_", "angles_double2", "angles_bits2", "two-element vectors (the RHS's angles)"))
 
 
@@ -1044,12 +1044,21 @@ def scalar_constants(code: SeriesCode) -> str:
     return f"const double constants[{len(names)}] = {{{', '.join(names)}}};"
 
 
+KERNEL_INLINE = "static inline __attribute__((always_inline))"
+
+
+def sincos_kernel(prefix: str, vector: str, bits: str, what: str) -> str:
+    """The branch-free sin and cos (templates/sincos.c.tmpl) over one GCC vector type."""
+    return template("sincos.c.tmpl").substitute(prefix=prefix, vec=vector, bits=bits, what=what,
+                                                inline=KERNEL_INLINE)
+
+
 def taylor_math(prefix: str, vector: str, bits: str, what: str) -> str:
     """nemc.Taylor's sin, cos, log2 and exp2 (templates/taylor_math.c.tmpl) over one GCC vector
     type: the scalar code's one-element vectors and the SIMD lanes' compute the same bits."""
     return template("taylor_math.c.tmpl").substitute(
-        prefix=prefix, vec=vector, bits=bits, what=what,
-        inline="static inline __attribute__((always_inline))")
+        prefix=prefix, vec=vector, bits=bits, what=what, inline=KERNEL_INLINE,
+        sincos=sincos_kernel(prefix, vector, bits, what))
 
 
 # The instruction set the lanes' functions are compiled for, by lane count (build.lane_count).
