@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import sympy
 
-from nemc.tangent import derivative_by_diff, directional_derivative
+from nemc.tangent import derivative_by_diff, directional_derivative, product
 
 X, Y, Z = sympy.symbols("x y z", real=True)
 K = sympy.Symbol("k", positive=True)  # a parameter: no tangent
@@ -69,3 +69,29 @@ def test_derivatives_use_the_primal_names() -> None:
 def test_constants_have_no_tangent() -> None:
     assert directional_derivative(K ** 2 * sympy.sin(K), TANGENTS, {}) == 0
     assert directional_derivative(K * X, TANGENTS, {}) == K * TANGENTS[X]
+
+
+def random_factor(rng: np.random.Generator, symbols: list[sympy.Symbol]) -> sympy.Expr:
+    """A rational, a symbol, a rational times symbols, or something else (a sum, a power)."""
+    numbers = [sympy.Integer(k) for k in (-2, -1, 0, 1, 3)] + [sympy.Rational(-3, 4)]
+    kind = int(rng.integers(5))
+    if kind == 0:
+        return numbers[int(rng.integers(len(numbers)))]
+    if kind == 1:
+        return symbols[int(rng.integers(len(symbols)))]
+    if kind == 4:
+        return [X + Y, X ** 2, sympy.Float(0.5), sympy.sin(Z)][int(rng.integers(4))]
+    picked = rng.choice(len(symbols), size=int(rng.integers(1, 4)), replace=False)
+    return sympy.Mul(numbers[int(rng.integers(len(numbers)))], *(symbols[k] for k in picked))
+
+
+def test_product_is_sympys_mul_exactly() -> None:
+    """tangent.product builds the monomials' products itself: the same expression sympy.Mul
+    makes, args in the same order (the C printed from it, and so the Jacobian's bits, must not
+    change), with Dummy symbols (the programs' names) and repeated symbols (powers) among them."""
+    rng = np.random.default_rng(11)
+    symbols = [X, Y, Z, K, *(sympy.Dummy(f"w{k}", real=True) for k in range(4))]
+    for _ in range(3000):
+        factors = [random_factor(rng, symbols) for _ in range(int(rng.integers(1, 4)))]
+        made, expected = product(*factors), sympy.Mul(*factors)
+        assert made == expected and made.args == expected.args, factors
