@@ -78,7 +78,8 @@ def make_parser() -> argparse.ArgumentParser:
     comp.add_argument("mechanism")
     comp.add_argument("-o", "--output", default="generated", help="output folder (generated)")
     comp.add_argument("--jacobian", action="store_true", default=None,
-                      help="also build the analytic Jacobian (for nemc.Radau, model.jacobian)")
+                      help="also build the analytic Jacobian and the mass matrix (for nemc.Radau, "
+                      "model.jacobian, model.mass_matrix)")
     comp.add_argument("--taylor", action="store_true", default=None,
                       help="also build nemc.Taylor's coefficient code")
     sim = commands.add_parser("simulate", help="run the scene and print the table")
@@ -289,7 +290,8 @@ def cmd_compile(args: argparse.Namespace) -> int:
     from .build import export
     from .pipeline import compile_mechanism
 
-    compiled = compile_mechanism(args.mechanism, args.jacobian, taylor=args.taylor)
+    compiled = compile_mechanism(args.mechanism, args.jacobian, taylor=args.taylor,
+                                 mass_matrix=bool(args.jacobian))
     target = export(compiled.package, Path(args.output), compiled.model.name)
     print(target)
     state = "cached build loaded" if compiled.cached else "built"

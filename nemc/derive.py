@@ -79,7 +79,8 @@ class Equations:
     jacobian: Program | None = None  # d qdd / d y along the seeds: see tangent.py
     seeds: Mapping[sympy.Symbol, sympy.Symbol] = dataclasses.field(default_factory=dict)
     # ^ state symbol -> the symbol of its tangent (the Jacobian's column), with the jacobian
-    inverse_mass: Program | None = None  # M^-1 Q at rest, with the jacobian
+    jacobian_by_differences: bool = False  # a closed loop's Jacobian: differences in C
+    inverse_mass: Program | None = None  # M^-1 Q at rest, when the mass matrix is built
     generalized_forces: tuple[sympy.Symbol, ...] = ()  # Q, the inverse_mass program's input
     taylor: Program | None = None  # the program nemc.Taylor's coefficients come from, if built
     taylor_unavailable: str | None = None  # why nemc.Taylor cannot be built: FILE:LINE: ...
@@ -264,21 +265,29 @@ def multipliers_by_constraint(mech: m.Mechanism, multipliers: tuple[sympy.Symbol
 
 
 def with_diagnostics(eqs: Equations) -> Equations:
-    """Add the Jacobian (forward-mode derivative of the program) and M^-1 for diagnostics."""
+    """Add both optional diagnostics parts: the Jacobian and M^-1."""
+    return with_mass_matrix(with_jacobian(eqs))
+
+
+def with_jacobian(eqs: Equations) -> Equations:
+    """Add the Jacobian of the right-hand side: the forward-mode derivative of the program, or
+    for a closed loop's projected right-hand side, differences (jacobian_differences.c.tmpl)."""
+    if eqs.loops is not None:
+        return dataclasses.replace(eqs, jacobian_by_differences=True)
     seeds = dict(zip(eqs.state, seed_symbols(len(eqs.state))))
+    return dataclasses.replace(eqs, jacobian=tangent_program(eqs.accelerations_program, seeds),
+                               seeds=seeds)
+
+
+def with_mass_matrix(eqs: Equations) -> Equations:
+    """Add M^-1 Q (Model.mass_matrix, the stress report's conditioning): a part of its own,
+    which neither the integrators nor the Jacobian read (issue 19: a fifth of a 1000-body
+    chain's build with its Jacobian)."""
     forces = generalized_force_symbols(eqs.n)
-    if eqs.loops is not None:  # the projected right-hand side: its Jacobian by differences
-        return dataclasses.replace(
-            eqs, inverse_mass=inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism),
-                                                   forces), generalized_forces=forces)
+    inverse_mass = inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism), forces)
     return dataclasses.replace(
-        eqs,
-        jacobian=tangent_program(eqs.accelerations_program, seeds),
-        seeds=seeds,
-        inverse_mass=split_deep(inverse_mass_program(eqs.mechanism, runtime_values(eqs.mechanism),
-                                                     forces), "vm"),
-        generalized_forces=forces,
-    )
+        eqs, inverse_mass=inverse_mass if eqs.loops is not None else split_deep(inverse_mass, "vm"),
+        generalized_forces=forces)
 
 
 def with_taylor(eqs: Equations) -> Equations:

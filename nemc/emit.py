@@ -607,8 +607,8 @@ def shares_primal(eqs: Equations, block: Block, chunk_steps: int) -> bool:
     compiler time). The primal's parts also keep what the derivative reads, a few stores
     more per call, with the same operations and so the same numbers."""
     programs = block.programs
-    return (eqs.jacobian is not None and "inverse_mass" in programs
-            and "primal" not in programs and (eqs.layout is None or not eqs.layout.augmented)
+    return (eqs.jacobian is not None and "primal" not in programs
+            and (eqs.layout is None or not eqs.layout.augmented)
             and max(programs["dynamics"].size, programs["jacobian"].size) > chunk_steps)
 
 
@@ -617,17 +617,15 @@ def jacobian_section(
     units: Units | None = None, printed: tuple[Printed, Printed] | None = None,
 ) -> str:
     """The Jacobian (exact; by differences for a closed loop's projected right-hand side) and
-    M^-1, or the functions saying this build has none. PRINTED: the primal and tangent,
-    printed already, the primal's functions going with the accelerations (shares_primal)."""
-    programs = block.programs
-    if "inverse_mass" not in programs:
-        return template("jacobian_absent.c.tmpl").substitute(prefix=prefix)
-    inverse_mass = print_program(printer, programs["inverse_mass"], INVERSE_MASS, chunk_steps,
-                                 units)
-    inverse_mass_text = template("inverse_mass.c.tmpl").substitute(
-        prefix=prefix, inverse_mass_parts=inverse_mass.functions, inverse_mass=inverse_mass.body)
+    M^-1, each an optional part, or the function saying this build has none. PRINTED: the
+    primal and tangent, printed already, the primal's functions going with the accelerations
+    (shares_primal)."""
+    mass_matrix = mass_matrix_section(block, printer, prefix, chunk_steps, units)
+    if not has_jacobian(eqs):
+        return template("jacobian_absent.c.tmpl").substitute(prefix=prefix) + mass_matrix
     if eqs.jacobian is None:
-        return template("jacobian_differences.c.tmpl").substitute(prefix=prefix) + inverse_mass_text
+        return template("jacobian_differences.c.tmpl").substitute(prefix=prefix) + mass_matrix
+    programs = block.programs
     if printed is None:
         primal, tangent = jacobian_programs(
             eqs, printer, programs.get("primal", programs["dynamics"]), programs["jacobian"],
@@ -640,7 +638,18 @@ def jacobian_section(
         jacobian_parts=functions,
         primal=primal.body,
         tangent=tangent.body,
-    ) + inverse_mass_text
+    ) + mass_matrix
+
+
+def mass_matrix_section(block: Block, printer: SymbolTablePrinter, prefix: str,
+                        chunk_steps: int, units: Units | None = None) -> str:
+    """M^-1 column by column (Model.mass_matrix), or the function saying this build has none."""
+    if "inverse_mass" not in block.programs:
+        return template("mass_matrix_absent.c.tmpl").substitute(prefix=prefix)
+    inverse_mass = print_program(printer, block.programs["inverse_mass"], INVERSE_MASS,
+                                 chunk_steps, units)
+    return template("inverse_mass.c.tmpl").substitute(
+        prefix=prefix, inverse_mass_parts=inverse_mass.functions, inverse_mass=inverse_mass.body)
 
 
 def _all_symbols(block: Block, expr: sympy.Expr) -> set[sympy.Symbol]:
@@ -750,9 +759,10 @@ def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
 def generated_functions(eqs: Equations) -> list[str]:
     """The parts a model's build has: outputs and jacobian only when needed (the header
     declares every function; those of a part not built return NEMC_NOT_BUILT)."""
-    diagnostics = (["jacobian", "inverse_mass_matrix"] if eqs.inverse_mass is not None else [])
+    jacobian = ["jacobian"] if has_jacobian(eqs) else []
+    mass_matrix = ["mass_matrix"] if eqs.inverse_mass is not None else []
     outputs = ["outputs"] if eqs.outputs else []
-    return ["rhs", "rhs_many", "checks", "initial_state"] + outputs + diagnostics
+    return ["rhs", "rhs_many", "checks", "initial_state"] + outputs + jacobian + mass_matrix
 
 
 def coordinate_kinds(mech: m.Mechanism) -> list[str]:
@@ -859,8 +869,8 @@ def native_section(eqs: Equations, prefix: str, taylor: str, lanes: str = "") ->
 
 
 def has_jacobian(eqs: Equations) -> bool:
-    """Whether the build has the Jacobian (exact, or differences for loops) and M^-1."""
-    return eqs.inverse_mass is not None
+    """Whether the build has the Jacobian (exact, or differences for loops)."""
+    return eqs.jacobian is not None or eqs.jacobian_by_differences
 
 
 def jacobian_function(eqs: Equations, prefix: str) -> str:

@@ -35,6 +35,7 @@ class Recipe:
     energy: bool = False
     chunk_steps: int | None = None
     parts: tuple[str, ...] = ()
+    mass_matrix: bool = False
 
 
 @dataclass
@@ -70,23 +71,25 @@ def read_source(path: str | Path) -> Source:
 
 def compile_mechanism(
     path: str | Path, jacobian: bool | None = None, *, energy: bool = False,
-    taylor: bool | None = None, chunk_steps: int | None = None,
+    taylor: bool | None = None, chunk_steps: int | None = None, mass_matrix: bool = False,
 ) -> Compiled:
     """Build the mechanism in PATH (or load its cached build) and load it.
 
     jacobian: True generates the analytic Jacobian; None (default) generates it only when the
     scene's method is implicit, and later on the model's first need of it.
     taylor: the same for nemc.Taylor's coefficient code (scene method nemc.Taylor).
+    mass_matrix: True generates M^-1 (Model.mass_matrix) now; False, on its first call.
     energy: True adds the energy outputs when the YAML does not request them (`nemc stress`).
     chunk_steps: the most steps of a program emitted as one C function (None: nemc.emit's
     CHUNK_STEPS); part of the build key."""
     return compile_source(read_source(path), jacobian, energy=energy, taylor=taylor,
-                          chunk_steps=chunk_steps)
+                          chunk_steps=chunk_steps, mass_matrix=mass_matrix)
 
 
 def compile_source(
     source: Source, jacobian: bool | None, *, energy: bool = False,
     taylor: bool | None = None, chunk_steps: int | None = None, lanes: int = 0,
+    mass_matrix: bool = False,
 ) -> Compiled:
     """lanes: also nemc.Taylor's ensembles in SIMD lanes, this many per batch (with taylor: the
     part "lanes"; build.lane_count() gives this machine's); 0: none."""
@@ -98,6 +101,8 @@ def compile_source(
         options["taylor"] = bool(taylor)
     if lanes:
         options["lanes"] = lanes
+    if mass_matrix:
+        options["mass_matrix"] = True
     if chunk_steps is not None:
         options["chunk_steps"] = chunk_steps
     key = build_key(source, options)
@@ -107,7 +112,7 @@ def compile_source(
         cached = package is not None
         if package is None:
             package = generate_and_build(source, key, jacobian, timings, energy, taylor,
-                                         chunk_steps, lanes)
+                                         chunk_steps, lanes, mass_matrix)
         try:
             with timed(timings, "load"):
                 model = load_package(package)
@@ -120,22 +125,23 @@ def compile_source(
         """This mechanism built with these optional parts (Model.compiled_with)."""
         return compile_source(source, "jacobian" in parts, energy=energy,
                               taylor=bool(parts & {"taylor", "lanes"}), chunk_steps=chunk_steps,
-                              lanes=lane_count() if "lanes" in parts else 0).model
+                              lanes=lane_count() if "lanes" in parts else 0,
+                              mass_matrix="mass_matrix" in parts).model
 
     model.part_compiler = compile_parts
     model.recipe = Recipe(source, jacobian, taylor, energy, chunk_steps,
-                          tuple(model.metadata["generated"]))
+                          tuple(model.metadata["generated"]), mass_matrix)
     return Compiled(model, package, cached, timings)
 
 
 def generate_and_build(
     source: Source, key: str, jacobian: bool | None, timings: dict[str, float],
     energy: bool = False, taylor: bool | None = None, chunk_steps: int | None = None,
-    lanes: int = 0,
+    lanes: int = 0, mass_matrix: bool = False,
 ) -> Path:
     from .assembly import check_assembly
     from .build import build
-    from .derive import derive, taylor_cost_ratio, with_diagnostics, with_taylor
+    from .derive import derive, taylor_cost_ratio, with_jacobian, with_mass_matrix, with_taylor
     from .emit import emit
     from .methods import IMPLICIT_METHODS, auto_builds_taylor, auto_takes_taylor
     from .optimize import optimize_equations
@@ -152,7 +158,9 @@ def generate_and_build(
         with timed(timings, "derive", progress):
             equations = derive(mechanism)
             if jacobian or (jacobian is None and method in IMPLICIT_METHODS):
-                equations = with_diagnostics(equations)
+                equations = with_jacobian(equations)
+            if mass_matrix:
+                equations = with_mass_matrix(equations)
             if taylor or (taylor is None and method == "nemc.Taylor"):
                 equations = with_taylor(equations)
             elif taylor is None and auto_builds_taylor(method, equations.n):

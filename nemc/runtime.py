@@ -45,7 +45,7 @@ from .methods import (  # noqa: F401 (re-exported: the runtime's public names)
 
 DEFAULT_T_SPAN = (0.0, 10.0)
 SERIES_NOT_FINITE = -3  # the model status NEMC_SERIES_NOT_FINITE (templates/model.h.tmpl)
-OPTIONAL_PARTS = frozenset({"jacobian", "taylor", "lanes"})  # C a build has only when asked for
+OPTIONAL_PARTS = frozenset({"jacobian", "mass_matrix", "taylor", "lanes"})  # C built when asked
 KINEMATIC_POINTS = 201  # the default times of a kinematic analysis over t_span
 SOLVER_STEPS = "steps"  # simulate(t_eval="steps"): the solver's own steps, whatever the scene says
 
@@ -542,13 +542,14 @@ class Model(LoopsMixin):
         return self._finite_difference_jacobian(self._time(t), self._state(y), params)
 
     def has_part(self, part: str) -> bool:
-        """Whether this build has the optional part "jacobian", "taylor" or "lanes" (a query
-        only)."""
+        """Whether this build has the optional part "jacobian", "mass_matrix", "taylor" or
+        "lanes" (a query only)."""
         return part in self.metadata["generated"]
 
     def compiled_with(self, part: str) -> Model:
         """This mechanism's model with the optional part "jacobian" (the exact Jacobian, also
-        needed by nemc.Radau and mass_matrix), "taylor" (nemc.Taylor's coefficients) or "lanes"
+        needed by nemc.Radau), "mass_matrix" (M^-1 for Model.mass_matrix), "taylor" (nemc.Taylor's
+        coefficients) or "lanes"
         (nemc.Taylor's coefficients also in SIMD lanes, for simulate_many): this
         model when its build has it; otherwise the build that adds it to this one's parts,
         compiled now (sympy and the C compiler: seconds) or loaded from the cache, and kept for
@@ -610,9 +611,10 @@ class Model(LoopsMixin):
         n = len(self.coordinate_names)
         inverse = np.empty((n, n))
         p, state = self.parameter_vector(params), self._state(y)
-        source = self.compiled_with("jacobian")
-        if not source.has_part("jacobian"):
-            raise ModelError("this standalone package was built without the mass matrix")
+        source = self.compiled_with("mass_matrix")
+        if not source.has_part("mass_matrix"):
+            raise ModelError("this standalone package was built without the mass matrix "
+                             "(nemc compile --jacobian builds it)")
         buffer = source._buffer
         status = source._c["inverse_mass_matrix"](self._time(t), buffer(state), buffer(p),
                                                   buffer(inverse))

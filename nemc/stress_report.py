@@ -98,7 +98,7 @@ def measure(path: str | Path, horizon: float, lyapunov_time: float, params: dict
             contrast: dict | None, finished: Finished, compile_mechanism, start: float) -> Study:
     """study()'s measurements, in order, each reported to `finished`."""
     finished.start("compiling")
-    model = compile_mechanism(path, True, energy=True).model
+    model = compile_mechanism(path, True, energy=True, mass_matrix=True).model
     finished.start("the scene's own run")
     own = model.simulate(params=params)
     if not own.success:

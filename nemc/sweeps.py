@@ -278,6 +278,7 @@ class ModelRef:
     jacobian: bool | None
     taylor: bool | None
     key: str
+    mass_matrix: bool = False
 
 
 _MODELS: dict[str, tuple[Model, str]] = {}
@@ -298,7 +299,8 @@ def build_ref(ref: ModelRef) -> tuple[Model, str]:
 
     recipe = ref.recipe
     compiled = compile_source(recipe.source, ref.jacobian, taylor=ref.taylor,
-                              energy=recipe.energy, chunk_steps=recipe.chunk_steps)
+                              energy=recipe.energy, chunk_steps=recipe.chunk_steps,
+                              mass_matrix=ref.mass_matrix)
     return compiled.model, compiled.package.name  # the package folder is named by its key
 
 
@@ -312,10 +314,11 @@ def model_ref(model: Model) -> ModelRef:
                          "build it from its source); this one has no recipe")
     parts = tuple(model.metadata["generated"])
     if parts == recipe.parts:
-        jacobian, taylor = recipe.jacobian, recipe.taylor
+        jacobian, taylor, mass_matrix = recipe.jacobian, recipe.taylor, recipe.mass_matrix
     else:
-        jacobian, taylor = "jacobian" in parts, "taylor" in parts
-    ref = ModelRef(recipe, jacobian, taylor, "")
+        jacobian, taylor, mass_matrix = ("jacobian" in parts, "taylor" in parts,
+                                         "mass_matrix" in parts)
+    ref = ModelRef(recipe, jacobian, taylor, "", mass_matrix)
     return dataclasses.replace(ref, key=build_ref(ref)[1])  # a cache hit, as a rule
 
 

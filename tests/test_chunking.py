@@ -18,10 +18,11 @@ PARTS = ("accelerations_part", "jacobian_primal_part", "jacobian_tangent_part",
 
 
 def build(path: Path, cache: Path, chunk_steps: int | None) -> Compiled:
-    """The model with the Jacobian, in parts of chunk_steps steps (None: the default)."""
+    """The model with the Jacobian and the mass matrix, in parts of chunk_steps steps (None:
+    the default)."""
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("NEMC_CACHE", str(cache))
-        return compile_mechanism(path, True, chunk_steps=chunk_steps)
+        return compile_mechanism(path, True, chunk_steps=chunk_steps, mass_matrix=True)
 
 
 @pytest.fixture(scope="module", params=["double_pendulum", "tree6"])

@@ -6,10 +6,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from reference import random_mechanism_yaml
+from reference import ReferenceModel, random_mechanism_yaml
 from scipy.integrate import solve_ivp
 
 import nemc
+from nemc.validate import load_mechanism
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 ARM = EXAMPLES / "two_link_robot_arm.yaml"
@@ -69,6 +70,19 @@ def test_jacobian_generated_only_when_needed() -> None:
     y = np.array([0.2, 0.1, -0.3, 0.0])
     assert np.allclose(explicit.jacobian(0.0, y), central_differences(explicit, 0.0, y),
                        rtol=1e-7, atol=1e-7)  # built on first need
+
+
+def test_the_mass_matrix_is_a_part_of_its_own() -> None:
+    """A scene's implicit method builds the Jacobian, not M^-1 (which no integrator reads);
+    Model.mass_matrix builds it on first need, and it agrees with the Lagrange reference."""
+    implicit = nemc.compile(ARM)  # the scene's method is Radau
+    assert implicit.has_part("jacobian") and not implicit.has_part("mass_matrix")
+    reference = ReferenceModel(load_mechanism(ARM))
+    for y in np.random.default_rng(5).uniform(-1.5, 1.5, (3, implicit.n_state)):
+        expected = reference.mass_forcing(0.0, y)[0]
+        assert np.allclose(implicit.mass_matrix(y), expected, rtol=1e-12, atol=1e-12)
+    with_mass = implicit.compiled_with("mass_matrix")
+    assert with_mass.has_part("mass_matrix") and with_mass.has_part("jacobian")
 
 
 @pytest.mark.parametrize("gain", [1.0, 100.0])
