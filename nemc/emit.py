@@ -757,8 +757,8 @@ def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
 
 
 def generated_functions(eqs: Equations) -> list[str]:
-    """The parts a model's build has: outputs and jacobian only when needed (the header
-    declares every function; those of a part not built return NEMC_NOT_BUILT)."""
+    """The parts a model's build has: outputs, jacobian and mass_matrix only when needed (the
+    header declares every function; those of a part not built return NEMC_NOT_BUILT)."""
     jacobian = ["jacobian"] if has_jacobian(eqs) else []
     mass_matrix = ["mass_matrix"] if eqs.inverse_mass is not None else []
     outputs = ["outputs"] if eqs.outputs else []

@@ -548,12 +548,12 @@ class Model(LoopsMixin):
 
     def compiled_with(self, part: str) -> Model:
         """This mechanism's model with the optional part "jacobian" (the exact Jacobian, also
-        needed by nemc.Radau), "mass_matrix" (M^-1 for Model.mass_matrix), "taylor" (nemc.Taylor's
-        coefficients) or "lanes"
-        (nemc.Taylor's coefficients also in SIMD lanes, for simulate_many): this
-        model when its build has it; otherwise the build that adds it to this one's parts,
-        compiled now (sympy and the C compiler: seconds) or loaded from the cache, and kept for
-        later calls. A standalone package compiles nothing: it returns itself."""
+        needed by nemc.Radau), "mass_matrix" (M^-1, for Model.mass_matrix), "taylor"
+        (nemc.Taylor's coefficients) or "lanes" (nemc.Taylor's coefficients also in SIMD
+        lanes, for simulate_many): this model when its build has it; otherwise the build that
+        adds it to this one's parts, compiled now (sympy and the C compiler: seconds) or loaded
+        from the cache, and kept for later calls. A standalone package compiles nothing: it
+        returns itself."""
         if self.has_part(part) or self.part_compiler is None:
             return self
         if f"{part}_unavailable" in self.metadata:  # this mechanism cannot have it
