@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from children import child_process
 from scipy.integrate import solve_ivp
 
 import nemc
@@ -240,17 +241,17 @@ def test_ctrl_c_returns_the_partial_run_within_a_second(tmp_path: Path, method: 
         model.compiled_with("jacobian")  # built here, not in the child
     script = tmp_path / "long_run.py"
     script.write_text(LONG_RUN)
-    child = subprocess.Popen([sys.executable, str(script), str(EXAMPLES / "double_pendulum.yaml"),
-                              method], stdout=subprocess.PIPE, text=True)
-    assert child.stdout.readline().strip() == "started"
-    time.sleep(1.0)
-    sent = time.perf_counter()
-    child.send_signal(signal.SIGINT)
-    out, _ = child.communicate(timeout=20)
-    assert time.perf_counter() - sent < 1.0
-    status, count, message = out.split(" ", 2)
-    assert (child.returncode, int(status), int(count)) == (0, -11, 3)  # t = 0, 1, 2 kept
-    assert message.startswith("interrupted (Ctrl-C) at t = ")
+    with child_process([sys.executable, str(script), str(EXAMPLES / "double_pendulum.yaml"),
+                        method], stdout=subprocess.PIPE, text=True) as child:
+        assert child.stdout.readline().strip() == "started"
+        time.sleep(1.0)
+        sent = time.perf_counter()
+        child.send_signal(signal.SIGINT)
+        out, _ = child.communicate(timeout=20)
+        assert time.perf_counter() - sent < 1.0
+        status, count, message = out.split(" ", 2)
+        assert (child.returncode, int(status), int(count)) == (0, -11, 3)  # t = 0, 1, 2 kept
+        assert message.startswith("interrupted (Ctrl-C) at t = ")
 
 
 def test_ctrl_c_stops_the_cli_with_status_130(tmp_path: Path) -> None:
@@ -262,17 +263,17 @@ def test_ctrl_c_stops_the_cli_with_status_130(tmp_path: Path) -> None:
     path = tmp_path / "long.yaml"
     path.write_text(text)
     nemc.compile(path)  # the child loads it from the cache
-    child = subprocess.Popen([sys.executable, "-m", "nemc.cli", "simulate", str(path)],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(2.0)
-    sent = time.perf_counter()
-    child.send_signal(signal.SIGINT)
-    out, err = child.communicate(timeout=20)
-    assert time.perf_counter() - sent < 1.0
-    assert child.returncode == 130
-    rows = [line.split()[0] for line in out.splitlines()[1:] if not line.startswith("#")]
-    assert rows == ["0", "0.5"]  # what it had
-    assert "nemc: interrupted (Ctrl-C) at t = " in err
+    with child_process([sys.executable, "-m", "nemc.cli", "simulate", str(path)],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as child:
+        time.sleep(2.0)
+        sent = time.perf_counter()
+        child.send_signal(signal.SIGINT)
+        out, err = child.communicate(timeout=20)
+        assert time.perf_counter() - sent < 1.0
+        assert child.returncode == 130
+        rows = [line.split()[0] for line in out.splitlines()[1:] if not line.startswith("#")]
+        assert rows == ["0", "0.5"]  # what it had
+        assert "nemc: interrupted (Ctrl-C) at t = " in err
 
 
 def test_an_interrupted_ensemble_returns_its_runs(tmp_path: Path) -> None:
@@ -288,28 +289,28 @@ def test_an_interrupted_ensemble_returns_its_runs(tmp_path: Path) -> None:
               flush=True)
         """))
     nemc.compile(EXAMPLES / "double_pendulum.yaml")
-    child = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
-    assert child.stdout.readline().strip() == "started"
-    time.sleep(1.0)
-    sent = time.perf_counter()
-    child.send_signal(signal.SIGINT)
-    out, _ = child.communicate(timeout=20)
-    assert time.perf_counter() - sent < 1.0
-    assert out.split("]")[0] == "[-11" and out.split()[-1] == "8"
+    with child_process([sys.executable, str(script)], stdout=subprocess.PIPE, text=True) as child:
+        assert child.stdout.readline().strip() == "started"
+        time.sleep(1.0)
+        sent = time.perf_counter()
+        child.send_signal(signal.SIGINT)
+        out, _ = child.communicate(timeout=20)
+        assert time.perf_counter() - sent < 1.0
+        assert out.split("]")[0] == "[-11" and out.split()[-1] == "8"
 
 
 def test_an_interrupted_stress_keeps_what_it_measured(tmp_path: Path) -> None:
     nemc.compile(EXAMPLES / "double_pendulum.yaml")
-    child = subprocess.Popen([sys.executable, "-m", "nemc.cli", "stress",
-                              str(EXAMPLES / "double_pendulum.yaml"), "--out", str(tmp_path)],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(6.0)
-    child.send_signal(signal.SIGINT)
-    _, err = child.communicate(timeout=60)
-    assert child.returncode == 130, err
-    partial = (tmp_path / "double_pendulum.partial.md").read_text()
-    assert "interrupted" in partial and "- the scene's run: RK45" in partial
-    assert "nemc: interrupted; what was measured:" in err
+    with child_process([sys.executable, "-m", "nemc.cli", "stress",
+                        str(EXAMPLES / "double_pendulum.yaml"), "--out", str(tmp_path)],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as child:
+        time.sleep(6.0)
+        child.send_signal(signal.SIGINT)
+        _, err = child.communicate(timeout=60)
+        assert child.returncode == 130, err
+        partial = (tmp_path / "double_pendulum.partial.md").read_text()
+        assert "interrupted" in partial and "- the scene's run: RK45" in partial
+        assert "nemc: interrupted; what was measured:" in err
 
 
 class Terminal:

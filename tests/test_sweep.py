@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from children import child_process
 
 import nemc
 from nemc.runtime import ModelError
@@ -300,20 +301,20 @@ def test_cli_ctrl_c_keeps_finished_chunks_exits_130_and_the_same_command_resumes
     out = tmp_path / "long.zarr"
     args = ["--grid", "q1=-3:3:100", "--grid", "q2=-3:3:100", "--t-end", "4", "--times", "1",
             "--chunk", "100", "--threads", "1", "--out", str(out)]
-    process = subprocess.Popen([*NEMC, "sweep", str(EXAMPLE), *args], stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 120
-    while finished_runs(out) < 200 and time.monotonic() < deadline:
-        time.sleep(0.05)
-    process.send_signal(signal.SIGINT)
-    stdout, stderr = process.communicate(timeout=120)
-    kept = finished_runs(out)
-    assert process.returncode == 130, stderr
-    assert "interrupted" in stderr and "run the same command again" in stderr
-    assert 200 <= kept < 10_000
-    again = cli(*args)
-    assert again.returncode == 0, again.stderr
-    assert f"10000 runs ({kept} done before)" in again.stdout
+    with child_process([*NEMC, "sweep", str(EXAMPLE), *args], stdout=subprocess.PIPE,
+                       stderr=subprocess.PIPE, text=True) as process:
+        deadline = time.monotonic() + 120
+        while finished_runs(out) < 200 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        process.send_signal(signal.SIGINT)
+        stdout, stderr = process.communicate(timeout=120)
+        kept = finished_runs(out)
+        assert process.returncode == 130, stderr
+        assert "interrupted" in stderr and "run the same command again" in stderr
+        assert 200 <= kept < 10_000
+        again = cli(*args)
+        assert again.returncode == 0, again.stderr
+        assert f"10000 runs ({kept} done before)" in again.stdout
 
 
 def finished_runs(store: Path) -> int:
