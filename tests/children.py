@@ -6,7 +6,9 @@ and the child would go on computing after the test failed: killed here instead."
 
 from __future__ import annotations
 
+import signal
 import subprocess
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -22,3 +24,16 @@ def child_process(command: list[str], **options: Any) -> Iterator[subprocess.Pop
         if child.poll() is None:
             child.kill()
             child.communicate()
+
+
+def interrupted_output(child: subprocess.Popen, wait: float = 1.0, timeout: float = 20.0
+                       ) -> str:
+    """CHILD's output after its line "started": SIGINT sent WAIT seconds after that line, and
+    the child must have ended within a second of it."""
+    assert child.stdout is not None and child.stdout.readline().strip() == "started"
+    time.sleep(wait)
+    sent = time.perf_counter()
+    child.send_signal(signal.SIGINT)
+    out, _ = child.communicate(timeout=timeout)
+    assert time.perf_counter() - sent < 1.0
+    return out
