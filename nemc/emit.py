@@ -901,6 +901,12 @@ PEEL_MAX_LINES = 300
 # order 12 (30,078) nothing for 7 s (docs/decisions.md, "nemc.Taylor written out for the
 # scene's orders").
 WRITTEN_OUT_TERMS = 2000
+# A function of one order in lanes keeps its work rows in its frame up to this many bytes
+# (order_function), of vectors of at most LANES_BYTES_MAX bytes (8 lanes, AVX-512): well
+# inside a thread's stack (8 MiB on Linux). Programs within WRITTEN_OUT_TERMS need at most
+# about 256 KiB; a larger one would use the caller's array.
+LANES_FRAME_BYTES = 512 * 1024
+LANES_BYTES_MAX = 64
 
 
 def taylor_order(eps: float) -> int:
@@ -964,7 +970,8 @@ def coefficient_fields(eqs: Equations, code: SeriesCode, constants: list[str],
         constants=block_lines(constants, "    "), start=block_lines(code.start, "    "),
         loop=block_lines(code.loop, "    "),
         orders=block_lines(order_loop(code, dialect), "    "),
-        order_functions="".join(order_function(order, dialect) for order in orders),
+        order_functions="".join(order_function(order, dialect, max(code.n_series, 1))
+                                for order in orders),
         order_cases=block_lines([order_case(order, dialect) for order in orders], "    "),
     )
 
@@ -973,7 +980,7 @@ def order_loop(code: SeriesCode, dialect: Dialect) -> list[str]:
     """The loop over the orders (templates/taylor.c.tmpl's TAYLOR_LOOP), order 0 apart when
     the program is short (PEEL_MAX_LINES). A guard fails at order 0 only."""
     if dialect.lanes:
-        call = "lanes_coefficient_k({k}, x, work, constants, status);"
+        call = "lanes_coefficient_k({k}, work_stride, x, work, constants, status);"
         if len(code.loop) > PEEL_MAX_LINES:
             return [f"TAYLOR_LOOP(k, 0, order, {call.format(k='k')});"]
         return [call.format(k=0) + " /* order 0 apart: its branches fold away */",
@@ -988,15 +995,27 @@ def order_loop(code: SeriesCode, dialect: Dialect) -> list[str]:
             f"TAYLOR_LOOP(k, 1, order, (void){call.format(k='k')};);"]
 
 
-def order_function(order: int, dialect: Dialect) -> str:
+def order_function(order: int, dialect: Dialect, n_series: int) -> str:
     """The function of one order written out: the coefficients' function inlined with that
-    order (noinline itself: inlined in the dispatcher, several made each order slower)."""
+    order (noinline itself: inlined in the dispatcher, several made each order slower). In
+    lanes, the program's n_series work rows live in its own frame (order + 1 coefficients a
+    row) where they fit in LANES_FRAME_BYTES: gcc then knows they alias nothing else and are
+    gone at its return, so it keeps in registers the values read only within their order and
+    drops their stores (templates/batch.c.tmpl, LANES_WORK_ROW). One run's code keeps the
+    caller's array: there the frame made the double pendulum 5% slower."""
     if dialect.lanes:
+        if n_series * (order + 1) * LANES_BYTES_MAX <= LANES_FRAME_BYTES:
+            work, stride = "frame_work", f"{order + 1}"
+            frame = (f"    lanes frame_work[TAYLOR_SERIES * {order + 1}] "
+                     "__attribute__((aligned(LANES_ALIGN)));\n    (void)work;\n")
+        else:
+            work, stride, frame = "work", "TAYLOR_STRIDE", ""
         return (f"LANES_TARGET __attribute__((noinline))\n"
                 f"static void taylor_coefficients_lanes_order{order}(\n"
                 f"    const lanes *time, const lanes *y, const double *const *lane_p, lanes *x,\n"
-                f"    lanes *work, int *status)\n{{\n"
-                f"    lanes_coefficients_to(time, y, lane_p, {order}, x, work, status);\n}}\n\n")
+                f"    lanes *work, int *status)\n{{\n{frame}"
+                f"    lanes_coefficients_to(time, y, lane_p, {order}, {stride}, x, {work}, status);"
+                f"\n}}\n\n")
     return (f"TAYLOR_FMA_TARGET __attribute__((noinline))\n"
             f"static int taylor_coefficients_order{order}(\n"
             f"    double t, const double *y, const double *p, double *x, double *work)\n{{\n"

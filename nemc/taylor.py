@@ -46,6 +46,7 @@ class Dialect:
 
     value_type: str  # the type of a coefficient
     prefix: str  # the recurrences' prefix, for "series_"
+    work_row: str  # the C macro of row j of the work array: work_row(work, j)
 
     @property
     def lanes(self) -> bool:
@@ -72,8 +73,8 @@ class Dialect:
         return [f"if ({'k == 0 && ' if loop else ''}!({test} > 0.0))", f"    return {status};"]
 
 
-SCALAR = Dialect("double", "series_")
-LANES = Dialect("lanes", "lanes_")
+SCALAR = Dialect("double", "series_", "TAYLOR_ROW")
+LANES = Dialect("lanes", "lanes_", "LANES_WORK_ROW")  # rows of work_stride (batch.c.tmpl)
 
 
 @dataclass(frozen=True)
@@ -81,7 +82,7 @@ class SeriesCode:
     """The C of the Taylor coefficients: declarations, scalar constants, the loop body."""
 
     n_series: int  # rows of the work array
-    declarations: tuple[str, ...]  # `double *name = work + j * TAYLOR_STRIDE;`
+    declarations: tuple[str, ...]  # `double *name = TAYLOR_ROW(work, j);`
     constants: tuple[str, ...]  # before the loop: parameter-only values, constant guards
     constant_names: tuple[str, ...]  # the names those lines define (scalars, in order)
     start: tuple[str, ...]  # before the loop: the time series
@@ -137,7 +138,7 @@ class SeriesWriter:
 
     def new_row(self, name: str) -> str:
         self.declarations.append(
-            f"{self.dialect.value_type} *{name} = TAYLOR_ROW(work, {self._rows});")
+            f"{self.dialect.value_type} *{name} = {self.dialect.work_row}(work, {self._rows});")
         self._rows += 1
         return name
 
@@ -353,7 +354,7 @@ def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
     # loop's body too); lines are relative to the block they sit in: "    " marks one more level
     start: tuple[str, ...] = ()
     if writer.uses_time:
-        declaration = f"{dialect.value_type} *tt = TAYLOR_ROW(work, {writer._rows});"
+        declaration = f"{dialect.value_type} *tt = {dialect.work_row}(work, {writer._rows});"
         writer.declarations.append(declaration)
         writer._rows += 1
         start = ("{", "    " + declaration, "    tt[0] = t;",
