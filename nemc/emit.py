@@ -1012,10 +1012,10 @@ def order_function(order: int, dialect: Dialect, n_series: int) -> str:
             work, stride, frame = "work", "TAYLOR_STRIDE", ""
         return (f"LANES_TARGET __attribute__((noinline))\n"
                 f"static void taylor_coefficients_lanes_order{order}(\n"
-                f"    const lanes *time, const lanes *y, const double *const *lane_p, lanes *x,\n"
+                f"    const lanes *time, const lanes *y, const lanes *constants, lanes *x,\n"
                 f"    lanes *work, int *status)\n{{\n{frame}"
-                f"    lanes_coefficients_to(time, y, lane_p, {order}, {stride}, x, {work}, status);"
-                f"\n}}\n\n")
+                f"    lanes_coefficients_to(time, y, constants, {order}, {stride}, x, {work},"
+                f" status);\n}}\n\n")
     return (f"TAYLOR_FMA_TARGET __attribute__((noinline))\n"
             f"static int taylor_coefficients_order{order}(\n"
             f"    double t, const double *y, const double *p, double *x, double *work)\n{{\n"
@@ -1025,7 +1025,7 @@ def order_function(order: int, dialect: Dialect, n_series: int) -> str:
 def order_case(order: int, dialect: Dialect) -> str:
     """The dispatcher's case of an order written out."""
     if dialect.lanes:
-        return (f"case {order}: taylor_coefficients_lanes_order{order}(time, y, lane_p, x, work,"
+        return (f"case {order}: taylor_coefficients_lanes_order{order}(time, y, constants, x, work,"
                 f" status); break;")
     return f"case {order}: return taylor_coefficients_order{order}(t, y, p, x, work);"
 
@@ -1112,23 +1112,16 @@ def lanes_section(eqs: Equations, printer: SymbolTablePrinter, prefix: str, coun
         prefix=prefix, lanes=count, target=LANE_TARGETS[count],
         cpu_supports=cpu_supports(LANE_TARGETS[count]),
         taylor_math=taylor_math("lanes_math_", "lanes", "lane_bits", "NEMC_LANES lanes"),
+        n_constants=max(len(constants_read(code)), 1),
         **coefficient_fields(eqs, code, lane_constants(code), LANES))
 
 
 def lane_constants(code: SeriesCode) -> list[str]:
-    """The parameter-only values of each lane: the scalar lines in a loop over the lanes, each
-    lane with its own p, gathered in lanes values (those the loop reads: lanes_coefficient_k's
-    constants)."""
-    names = constants_read(code)
-    declaration = (f"lanes constants[{len(names)}];" if names
-                   else "const lanes *constants = NULL;")
-    if not code.constants:
-        return [declaration]
-    return [declaration,
-            "for (int l = 0; l < NEMC_LANES; ++l) {",
-            "    const double *p = lane_p[l];", "    (void)p;",
-            *("    " + line for line in code.constants),
-            *(f"    constants[{j}][l] = {name};" for j, name in enumerate(names)), "}"]
+    """The body of lanes_run_constants (templates/batch.c.tmpl): the parameter-only values of
+    the run in lane l, with its p, by the scalar lines, into lane l of the values the loop
+    reads (lanes_coefficient_k's constants)."""
+    return [*code.constants, *(f"constants[{j}][l] = {name};"
+                               for j, name in enumerate(constants_read(code)))]
 
 
 # ---- the drawing's point positions (issue 20): appended to every model's C ------------------
