@@ -903,8 +903,9 @@ PEEL_MAX_LINES = 300
 WRITTEN_OUT_TERMS = 2000
 # A function of one order in lanes keeps its work rows in its frame up to this many bytes
 # (order_function), of vectors of at most LANES_BYTES_MAX bytes (8 lanes, AVX-512): well
-# inside a thread's stack (8 MiB on Linux). Programs within WRITTEN_OUT_TERMS need at most
-# about 256 KiB; a larger one would use the caller's array.
+# inside a thread's stack (8 MiB on Linux). Programs within WRITTEN_OUT_TERMS need under
+# 300 KiB (the worst: 500 sin-cos lines of 3 rows at order 2); a larger one would use the
+# caller's array.
 LANES_FRAME_BYTES = 512 * 1024
 LANES_BYTES_MAX = 64
 
