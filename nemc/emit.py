@@ -961,8 +961,9 @@ def coefficient_fields(eqs: Equations, code: SeriesCode, constants: list[str],
     over the orders, and the functions of the orders written out."""
     names = constants_read(code)
     orders = written_out_orders(code, eqs.mechanism.simulation)
+    n_series = max(code.n_series, 1)
     return dict(
-        n_series=max(code.n_series, 1),
+        n_series=n_series,
         declarations=block_lines(taylor_declarations(eqs, dialect) + list(code.declarations),
                                  "    "),
         constant_names=block_lines(
@@ -971,8 +972,7 @@ def coefficient_fields(eqs: Equations, code: SeriesCode, constants: list[str],
         constants=block_lines(constants, "    "), start=block_lines(code.start, "    "),
         loop=block_lines(code.loop, "    "),
         orders=block_lines(order_loop(code, dialect), "    "),
-        order_functions="".join(order_function(order, dialect, max(code.n_series, 1))
-                                for order in orders),
+        order_functions="".join(order_function(order, dialect, n_series) for order in orders),
         order_cases=block_lines([order_case(order, dialect) for order in orders], "    "),
     )
 
@@ -1109,20 +1109,20 @@ def lanes_section(eqs: Equations, printer: SymbolTablePrinter, prefix: str, coun
         raise ValueError(f"lanes per batch: one of {sorted(LANE_TARGETS)}, got {count!r}")
     code = series_code(eqs.taylor, eqs.coordinates, eqs.speeds, taylor_rows(eqs), m.TIME,
                        series_printer(printer), LANES)
+    names = constants_read(code)
     return template("batch.c.tmpl").substitute(
         prefix=prefix, lanes=count, target=LANE_TARGETS[count],
         cpu_supports=cpu_supports(LANE_TARGETS[count]),
         taylor_math=taylor_math("lanes_math_", "lanes", "lane_bits", "NEMC_LANES lanes"),
-        n_constants=max(len(constants_read(code)), 1),
-        **coefficient_fields(eqs, code, lane_constants(code), LANES))
+        n_constants=max(len(names), 1),
+        **coefficient_fields(eqs, code, lane_constants(code, names), LANES))
 
 
-def lane_constants(code: SeriesCode) -> list[str]:
+def lane_constants(code: SeriesCode, names: list[str]) -> list[str]:
     """The body of lanes_run_constants (templates/batch.c.tmpl): the parameter-only values of
     the run in lane l, with its p, by the scalar lines, into lane l of the values the loop
-    reads (lanes_coefficient_k's constants)."""
-    return [*code.constants, *(f"constants[{j}][l] = {name};"
-                               for j, name in enumerate(constants_read(code)))]
+    reads (names: constants_read's, lanes_coefficient_k's constants)."""
+    return [*code.constants, *(f"constants[{j}][l] = {name};" for j, name in enumerate(names))]
 
 
 # ---- the drawing's point positions (issue 20): appended to every model's C ------------------
