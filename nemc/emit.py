@@ -892,7 +892,7 @@ def spectrum_source(eqs: Equations, prefix: str) -> str:
 # would double their compile time for that.
 PEEL_MAX_LINES = 300
 # nemc.Taylor's coefficients are also written out in full, as straight-line code, for the
-# orders of the scene's rtol and atol (taylor_order in templates/taylor.c.tmpl), as long as
+# orders of the scene's rtol and atol (taylor_rule), as long as
 # what is written out has at most this many terms: a program of L lines and S Cauchy sums
 # per order costs L p + S p (p - 1) / 2 at order p (gcc: about 0.2 ms a term in the one-run
 # code, 0.35 ms in the lanes'). Written out, a run costs 1.15-1.5x less (the double pendulum, a
@@ -910,20 +910,72 @@ LANES_FRAME_BYTES = 512 * 1024
 LANES_BYTES_MAX = 64
 
 
-def taylor_order(eps: float) -> int:
-    """Jorba & Zou's order for tolerance eps, as templates/taylor.c.tmpl's taylor_order."""
-    order = math.ceil(-math.log(eps) / 2 + 1)
-    return min(max(order, 2), TAYLOR_MAX_ORDER)
+# nemc.Taylor's step rule (taylor_rule here and in templates/taylor.c.tmpl): Jorba & Zou's
+# local error bound, e^(-A p) = eps / e^2 for a step h = rho / e^A of order p, met at the order
+# and exponent that cost least per unit of time, c(p) e^A, under nemc's cost model of a step,
+# c(p) = STEP_TERMS_PER_STATE n + L p + S p (p - 1) / 2 (a program of L lines and S Cauchy
+# sums per order: written_out_orders' terms). Jorba & Zou's own rule, A = 2 and
+# p = ceil(-ln(eps) / 2 + 1), is this choice when the Cauchy sums are the whole cost; with a
+# step's fixed work, longer steps of a higher order cost less (the double pendulum at 1e-6:
+# order 11 and A = 1.5 against order 8 and A = 2). The exponent stays at least
+# TAYLOR_MIN_EXPONENT: rho, from two coefficients, is an estimate, and the error at A = 1 fell
+# by half an order of magnitude per order where A = 1.5 gave 1.8 (docs/decisions.md, "nemc.
+# Taylor's order and step for nemc's cost"). STEP_TERMS_PER_STATE: a step's work beyond the
+# coefficients (its step size, Horner's rule, the finiteness test), in terms, measured from
+# the time per step against the order on the double pendulum, a free body and a 4-link chain.
+TAYLOR_MIN_EXPONENT = 1.5
+STEP_TERMS_PER_STATE = 120
 
 
-def written_out_orders(code: SeriesCode, simulation: m.Simulation) -> list[int]:
-    """The orders whose coefficients are written out: rtol's, then atol's, each while the
-    terms written out stay within WRITTEN_OUT_TERMS."""
+class StepCosts(NamedTuple):
+    """The cost model of a Taylor step of order p: step + line p + sums p (p - 1) / 2 terms."""
+
+    step: float
+    line: float
+    sums: float
+
+
+def step_costs(code: SeriesCode, n_state: int) -> StepCosts:
+    return StepCosts(float(STEP_TERMS_PER_STATE * n_state), float(len(code.loop)),
+                     float(code.cost))
+
+
+def step_cost_fields(costs: StepCosts) -> dict[str, str]:
+    """templates/taylor.c.tmpl's cost model, as C doubles of the same values."""
+    return dict(step_cost=repr(costs.step), line_cost=repr(costs.line), sum_cost=repr(costs.sums))
+
+
+def taylor_rule(eps: float, costs: StepCosts) -> tuple[int, float]:
+    """The order p and step exponent A for tolerance eps (the step is rho / e^A times Jorba &
+    Zou's exp(-0.7 / (p - 1))), as templates/taylor.c.tmpl's taylor_rule: the same
+    operations, so both choose the same order."""
+    if not eps > 0:
+        return TAYLOR_MAX_ORDER, 2.0
+    bound = -math.log(eps) + 2  # A p at Jorba & Zou's local error bound eps / e^2
+    first = math.ceil(bound / 2)  # Jorba & Zou's order, where A = 2
+    if first >= TAYLOR_MAX_ORDER:
+        return TAYLOR_MAX_ORDER, 2.0
+    best, best_exponent, best_cost = 0, 0.0, math.inf
+    for order in range(max(first, 2), TAYLOR_MAX_ORDER + 1):
+        exponent = min(max(bound / order, TAYLOR_MIN_EXPONENT), 2.0)
+        work = costs.step + costs.line * order + costs.sums * order * (order - 1) / 2
+        cost = math.log(work) + exponent + 0.7 / (order - 1)
+        if cost < best_cost:
+            best, best_exponent, best_cost = order, exponent, cost
+        if exponent <= TAYLOR_MIN_EXPONENT:  # higher orders only cost more from here
+            break
+    return best, best_exponent
+
+
+def written_out_orders(code: SeriesCode, simulation: m.Simulation, n_state: int) -> list[int]:
+    """The orders whose coefficients are written out: rtol's, then atol's (taylor_rule), each
+    while the terms written out stay within WRITTEN_OUT_TERMS."""
     rtol = simulation.rtol or DEFAULT_RTOL
     atol = simulation.atol or DEFAULT_ATOL
+    costs = step_costs(code, n_state)
     orders: list[int] = []
     terms = 0.0
-    for order in dict.fromkeys((taylor_order(rtol), taylor_order(atol))):
+    for order in dict.fromkeys((taylor_rule(rtol, costs)[0], taylor_rule(atol, costs)[0])):
         cost = len(code.loop) * order + code.cost * order * (order - 1) / 2
         if terms + cost <= WRITTEN_OUT_TERMS:
             orders.append(order)
@@ -960,7 +1012,7 @@ def coefficient_fields(eqs: Equations, code: SeriesCode, constants: list[str],
     the program at order k (declarations, its constants by name, the loop body), the loop
     over the orders, and the functions of the orders written out."""
     names = constants_read(code)
-    orders = written_out_orders(code, eqs.mechanism.simulation)
+    orders = written_out_orders(code, eqs.mechanism.simulation, 2 * eqs.n)
     n_series = max(code.n_series, 1)
     return dict(
         n_series=n_series,
@@ -1062,8 +1114,11 @@ def taylor_section(eqs: Equations, printer: SymbolTablePrinter, fma: bool = Fals
         max_order=TAYLOR_MAX_ORDER, fma=int(fma),
         taylor_math=taylor_math("math1_", "taylor_double1", "taylor_bits1", "one-element vectors"),
         constant_array=block_lines([scalar_constants(code)], "    "),
+        min_exponent=repr(TAYLOR_MIN_EXPONENT),
+        **step_cost_fields(step_costs(code, 2 * eqs.n)),
         **coefficient_fields(eqs, code, list(code.constants), SCALAR))
-    return TaylorC(source, None, tuple(written_out_orders(code, eqs.mechanism.simulation)))
+    return TaylorC(source, None,
+                   tuple(written_out_orders(code, eqs.mechanism.simulation, 2 * eqs.n)))
 
 
 def scalar_constants(code: SeriesCode) -> str:
