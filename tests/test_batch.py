@@ -315,3 +315,16 @@ def test_ctrl_c_stops_the_lanes_with_their_runs(tmp_path: Path) -> None:
                        env=env) as child:
         out = interrupted_output(child)
     assert out.split("]")[0] == "[-11" and out.split()[-1] == "9"
+
+
+def test_a_lane_whose_last_coefficients_vanish_equals_its_run() -> None:
+    """A pendulum released at rest from the horizontal (a series in t^4: at order 20 its last
+    two coefficients vanish, and its step comes from the two before, taylor_step_size) in lanes
+    beside moving ones: every lane the scalar run's bits."""
+    model = nemc.compile(EXAMPLES / "pendulum_to_vertical.yaml", taylor=True)
+    y0s = np.zeros((9, 2))
+    y0s[1:, 1] = np.linspace(0.1, 1.0, 8)
+    lanes, one_by_one = both(model, y0s, t_span=(0, 0.5), t_eval=np.linspace(0, 0.5, 6),
+                             rtol=1e-10, atol=1e-12)
+    assert_same(lanes, one_by_one)
+    assert lanes.success.all() and lanes.nfev[0] > 2

@@ -275,3 +275,20 @@ def test_the_c_rule_is_the_python_rule(pendulum) -> None:
     for eps in [*np.logspace(-15, -1, 57), 1e-300, 0.0, 0.9]:
         order = c_rule(float(eps), exponent)
         assert (order, exponent[0]) == taylor_rule(float(eps), costs)
+
+
+def test_a_series_in_t_to_the_fourth_takes_finite_steps() -> None:
+    """A pendulum released at rest from the horizontal is a series in t^4 (cos q' = 0 there):
+    at an order that is a multiple of 4 its last two coefficients vanish, and the step was
+    infinite, one step past the vertical whose event it then missed or placed 3e-5 late. The
+    two coefficients before them bound it now: the event at the quarter period (the complete
+    elliptic integral K(1/2)) at every tolerance, whatever the order."""
+    from scipy.special import ellipk
+
+    model = nemc.compile(EXAMPLES / "pendulum_to_vertical.yaml", taylor=True)
+    quarter = ellipk(0.5) / np.sqrt(3 * 9.81 / (2 * 1.5))
+    for rtol in np.logspace(-4, -13, 19):
+        result = model.simulate(method="nemc.Taylor", rtol=rtol, atol=rtol * 1e-2)
+        times, _ = result.events["vertical"]
+        assert result.success and result.nfev > 2
+        assert abs(times[0] - quarter) < 10 * rtol
