@@ -941,6 +941,10 @@ class StepCosts(NamedTuple):
     line: float
     sums: float
 
+    def terms(self, order: int) -> float:
+        """The program's terms at this order: line p + sums p (p - 1) / 2."""
+        return self.line * order + self.sums * order * (order - 1) / 2
+
 
 def step_costs(code: SeriesCode, n_state: int) -> StepCosts:
     return StepCosts(float(STEP_TERMS_PER_STATE * n_state), float(len(code.loop)),
@@ -965,7 +969,7 @@ def taylor_rule(eps: float, costs: StepCosts) -> tuple[int, float]:
     best, best_exponent, best_cost = 0, 0.0, math.inf
     for order in range(max(first, 2), TAYLOR_MAX_ORDER + 1):
         exponent = min(max(bound / order, TAYLOR_MIN_EXPONENT), 2.0)
-        work = costs.step + costs.line * order + costs.sums * order * (order - 1) / 2
+        work = costs.step + costs.terms(order)
         cost = math.log(work) + exponent + 0.7 / (order - 1)
         if cost < best_cost:
             best, best_exponent, best_cost = order, exponent, cost
@@ -983,7 +987,7 @@ def written_out_orders(code: SeriesCode, simulation: m.Simulation, n_state: int)
     orders: list[int] = []
     terms = 0.0
     for order in dict.fromkeys((taylor_rule(rtol, costs)[0], taylor_rule(atol, costs)[0])):
-        cost = len(code.loop) * order + code.cost * order * (order - 1) / 2
+        cost = costs.terms(order)
         if terms + cost <= WRITTEN_OUT_TERMS:
             orders.append(order)
             terms += cost
