@@ -572,6 +572,11 @@ COMMANDS = {
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; every expected failure is one message on stderr, never a traceback."""
+    # The command's arrays are small, and its threads are nemc's own (runs in C, Dask workers):
+    # numpy's BLAS threads would only spin, OpenBLAS's one per core for about 0.1 s of CPU
+    # after numpy's import (benchmarks/startup.py). Set before numpy is imported; the user's
+    # own setting wins.
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     args = make_parser().parse_args(argv)
     try:
         return COMMANDS[args.command](args)
