@@ -27,7 +27,14 @@ from .articulated import dynamics_program, generalized_force_symbols, inverse_ma
 from .c_cost import estimated_ns
 from .kinematics import Kinematics, applied_loads, motion_substitutions
 from .loops import LoopEquations, loop_equations
-from .mass_form import MAX_COORDINATES, mass_form_entries, mass_form_program, program_of_entries
+from .mass_form import (
+    MAX_COORDINATES,
+    ldl_solve,
+    mass_form_entries,
+    mass_form_program,
+    program_of_entries,
+    rhs_solve,
+)
 from .outputs import derive_outputs
 from .products import fewer_products
 from .program import Program, split_deep
@@ -225,11 +232,26 @@ def derive(mech: m.Mechanism) -> Equations:
 def mass_forms(mass: sympy.Matrix, forcing: sympy.Matrix) -> dict[str, Program]:
     """The mass-matrix form's programs the right-hand side may run: M's and f's entries as
     derived, linearized, and linearized with the sines and cosines of sums of angles from those
-    of their parts (nemc/angle_sums.py), the entries linearized once for both."""
-    linear = mass_form_entries(mass, forcing)
-    return {MASS_MATRIX: split_deep(mass_form_program(mass, forcing, linearize=False), "v"),
-            LINEARIZED: split_deep(program_of_entries(linear), "v"),
-            ADDITION_FORMULAS: split_deep(program_of_entries(linear, addition_formulas=True), "v")}
+    of their parts (nemc/angle_sums.py), the entries linearized once for both; M solved as
+    mass_form.rhs_solve says."""
+    linear, solve = mass_form_entries(mass, forcing), rhs_solve(mass.shape[0])
+    return {MASS_MATRIX: split_deep(mass_form_program(mass, forcing, linearize=False,
+                                                      solve=solve), "v"),
+            LINEARIZED: split_deep(program_of_entries(linear, solve=solve), "v"),
+            ADDITION_FORMULAS: split_deep(program_of_entries(linear, addition_formulas=True,
+                                                             solve=solve), "v")}
+
+
+def taylor_mass_forms(eqs: Equations) -> dict[str, Program]:
+    """The mass-matrix form's programs nemc.Taylor may run, M solved by LDL^T: the right-hand
+    side's where it solves so too, else made again (mass_form.rhs_solve)."""
+    if rhs_solve(eqs.n) is ldl_solve and LINEARIZED in eqs.forms:
+        return {form: eqs.forms[form] for form in (MASS_MATRIX, LINEARIZED)}
+    mass, forcing = eqs.mass_forcing
+    made = {LINEARIZED: split_deep(mass_form_program(mass, forcing), "vt")}
+    if MASS_MATRIX in eqs.forms:  # a candidate where the right-hand side had it
+        made[MASS_MATRIX] = split_deep(mass_form_program(mass, forcing, linearize=False), "vt")
+    return made
 
 
 def fastest_dynamics(forms: Mapping[str, Program]) -> str:
@@ -304,13 +326,14 @@ def with_taylor(eqs: Equations) -> Equations:
     def cost(program: Program) -> float:
         return series_cost(program, eqs.coordinates, eqs.speeds, m.TIME)
 
-    # the addition formulas trade a sine-cosine pair (two Cauchy sums an order) for four
-    # products: never fewer sums, so not a candidate here
+    # the articulated-body program, and the mass-matrix form's solved by LDL^T; the addition
+    # formulas trade a sine-cosine pair (two Cauchy sums an order) for four products: never
+    # fewer sums, so not a candidate here
     candidates = {form: program for form, program in
                   {**eqs.forms, eqs.dynamics_form: eqs.accelerations_program}.items()
-                  if form != ADDITION_FORMULAS}
-    if eqs.n <= MAX_COORDINATES and LINEARIZED not in candidates:
-        candidates[LINEARIZED] = split_deep(mass_form_program(*eqs.mass_forcing), "vt")
+                  if form not in (MASS_MATRIX, LINEARIZED, ADDITION_FORMULAS)}
+    if eqs.n <= MAX_COORDINATES:
+        candidates.update(taylor_mass_forms(eqs))
     # taking factors out nests sums: split again (other names than the first split's)
     programs = {form: split_deep(fewer_products(candidate, varying, cost), "vf")
                 for form, candidate in candidates.items()}

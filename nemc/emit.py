@@ -706,9 +706,9 @@ ARTICULATED_LINES = (
 MASS_MATRIX_LINES = (
     "The accelerations solve the mass-matrix form M(q) qdd = f(t, q, dq) (Newton-Euler per",
     "body, projected on the joints' free directions), written out as straight-line code: the",
-    "entries' common subexpressions named m<k>, then M's LDL^T factorization and the two",
-    "triangular solves. On so few coordinates this was estimated faster than the",
-    "articulated-body algorithm (nemc/c_cost.py).")
+    "entries' common subexpressions named m<k>, then M solved (on two coordinates by its",
+    "inverse, else by its LDL^T factorization and the two triangular solves). On so few",
+    "coordinates this was estimated faster than the articulated-body algorithm (nemc/c_cost.py).")
 LINEARIZED_LINE = "M's and f's entries are linearized in sines and cosines (sin^2 + cos^2 = 1)."
 ADDITION_LINE = ("The sines and cosines of sums of angles come from those of their parts (the "
                  "addition formulas).")

@@ -24,6 +24,7 @@ inside products) are left as they are.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import sympy
 from sympy.simplify.fu import TR8
@@ -80,11 +81,16 @@ def _stand_in(expr: sympy.Expr, stand_ins: dict[sympy.Expr, sympy.Symbol]) -> sy
     return stand_ins[inner]
 
 
+Solve = Callable[[ProgramBuilder, dict[tuple[int, int], sympy.Expr], list[sympy.Expr]],
+                 list[sympy.Expr]]
+
+
 def mass_form_program(mass: sympy.Matrix, forcing: sympy.Matrix, linearize: bool = True,
-                      addition_formulas: bool = False) -> Program:
+                      addition_formulas: bool = False, solve: Solve | None = None) -> Program:
     """The accelerations qdd = M^-1 f as a program, M's and f's entries linearized in sines and
     cosines unless LINEARIZE is False (mass_form_entries), then program_of_entries."""
-    return program_of_entries(mass_form_entries(mass, forcing, linearize), addition_formulas)
+    return program_of_entries(mass_form_entries(mass, forcing, linearize), addition_formulas,
+                              solve)
 
 
 def mass_form_entries(mass: sympy.Matrix, forcing: sympy.Matrix, linearize: bool = True
@@ -98,12 +104,13 @@ def mass_form_entries(mass: sympy.Matrix, forcing: sympy.Matrix, linearize: bool
 
 
 def program_of_entries(entries: tuple[list[sympy.Expr], list[sympy.Expr]],
-                       addition_formulas: bool = False) -> Program:
+                       addition_formulas: bool = False, solve: Solve | None = None) -> Program:
     """The accelerations qdd = M^-1 f from ENTRIES (mass_form_entries): their common
-    subexpressions named once, M solved by LDL^T in steps; with ADDITION_FORMULAS, the sines and
-    cosines of sums of angles come from those of their parts where those are computed anyway
-    (nemc/angle_sums.py). Guard j + 1: pivot j of M's LDL^T is not positive (the leading
-    (j + 1) x (j + 1) block of the mass matrix is singular there)."""
+    subexpressions named once, M solved in steps by SOLVE (ldl_solve, or rhs_solve's choice for
+    the right-hand side); with ADDITION_FORMULAS, the sines and cosines of sums of angles come
+    from those of their parts where those are computed anyway (nemc/angle_sums.py). Guard j + 1:
+    pivot j of M's LDL^T is not positive (the leading (j + 1) x (j + 1) block of the mass matrix
+    is singular there), whichever the solve."""
     lower_triangle, forcing = entries
     n = len(forcing)
     builder = ProgramBuilder("m")
@@ -117,7 +124,8 @@ def program_of_entries(entries: tuple[list[sympy.Expr], list[sympy.Expr]],
     for symbol, expr in temporaries:
         named[symbol] = builder.let(expr.xreplace(named))
     values = [builder.let(expr.xreplace(named)) for expr in reduced]
-    return builder.finish(ldl_solve(builder, dict(zip(lower, values)), values[len(lower):]))
+    solve = solve or ldl_solve
+    return builder.finish(solve(builder, dict(zip(lower, values)), values[len(lower):]))
 
 
 def with_angle_sums(builder: ProgramBuilder, exprs: list[sympy.Expr]) -> list[sympy.Expr]:
@@ -160,3 +168,28 @@ def ldl_solve(builder: ProgramBuilder, mass: dict[tuple[int, int], sympy.Expr],
         x[i] = builder.let(z[i] / pivots[i] - sum((unit[k, i] * x[k] for k in range(i + 1, n)),
                                                   sympy.S.Zero))
     return x
+
+
+def inverse_solve_2x2(builder: ProgramBuilder, mass: dict[tuple[int, int], sympy.Expr],
+                      forcing: list[sympy.Expr]) -> list[sympy.Expr]:
+    """x with M x = f for two coordinates by the inverse, adj(M) f / det M: one quotient (the
+    determinant's reciprocal) where LDL^T has three, each waiting for the one before. The
+    guards are LDL^T's: pivot 0 is M[0, 0], pivot 1 is det M / M[0, 0], positive exactly
+    when det M is, M[0, 0] being positive."""
+    a, b, d = mass[0, 0], mass[1, 0], mass[1, 1]
+    builder.require_positive(a, 1)
+    determinant = builder.let(a * d - b * b)
+    builder.require_positive(determinant, 2)
+    reciprocal = builder.let(1 / determinant)
+    return [builder.let((d * forcing[0] - b * forcing[1]) * reciprocal),
+            builder.let((a * forcing[1] - b * forcing[0]) * reciprocal)]
+
+
+def rhs_solve(n: int) -> Solve:
+    """The solve of the right-hand side's programs: the inverse for two coordinates (the double
+    pendulum's RHS 41 -> 37 ns where its evaluations are chained, as a Runge-Kutta step's are:
+    docs/decisions.md, "Two coordinates solved by the inverse"), else LDL^T. nemc.Taylor's
+    programs keep LDL^T: there a quotient by M[0, 0], often constant, costs no Cauchy sum, and the
+    inverse's products with the reciprocal two (the double pendulum: 4 sums an order against
+    5.5)."""
+    return inverse_solve_2x2 if n == 2 else ldl_solve

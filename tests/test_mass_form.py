@@ -15,8 +15,14 @@ from reference import random_mechanism_yaml
 import nemc
 from nemc import model as m
 from nemc.derive import ARTICULATED, derive, with_taylor
-from nemc.mass_form import MAX_COORDINATES, linearized, mass_form_program
-from nemc.program import Guard, Program
+from nemc.mass_form import (
+    MAX_COORDINATES,
+    inverse_solve_2x2,
+    ldl_solve,
+    linearized,
+    mass_form_program,
+)
+from nemc.program import Guard, Program, ProgramBuilder
 from nemc.runtime import IntegrationFailure
 from nemc.taylor import series_cost
 from nemc.validate import validate_text
@@ -129,3 +135,55 @@ def test_a_singular_mass_form_names_its_pivot() -> None:
     failure = IntegrationFailure(0.0, y, status, model.state_names, model._status_cause(status))
     assert "pivot 2 of its LDL^T factorization is not positive" in str(failure)
     assert "articulated" not in str(failure)
+
+
+def quotients(program: Program) -> int:
+    """The program's divisions by a value that is not a number."""
+    return sum(1 for step in program.steps if not isinstance(step, Guard)
+               for node in sympy.preorder_traversal(step[1])
+               if isinstance(node, sympy.Pow) and node.exp.is_negative
+               and not node.base.is_number)
+
+
+def solved(solve, mass: np.ndarray, forcing: np.ndarray) -> tuple[np.ndarray | None, int]:
+    """SOLVE's program at these numbers: (x, 0), or (None, the status of the failing guard)."""
+    builder = ProgramBuilder("s")
+    symbols = sympy.symbols("a b d f0 f1", real=True)
+    a, b, d, f0, f1 = symbols
+    program = builder.finish(solve(builder, {(0, 0): a, (1, 0): b, (1, 1): d}, [f0, f1]))
+    values = dict(zip(symbols, (mass[0, 0], mass[1, 0], mass[1, 1], *forcing)))
+    env: dict[sympy.Symbol, sympy.Expr] = {k: sympy.Float(v, 30) for k, v in values.items()}
+    for step in program.steps:
+        if isinstance(step, Guard):
+            if not float(step.value.xreplace(env)) > 0:
+                return None, step.status
+            continue
+        env[step[0]] = sympy.N(step[1].xreplace(env), 30)
+    return np.array([float(sympy.N(r.xreplace(env), 30)) for r in program.results]), 0
+
+
+def test_the_inverse_solves_as_ldl_with_its_guards() -> None:
+    """Two coordinates: adj(M) f / det M gives LDL^T's solution (and numpy's), and fails on the
+    same guard where M is not positive definite (pivot 1: M[0, 0]; pivot 2: det M / M[0, 0])."""
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        root = rng.normal(size=(2, 2))
+        mass, forcing = root @ root.T + 0.1 * np.eye(2), rng.normal(size=2)
+        x, status = solved(inverse_solve_2x2, mass, forcing)
+        assert status == 0
+        np.testing.assert_allclose(x, np.linalg.solve(mass, forcing), rtol=1e-12)
+        np.testing.assert_allclose(x, solved(ldl_solve, mass, forcing)[0], rtol=1e-12)
+    for mass in (np.array([[0.0, 1.0], [1.0, 2.0]]), np.array([[-1.0, 0.0], [0.0, 2.0]]),
+                 np.array([[1.0, 2.0], [2.0, 4.0]]), np.array([[1.0, 2.0], [2.0, 3.0]])):
+        assert solved(inverse_solve_2x2, mass, np.ones(2))[1] \
+            == solved(ldl_solve, mass, np.ones(2))[1] > 0
+
+
+def test_two_coordinates_run_the_inverse_and_taylor_keeps_ldl() -> None:
+    """The double pendulum's right-hand side divides once (the determinant), where LDL^T
+    divides three times, one division waiting for the other; nemc.Taylor's program is LDL^T's
+    (a quotient by the constant M[0, 0] costs it no Cauchy sum): 13 sums an order."""
+    eqs = with_taylor(equations_of((EXAMPLES / "double_pendulum.yaml").read_text(), "dp"))
+    assert eqs.dynamics_form.startswith("mass matrix") and quotients(eqs.dynamics) == 1
+    assert quotients(mass_form_program(*eqs.mass_forcing, solve=ldl_solve)) == 3
+    assert eqs.taylor_form.startswith("mass matrix") and eqs.taylor_sums == 13
