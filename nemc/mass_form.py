@@ -188,7 +188,9 @@ def inverse_solve_2x2(builder: ProgramBuilder, mass: dict[tuple[int, int], sympy
 def rhs_solve(n: int) -> Solve:
     """The solve of the right-hand side's programs: the inverse for two coordinates (the double
     pendulum's RHS 41 -> 37 ns where its evaluations are chained, as a Runge-Kutta step's are:
-    docs/decisions.md, "Two coordinates solved by the inverse"), else LDL^T. nemc.Taylor's
+    docs/decisions.md, "Two coordinates solved by the inverse"), else LDL^T. Not beyond two:
+    Cramer's rule is forward stable for 2 x 2 systems, not in general from 3 x 3 on (Higham,
+    Accuracy and Stability of Numerical Algorithms, 2nd ed., section 1.10.1). nemc.Taylor's
     programs keep LDL^T: there a quotient by M[0, 0], often constant, costs no Cauchy sum, and the
     inverse's products with the reciprocal two (the double pendulum: 4 sums an order against
     5.5)."""
