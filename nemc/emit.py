@@ -25,6 +25,7 @@ import sympy
 from . import __version__
 from . import model as m
 from .angles import angle_calls
+from .c_cost import estimated_ns
 from .c_text import SymbolTablePrinter
 from .derive import (
     ADDITION_FORMULAS,
@@ -498,6 +499,15 @@ def phased_functions(printer: SymbolTablePrinter, phases: Phases) -> str:
         n_passed=max(len(phases.passed), 1), positions=positions, rates=rates)
 
 
+# A tree's accelerations() is inlined into its callers (the RHS, the outputs) when its program
+# is estimated at most this many ns (c_cost.estimated_ns) and is not in parts: a call's fixed
+# cost, ~3 ns, then weighs. Measured with the RHS called through a pointer, as the drivers call
+# it, its evaluations chained: the double pendulum (21 ns estimated) 37.4 -> 34.3 ns, a 3-link
+# chain (45) 72.5 -> 68.4, the T pendulum (10) 34.3 -> 31.9; a 4-link chain (80) 101.7 -> 104.5
+# (docs/decisions.md, "The accelerations inlined into a small right-hand side").
+INLINE_DYNAMICS_NS = 60.0
+
+
 def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str,
                      chunk_steps: int, units: Units | None = None,
                      primal: Printed | None = None) -> str:
@@ -514,9 +524,11 @@ def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
                                     chunk_steps, units)
             dynamics = Printed(printed.functions, angles.prologue + printed.body)
         form = DYNAMICS_FORMS[eqs.dynamics_form]
+        inline = not dynamics.functions and estimated_ns(eqs.dynamics) <= INLINE_DYNAMICS_NS
         return template("tree.c.tmpl").substitute(
             prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body,
-            dynamics_form=form.label, singular_k=form.singular)
+            dynamics_form=form.label, singular_k=form.singular,
+            linkage="static inline __attribute__((always_inline))" if inline else "static")
     targets = dynamics_targets(eqs.layout)
     if eqs.loops is not None:
         functions = phased_functions(printer, split_by_rates(program, targets,
