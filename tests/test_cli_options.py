@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -131,3 +132,16 @@ def test_compile_jacobian_and_taylor(tmp_path: Path, capsys) -> None:
     assert main(["compile", str(EXAMPLES / "double_pendulum.yaml"), "-o", str(tmp_path)]) == 0
     meta = json.loads((tmp_path / "double_pendulum" / "model.json").read_text())
     assert "jacobian" not in meta["generated"] and "taylor" not in meta["generated"]
+
+
+def test_the_command_line_keeps_numpys_blas_to_one_thread_unless_told(monkeypatch,
+                                                                        capsys) -> None:
+    """A command's arrays are small: OpenBLAS's spinning threads are set to one before numpy
+    is imported, and a user's own setting is left as it is."""
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    assert main(["simulate", COMPOUND, "--t-eval", "0,"]) == 0
+    assert os.environ["OPENBLAS_NUM_THREADS"] == "1"
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "3")
+    assert main(["simulate", COMPOUND, "--t-eval", "0,"]) == 0
+    assert os.environ["OPENBLAS_NUM_THREADS"] == "3"
+    capsys.readouterr()
