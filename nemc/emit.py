@@ -36,6 +36,7 @@ from .derive import (
     Equations,
     taylor_cost_ratio,
 )
+from .mass_form import rhs_solve_text
 from .methods import AUTO_SPECTRUM_MAX_STATES, DEFAULT_ATOL, DEFAULT_RTOL
 from .optimize import Block, rewrite
 from .program import Guard, Program, prune
@@ -718,9 +719,11 @@ ARTICULATED_LINES = (
 MASS_MATRIX_LINES = (
     "The accelerations solve the mass-matrix form M(q) qdd = f(t, q, dq) (Newton-Euler per",
     "body, projected on the joints' free directions), written out as straight-line code: the",
-    "entries' common subexpressions named m<k>, then M solved (on two coordinates by its",
-    "inverse, else by its LDL^T factorization and the two triangular solves). On so few",
-    "coordinates this was estimated faster than the articulated-body algorithm (nemc/c_cost.py).")
+    "entries' common subexpressions named m<k>, then M solved",
+    "{solve}.",
+    "On so few coordinates this was estimated faster than the articulated-body algorithm",
+    "(nemc/c_cost.py).")
+
 LINEARIZED_LINE = "M's and f's entries are linearized in sines and cosines (sin^2 + cos^2 = 1)."
 ADDITION_LINE = ("The sines and cosines of sums of angles come from those of their parts (the "
                  "addition formulas).")
@@ -755,7 +758,8 @@ def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
         description=comment_text(mech.description),
         state_names=comment_text(", ".join(mech.state_names)),
         parameter_names=comment_text(", ".join(s.name for s in eqs.parameters)),
-        dynamics_description=DYNAMICS_FORMS[eqs.dynamics_form].account,
+        dynamics_description=DYNAMICS_FORMS[eqs.dynamics_form].account.replace(
+            "{solve}", rhs_solve_text(eqs.n)),
         prefix=prefix,
         dynamics_section=angles_kernel(dynamics + jacobian) + dynamics,
         check_names=comment_text(", ".join(key for key, _ in eqs.checks)),

@@ -195,3 +195,10 @@ def rhs_solve(n: int) -> Solve:
     inverse's products with the reciprocal two (the double pendulum: 4 sums an order against
     5.5)."""
     return inverse_solve_2x2 if n == 2 else ldl_solve
+
+
+def rhs_solve_text(n: int) -> str:
+    """How rhs_solve(n) solves M, as the generated C's header says it."""
+    if rhs_solve(n) is inverse_solve_2x2:
+        return "by its inverse, adj(M) f / det M (one division)"
+    return "by its LDL^T factorization and the two triangular solves"
