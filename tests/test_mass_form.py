@@ -31,16 +31,25 @@ EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 BOOK = ["compound_pendulum", "double_pendulum", "robot_arm", "two_link_robot_arm"]
 
 
-def run(program: Program, values: dict[sympy.Symbol, float]) -> np.ndarray:
-    """The program's results at these values of its free symbols (guards must hold)."""
+def evaluate(program: Program, values: dict[sympy.Symbol, float]
+             ) -> tuple[np.ndarray | None, int]:
+    """The program's results at these values of its free symbols, to 30 digits: (results, 0),
+    or (None, the status of the first guard that fails)."""
     env: dict[sympy.Symbol, sympy.Expr] = {k: sympy.Float(v, 30) for k, v in values.items()}
     for step in program.steps:
         if isinstance(step, Guard):
-            assert float(step.value.xreplace(env)) > 0
+            if not float(step.value.xreplace(env)) > 0:
+                return None, step.status
             continue
-        name, expr = step
-        env[name] = sympy.N(expr.xreplace(env), 30)
-    return np.array([float(sympy.N(r.xreplace(env), 30)) for r in program.results])
+        env[step[0]] = sympy.N(step[1].xreplace(env), 30)
+    return np.array([float(sympy.N(r.xreplace(env), 30)) for r in program.results]), 0
+
+
+def run(program: Program, values: dict[sympy.Symbol, float]) -> np.ndarray:
+    """The program's results at these values of its free symbols (guards must hold)."""
+    results, status = evaluate(program, values)
+    assert status == 0 and results is not None
+    return results
 
 
 def equations_of(text: str, name: str):
@@ -151,15 +160,7 @@ def solved(solve, mass: np.ndarray, forcing: np.ndarray) -> tuple[np.ndarray | N
     symbols = sympy.symbols("a b d f0 f1", real=True)
     a, b, d, f0, f1 = symbols
     program = builder.finish(solve(builder, {(0, 0): a, (1, 0): b, (1, 1): d}, [f0, f1]))
-    values = dict(zip(symbols, (mass[0, 0], mass[1, 0], mass[1, 1], *forcing)))
-    env: dict[sympy.Symbol, sympy.Expr] = {k: sympy.Float(v, 30) for k, v in values.items()}
-    for step in program.steps:
-        if isinstance(step, Guard):
-            if not float(step.value.xreplace(env)) > 0:
-                return None, step.status
-            continue
-        env[step[0]] = sympy.N(step[1].xreplace(env), 30)
-    return np.array([float(sympy.N(r.xreplace(env), 30)) for r in program.results]), 0
+    return evaluate(program, dict(zip(symbols, (mass[0, 0], mass[1, 0], mass[1, 1], *forcing))))
 
 
 def test_the_inverse_solves_as_ldl_with_its_guards() -> None:
