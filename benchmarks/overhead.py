@@ -7,6 +7,8 @@ also with method "auto" (its choice included).
 Method "auto"'s choice (`Model.auto_method`: its look at the start, one C call) on the double
 pendulum (no Jacobian in its build: differences, the trace alone) and the book's stiff 5.4 arm
 (its exact Jacobian, and the eigenvalues).
+model.rhs through cffi (the way without the build's _rhs_call extension) is timed beside it,
+and the closure simulate hands to solve_ivp.
 The drivers' own work: each explicit method over [0, 200] at rtol 1e-10 (long runs: the fixed
 cost vanishes), per right-hand-side call, against the C right-hand side alone at 1,000 states
 along that run (the pendulum's angles there cost sincos more than random states in [-1.5, 1.5]:
@@ -41,9 +43,16 @@ def main() -> int:
     model = nemc.compile(ROOT / "examples" / "double_pendulum.yaml")
     y0 = model.initial_state()
     states = random_states(model.n_state, STATES)  # (n_state, STATES)
+    through_cffi = model._checked_rhs(model.parameter_vector())
+    closure = model._rhs_function(model.parameter_vector())
     calls = {
         "C right-hand side (rhs_many, per state)": (lambda: model.rhs_many(0.0, states), STATES),
         "model.rhs(t, y)": (lambda: model.rhs(0.0, y0), 1),
+        # the way model.rhs takes without the build's _rhs_call (CPython 3.10), and for any
+        # argument that extension does not take as it is: cffi's call
+        "model.rhs(t, y) through cffi": (lambda: through_cffi(0.0, y0), 1),
+        # the closure solve_ivp calls (simulate with scipy's methods)
+        "solve_ivp's closure(t, y)": (lambda: closure(0.0, y0), 1),
     }
     arm = nemc.compile(ROOT / "examples" / "two_link_robot_arm.yaml")
     for label, chooser in (("double pendulum", model), ("stiff 5.4 arm", arm)):

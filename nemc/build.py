@@ -14,7 +14,8 @@ aside and rebuilt, never imported.
 
 A cache entry holds the readable C source (a very long model's in several files, and method
 auto's look at the start in <name>_spectrum.c, compiled in parallel), compiled on its own with
-the flags below, a cffi API-mode wrapper linked against it,
+the flags below, a cffi API-mode wrapper linked against it, Model.rhs's small extension
+_rhs_call (templates/rhs_call.c.tmpl: the right-hand side called through numpy's buffers),
 and model.json; `export` adds the runtime (nemc/runtime.py
 and nemc/methods.py, as they are now) to make the standalone package.
 """
@@ -29,6 +30,7 @@ import json
 import os
 import shlex
 import stat
+import sys
 import sysconfig
 import time
 from collections.abc import Sequence
@@ -71,6 +73,10 @@ COMPLETE = "BUILD_OK"
 # The cffi wrapper uses only CPython's stable ABI (3.10 on): the extension, named .abi3.so,
 # loads in any later CPython too. A free-threaded CPython has no stable ABI: its own suffix.
 LIMITED_API = "0x030A0000"
+# Model.rhs's own extension (templates/rhs_call.c.tmpl), apart from _native: the buffer
+# protocol it reads numpy's arrays with is in the stable ABI from 3.11 on.
+RHS_CALL = "_rhs_call"
+CALL_LIMITED_API = "0x030B0000"
 STALE_SCRATCH_S = 24 * 3600  # a temporary build folder this old was left by a killed build
 # Names of nemc's own temporary entries in the cache folder: only these are ever cleaned up,
 # so a NEMC_CACHE shared with other programs (even /tmp) loses none of their files.
@@ -275,9 +281,10 @@ def start(command: list[str]) -> subprocess.Popen:
 
 
 def compile_c(c_file: Path, wrapper_file: Path, out_file: Path,
-              units: Sequence[Path] = ()) -> None:
-    """Compile the model's C (its unit files too), and the cffi wrapper, in parallel on the
-    available cores, then link the extension."""
+              units: Sequence[Path] = (), rhs_call: Path | None = None) -> None:
+    """Compile the model's C (its unit files too), the cffi wrapper and Model.rhs's extension
+    (RHS_CALL's C, linked apart into _rhs_call), in parallel on the available cores, then link
+    the extensions."""
     include = sysconfig.get_paths()["include"]
     cc = compiler()
     # the largest first, so that the last to finish is a short one
@@ -286,13 +293,23 @@ def compile_c(c_file: Path, wrapper_file: Path, out_file: Path,
              str(c.with_suffix(".o"))] for c in sources]
     jobs.insert(1, [*cc, "-O2", "-fPIC", *limited_api_flags(), "-I", include, "-c",
                     str(wrapper_file), "-o", str(wrapper_file.with_suffix(".o"))])
+    if rhs_call is not None:
+        jobs.append([*cc, *CFLAGS, *call_api_flags(), "-I", include, "-c", str(rhs_call),
+                     "-o", str(rhs_call.with_suffix(".o"))])
     run_jobs(jobs, min(max(usable_cores(), 2), MAX_COMPILER_JOBS))
-    link = [*cc, "-shared", *(str(c.with_suffix(".o")) for c in sources),
-            str(wrapper_file.with_suffix(".o")), "-o", str(out_file), "-lm"]
-    process = start(link)
+    link(cc, [*(c.with_suffix(".o") for c in sources), wrapper_file.with_suffix(".o")],
+         out_file)
+    if rhs_call is not None:
+        link(cc, [rhs_call.with_suffix(".o")], out_file.with_name(RHS_CALL + call_suffix()))
+
+
+def link(cc: list[str], objects: Sequence[Path], out_file: Path) -> None:
+    """Link OBJECTS into the shared library OUT_FILE."""
+    command = [*cc, "-shared", *map(str, objects), "-o", str(out_file), "-lm"]
+    process = start(command)
     output = process.communicate()[0].decode(errors="replace")
     if process.returncode:
-        raise BuildError(f"linking failed:\n$ {' '.join(link)}\n{output}")
+        raise BuildError(f"linking failed:\n$ {' '.join(command)}\n{output}")
 
 
 def usable_cores() -> int:
@@ -334,6 +351,23 @@ def limited_api_flags() -> list[str]:
     return [f"-DPy_LIMITED_API={LIMITED_API}"] if stable_abi() else []
 
 
+def call_stable_abi() -> bool:
+    """Whether Model.rhs's extension is built for the stable ABI: it needs the buffer
+    protocol, part of the stable ABI from CPython 3.11 on."""
+    return stable_abi() and sys.version_info >= (3, 11)
+
+
+def call_api_flags() -> list[str]:
+    return [f"-DPy_LIMITED_API={CALL_LIMITED_API}"] if call_stable_abi() else []
+
+
+def call_suffix() -> str:
+    """.abi3.so (any CPython >= 3.11; in 3.10 its import fails, and Model.rhs goes through
+    cffi), or this interpreter's own suffix (3.10, a free-threaded CPython)."""
+    return ".abi3.so" if call_stable_abi() and os.name == "posix" else sysconfig.get_config_var(
+        "EXT_SUFFIX")
+
+
 def extension_suffix() -> str:
     """.abi3.so (the stable ABI: any CPython >= 3.10), or this interpreter's own suffix."""
     return ".abi3.so" if stable_abi() and os.name == "posix" else sysconfig.get_config_var(
@@ -342,7 +376,7 @@ def extension_suffix() -> str:
 
 # The modules and files of a package besides <name>.c: a model named like one of them would
 # clash with it (a model named _native cannot import its own extension). validate refuses them.
-PACKAGE_FILE_STEMS = ("__init__", "_native", "model", COMPLETE,
+PACKAGE_FILE_STEMS = ("__init__", "_native", RHS_CALL, "model", COMPLETE,
                       *(Path(copied).stem for copied in RUNTIME_FILES.values()))
 
 
@@ -355,6 +389,7 @@ def write_package(code: Emitted, folder: Path) -> None:
     for path, text in side_sources(code, folder):
         path.write_text(text)
     (folder / f"{code.name}.h").write_text(code.header)
+    (folder / f"{RHS_CALL}.c").write_text(code.rhs_call)
 
 
 def side_sources(code: Emitted, folder: Path) -> list[tuple[Path, str]]:
@@ -408,8 +443,9 @@ def build(code: Emitted, key: str) -> Path:
             ffi.emit_c_code(str(wrapper))
         extension = package / ("_native" + extension_suffix())
         units = [path for path, _ in side_sources(code, package)]
-        compile_c(package / f"{code.name}.c", wrapper, extension, units)
-        for c_file in [package / f"{code.name}.c", *units]:
+        rhs_call = package / f"{RHS_CALL}.c"
+        compile_c(package / f"{code.name}.c", wrapper, extension, units, rhs_call)
+        for c_file in [package / f"{code.name}.c", *units, rhs_call]:
             c_file.with_suffix(".o").unlink()
         write_manifest(package, key)
         publish(package, final, key)

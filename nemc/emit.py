@@ -65,6 +65,7 @@ class Emitted:
     metadata: dict
     spectrum: str  # the C of <name>_spectrum.c (method auto's look at the start)
     units: tuple[str, ...] = ()  # the C of <name>_unit<k>.c, k = 1, 2, ... (long programs' parts)
+    rhs_call: str = ""  # the C of _rhs_call.c: Model.rhs's extension (templates/rhs_call.c.tmpl)
 
 
 def template(name: str) -> Template:
@@ -1282,5 +1283,8 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
             name=eqs.mechanism.name, version=__version__
         ),
         metadata=info,
+        rhs_call=template("rhs_call.c.tmpl").substitute(
+            name=eqs.mechanism.name, prefix=prefix, version=__version__
+        ),
     )
 

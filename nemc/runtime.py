@@ -198,6 +198,11 @@ class SimulationResult:
         return head + _html_table(self.columns(), rows=_preview_rows(len(self.t)))
 
 
+def _no_fast_call(t: Any, y: Any) -> None:
+    """Model.rhs's first way where the build's _rhs_call cannot be imported: none."""
+    return None
+
+
 def _real_array(value: Any, what: str) -> np.ndarray:
     """VALUE as a numpy array of real numbers (bool, int, float); anything else is refused."""
     try:
@@ -267,7 +272,7 @@ class Model(LoopsMixin):
 
     _model_error = ModelError  # what LoopsMixin raises
 
-    def __init__(self, metadata: dict, ffi: Any, lib: Any):
+    def __init__(self, metadata: dict, ffi: Any, lib: Any, rhs_call: Any = None):
         self.metadata = metadata
         self.name: str = metadata["name"]
         self.state_names: tuple[str, ...] = tuple(metadata["state_names"])
@@ -299,6 +304,9 @@ class Model(LoopsMixin):
         self._checked: tuple[tuple, np.ndarray] = ((), self._default_p)
         self._rhs_cache: tuple[Any, Any] = (None, None)  # rhs(): (p, its closure)
         self._default_rhs: Callable[[Any, Any], np.ndarray] | None = None  # rhs(t, y)
+        # rhs(t, y)'s C call through the build's _rhs_call (None: not made yet), and that module
+        self._fast_rhs: Callable[[Any, Any], np.ndarray | None] | None = None
+        self._rhs_call = rhs_call
         self._method_ids: dict[str, int] = {}  # _method_id's, looked up once
         self._native_models: dict[str, Model] = {}  # _native_model's, found once
         self._look: tuple[int, Model | None] = (-1, None)  # _look_model's (variants, model)
@@ -458,34 +466,42 @@ class Model(LoopsMixin):
     def rhs(self, t: float, y: Any, params: Mapping[str, float] | None = None) -> np.ndarray:
         """dy/dt at (t, y)."""
         if params is None:  # the default parameters (checked when compiled): no lookup
-            if self._default_rhs is None:
-                self._default_rhs = self._checked_rhs(self._default_p)
-            return self._default_rhs(t, y)
+            fast = self._fast_rhs or self._prepare_default_rhs()
+            dy = fast(t, y)  # a float t and a float64 array y: the C call, else None
+            return dy if dy is not None else self._default_rhs(t, y)  # type: ignore[misc]
         p = self.parameter_vector(params)
         if self._rhs_cache[0] is not p:  # the closure of the latest parameters, kept
             self._rhs_cache = (p, self._rhs_function(p))
         return self._rhs_cache[1](self._time(t), self._state(y))
 
+    def _prepare_default_rhs(self) -> Callable[[Any, Any], np.ndarray | None]:
+        """rhs(t, y)'s two ways at the default parameters: _fast_call's, and _checked_rhs's,
+        which converts or refuses the arguments and raises the failure."""
+        self._default_rhs = self._checked_rhs(self._default_p)
+        self._fast_rhs = self._fast_call(self._default_p)
+        return self._fast_rhs
+
+    def _fast_call(self, p: np.ndarray) -> Callable[[Any, Any], np.ndarray | None]:
+        """The right-hand side at parameters p through the build's _rhs_call (0.2-0.3 us a
+        call where cffi's takes about 1: templates/rhs_call.c.tmpl): dy for a float t (finite)
+        and a C-contiguous float64 array y, None for anything else and for any status but
+        NEMC_OK, which the caller's cffi way then converts, refuses or raises. Without
+        _rhs_call (CPython 3.10), always None. p is kept, and never written."""
+        if self._rhs_call is None:
+            return _no_fast_call
+        address = self._ffi.cast("uintptr_t", self._ffi.addressof(
+            self._lib, self.metadata["c_prefix"] + "rhs"))
+        return self._rhs_call.make(int(address), p, np.ndarray, np.empty)
+
     def _checked_rhs(self, p: np.ndarray) -> Callable[[Any, Any], np.ndarray]:
-        """rhs(t, y) at parameters p, as Model.rhs checks its arguments: a finite float t and
-        a C-contiguous float64 state of shape (n_state,) pass inline checks (issue 19: ~0.9 us a
-        call where the C takes 43 ns, the rest mostly cffi's call and buffers and the new
-        array), anything else goes through _time and _state."""
-        c_rhs, from_buffer, n, names = self._c["rhs"], self._ffi.from_buffer, self.n_state, \
-            self.state_names
-        double, f64, shape, time_of, state_of = self._ffi.typeof("double[]"), \
-            np.dtype(np.float64), (self.n_state,), self._time, self._state
-        p_buffer, empty, ndarray, isfinite = from_buffer(double, p), np.empty, np.ndarray, \
-            math.isfinite
+        """rhs(t, y) at parameters p through cffi, with Model.rhs's checks of its arguments."""
+        c_rhs, buffer, n, names = self._c["rhs"], self._buffer, self.n_state, self.state_names
+        p_buffer, time_of, state_of = buffer(p), self._time, self._state
 
         def rhs(t: Any, y: Any) -> np.ndarray:
-            if type(t) is not float or not isfinite(t):
-                t = time_of(t)
-            if type(y) is not ndarray or y.dtype is not f64 or y.shape != shape \
-                    or not y.flags.c_contiguous:
-                y = state_of(y)
-            dy = empty(n)
-            status = c_rhs(t, from_buffer(double, y), p_buffer, from_buffer(double, dy))
+            t, y = time_of(t), state_of(y)
+            dy = np.empty(n)
+            status = c_rhs(t, buffer(y), p_buffer, buffer(dy))
             if status:
                 raise IntegrationFailure(t, y, status, names, self._status_cause(status))
             return dy
@@ -493,14 +509,19 @@ class Model(LoopsMixin):
         return rhs
 
     def _rhs_function(self, p: np.ndarray):
-        """A fast closure for integrators: buffers for p prepared once, checks done in C."""
+        """A fast closure for integrators: _fast_call's, else cffi's with buffers for p
+        prepared once and the checks done in C."""
         c_rhs, buffer, n, names = self._c["rhs"], self._buffer, self.n_state, self.state_names
-        p_buffer = buffer(p)
+        p_buffer, fast = buffer(p), self._fast_call(p)
         last: list = [0.0, None]  # the latest (t, y): where a solver that gave up stopped
 
         def rhs(t: float, y: np.ndarray) -> np.ndarray:
-            y = np.ascontiguousarray(y, dtype=np.float64)  # Radau/BDF may pass strided views
             last[0], last[1] = t, y
+            dy = fast(t, y)
+            if dy is not None:
+                return dy
+            y = np.ascontiguousarray(y, dtype=np.float64)  # Radau/BDF may pass strided views
+            last[1] = y
             dy = np.empty(n)
             status = c_rhs(t, buffer(y), p_buffer, buffer(dy))
             if status:

@@ -167,6 +167,7 @@ EXPECTED: dict[str, tuple[int, str, str]] = {
     "deep_yaml": (3, "", "YAML is nested more than 64 levels deep"),
     # round 2 (issue 21): names that clash with the package's own files, or are too long
     "model_name_native": (2, "name", "'_native' is the name of a module or file inside every"),
+    "model_name_rhs_call": (2, "name", "'_rhs_call' is the name of a module or file inside"),
     "model_name_runtime": (2, "name", "'_runtime' is the name of a module or file inside"),
     "model_name_model": (2, "name", "'model' is the name of a module or file inside"),
     "model_name_init": (2, "name", "'__init__' is the name of a module or file inside"),

@@ -78,11 +78,16 @@ def test_the_extension_is_built_for_the_stable_abi(package: Path) -> None:
 def test_the_package_loads_in_another_python_version(package: Path) -> None:
     code = ("import json, sys, double_pendulum as m\n"
             "res = m.simulate(method='nemc.DOP853', t_eval=[0, 2.5, 5])\n"
+            "rhs = m.rhs(0.0, [0.1, 0.2, 0.3, 0.4]).tolist()\n"
             "print(json.dumps({'version': list(sys.version_info[:2]), 'so': m._native.__file__,"
-            " 'rhs': m.rhs(0.0, [0.1, 0.2, 0.3, 0.4]).tolist(), 'y': res.y.tolist()}))")
+            " 'rhs': rhs, 'y': res.y.tolist(), 'fast': type(m.model._fast_rhs).__name__,"
+            " 'fast_rhs': m.rhs(0.0, m.model.state_vector([0.1, 0.2, 0.3, 0.4])).tolist()}))")
     found = run_python(OTHER_PYTHON, package.parent, code)
     assert tuple(found["version"]) != sys.version_info[:2]
     assert found["so"].endswith("_native.abi3.so")
+    # Model.rhs's extension too, built for the stable ABI of 3.11 on (in 3.10: cffi alone)
+    assert found["fast"] == ("RhsCall" if tuple(found["version"]) >= (3, 11) else "function")
+    assert found["fast_rhs"] == found["rhs"]
     model: Model = nemc.compile(EXAMPLES / "double_pendulum.yaml")
     np.testing.assert_allclose(found["rhs"], model.rhs(0.0, [0.1, 0.2, 0.3, 0.4]), rtol=1e-15)
     mine = model.simulate(method="nemc.DOP853", t_eval=[0, 2.5, 5]).y
