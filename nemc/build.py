@@ -294,7 +294,7 @@ def compile_c(c_file: Path, wrapper_file: Path, out_file: Path,
     jobs.insert(1, [*cc, "-O2", "-fPIC", *limited_api_flags(), "-I", include, "-c",
                     str(wrapper_file), "-o", str(wrapper_file.with_suffix(".o"))])
     if rhs_call is not None:
-        jobs.append([*cc, *CFLAGS, *call_api_flags(), "-I", include, "-c", str(rhs_call),
+        jobs.append([*cc, *CFLAGS, *package_c_flags(rhs_call), "-c", str(rhs_call),
                      "-o", str(rhs_call.with_suffix(".o"))])
     run_jobs(jobs, min(max(usable_cores(), 2), MAX_COMPILER_JOBS))
     link(cc, [*(c.with_suffix(".o") for c in sources), wrapper_file.with_suffix(".o")],
@@ -359,6 +359,14 @@ def call_stable_abi() -> bool:
 
 def call_api_flags() -> list[str]:
     return [f"-DPy_LIMITED_API={CALL_LIMITED_API}"] if call_stable_abi() else []
+
+
+def package_c_flags(c_file: Path) -> list[str]:
+    """What a C file of a package needs besides the compiler flags: Python's headers and its
+    stable ABI for _rhs_call.c (a Python extension), nothing for the model's own C."""
+    if c_file.name == f"{RHS_CALL}.c":
+        return [*call_api_flags(), "-I", sysconfig.get_paths()["include"]]
+    return []
 
 
 def call_suffix() -> str:

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from reference import random_mechanism_yaml
 
+from nemc.build import package_c_flags
 from nemc.pipeline import Compiled, compile_mechanism
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
@@ -183,8 +184,8 @@ def test_unit_files_compile_warning_free(units: tuple[Compiled, Compiled], tmp_p
     for c_file in sorted(units[1].package.glob("*.c")):
         for level in ("-O1", "-O2"):  # unit files are built at -O1 (build.UNIT_CFLAGS)
             done = subprocess.run(
-                ["gcc", "-std=c99", level, "-Wall", "-Wextra", "-Werror", "-c", str(c_file),
-                 "-o", str(tmp_path / "unit.o")],
+                ["gcc", "-std=c99", level, "-Wall", "-Wextra", "-Werror",
+                 *package_c_flags(c_file), "-c", str(c_file), "-o", str(tmp_path / "unit.o")],
                 capture_output=True, text=True,
             )
             assert done.returncode == 0, (c_file.name, level, done.stderr)

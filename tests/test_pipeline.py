@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import nemc
+from nemc.build import package_c_flags
 from nemc.cli import main
 from nemc.pipeline import compile_mechanism
 from nemc.runtime import ModelError
@@ -84,8 +85,8 @@ def test_generated_c_is_warning_free(example: Path, tmp_path: Path) -> None:
     assert {c.name for c in c_files} >= {f"{name}.c", f"{name}_spectrum.c"}
     for c_file in c_files:
         done = subprocess.run(
-            ["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-c", str(c_file),
-             "-o", str(tmp_path / "x.o")],
+            ["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", *package_c_flags(c_file),
+             "-c", str(c_file), "-o", str(tmp_path / "x.o")],
             capture_output=True, text=True,
         )
         assert done.returncode == 0, (c_file.name, done.stderr)

@@ -8,14 +8,13 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-import sysconfig
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import nemc
-from nemc.build import CFLAGS, call_api_flags, call_suffix, compiler
+from nemc.build import CFLAGS, call_suffix, compiler, package_c_flags
 from nemc.runtime import IntegrationFailure, Model, _no_fast_call
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -110,7 +109,7 @@ def test_the_build_has_it_for_this_python(model: Model) -> None:
 def test_its_c_compiles_warning_free(model: Model, tmp_path: Path) -> None:
     source = Path(model._rhs_call.__file__).with_name("_rhs_call.c")
     done = subprocess.run(
-        [*compiler(), *CFLAGS, *call_api_flags(), "-Werror", "-I",
-         sysconfig.get_paths()["include"], "-c", str(source), "-o", str(tmp_path / "call.o")],
+        [*compiler(), *CFLAGS, *package_c_flags(source), "-Werror", "-c", str(source), "-o",
+         str(tmp_path / "call.o")],
         capture_output=True, text=True)
     assert done.returncode == 0 and "warning" not in done.stderr, done.stderr
