@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from reference import relative_chain_yaml
 
 import nemc
 from nemc.build import CFLAGS, call_suffix, compiler, package_c_flags
@@ -43,6 +44,17 @@ def test_the_c_call_gives_the_bits_of_the_cffi_call(model: Model) -> None:
         assert dy.dtype == np.float64 and dy.shape == (model.n_state,) and dy.flags.writeable
     y = np.array([0.3, -0.2, 1.1, 0.5])
     assert fast(0.0, y) is not fast(0.0, y)  # a new array each call
+
+
+def test_a_long_model_without_the_gil_gives_the_same_bits() -> None:
+    """From 32 states on the call releases the GIL around the C (RHS_CALL_RELEASES_GIL)."""
+    chain = nemc.compile(text=relative_chain_yaml(16, "chain16_call", mass=1.3, length=0.7))
+    assert chain.n_state == 32
+    fast = fast_call(chain)
+    rng = np.random.default_rng(32)
+    for _ in range(5):
+        y = rng.uniform(-2, 2, chain.n_state)
+        np.testing.assert_array_equal(fast(0.3, y), chain._default_rhs(0.3, y))
 
 
 def test_what_it_does_not_take_is_left_to_the_checked_way(model: Model) -> None:
