@@ -280,8 +280,8 @@ def start(command: list[str]) -> subprocess.Popen:
                          f"(CC is {os.environ.get('CC', '')!r})") from None
 
 
-def compile_c(c_file: Path, wrapper_file: Path, out_file: Path,
-              units: Sequence[Path] = (), rhs_call: Path | None = None) -> None:
+def compile_c(c_file: Path, wrapper_file: Path, out_file: Path, units: Sequence[Path],
+              rhs_call: Path) -> None:
     """Compile the model's C (its unit files too), the cffi wrapper and Model.rhs's extension
     (RHS_CALL's C, linked apart into _rhs_call), in parallel on the available cores, then link
     the extensions."""
@@ -293,14 +293,12 @@ def compile_c(c_file: Path, wrapper_file: Path, out_file: Path,
              str(c.with_suffix(".o"))] for c in sources]
     jobs.insert(1, [*cc, "-O2", "-fPIC", *limited_api_flags(), "-I", include, "-c",
                     str(wrapper_file), "-o", str(wrapper_file.with_suffix(".o"))])
-    if rhs_call is not None:
-        jobs.append([*cc, *CFLAGS, *package_c_flags(rhs_call), "-c", str(rhs_call),
-                     "-o", str(rhs_call.with_suffix(".o"))])
+    jobs.append([*cc, *CFLAGS, *package_c_flags(rhs_call), "-c", str(rhs_call), "-o",
+                 str(rhs_call.with_suffix(".o"))])
     run_jobs(jobs, min(max(usable_cores(), 2), MAX_COMPILER_JOBS))
     link(cc, [*(c.with_suffix(".o") for c in sources), wrapper_file.with_suffix(".o")],
          out_file)
-    if rhs_call is not None:
-        link(cc, [rhs_call.with_suffix(".o")], out_file.with_name(RHS_CALL + call_suffix()))
+    link(cc, [rhs_call.with_suffix(".o")], out_file.with_name(RHS_CALL + call_suffix()))
 
 
 def link(cc: list[str], objects: Sequence[Path], out_file: Path) -> None:

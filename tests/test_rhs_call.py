@@ -1,7 +1,9 @@
 """Model.rhs's C call (the build's _rhs_call extension, templates/rhs_call.c.tmpl): the bits of
 the cffi call, None for everything it does not take as it is (Model.rhs then converts, refuses
-or raises the failure the checked way), and no reference kept or lost. Its speed is measured
-by benchmarks/overhead.py, never asserted here."""
+or raises the failure the checked way), and no reference kept or lost. What it computes is
+checked against the independent Lagrangian reference by tests/test_dynamics.py, whose
+model.rhs calls go through it. Its speed is measured by benchmarks/overhead.py, never asserted
+here."""
 
 from __future__ import annotations
 
