@@ -12,12 +12,18 @@ The last file written, BUILD_OK, is a manifest of every other file's sha256. A c
 used only when every file matches it: a truncated, edited or partly deleted entry is moved
 aside and rebuilt, never imported.
 
-A cache entry holds the readable C source (a very long model's in several files, and method
-auto's look at the start in <name>_spectrum.c, compiled in parallel), compiled on its own with
-the flags below, a cffi API-mode wrapper linked against it, Model.rhs's small extension
-_rhs_call (templates/rhs_call.c.tmpl: the right-hand side called through numpy's buffers),
-and model.json; `export` adds the runtime (nemc/runtime.py
-and nemc/methods.py, as they are now) to make the standalone package.
+A cache entry holds the readable C source (a very long model's in several files, method
+auto's look at the start in <name>_spectrum.c and the native integrators in nemc_drivers.c,
+compiled in parallel), compiled on its own with the flags below, a cffi API-mode wrapper
+linked against it, Model.rhs's small extension _rhs_call (templates/rhs_call.c.tmpl: the
+right-hand side called through numpy's buffers), and model.json; `export` adds the runtime
+(nemc/runtime.py and nemc/methods.py, as they are now) to make the standalone package.
+
+nemc_drivers.c names no model: its text depends only on the number of states (and on whether
+the build has the Jacobian, for Radau). Its object is kept in the cache's drivers/ folder under
+a hash of that text, the headers it includes, the compiler and the flags, and reused by every
+later build of the same text: a small model's integrators are 90% of its compile time. The
+object's own sha256 is in its name, checked before it is linked.
 """
 
 from __future__ import annotations
@@ -69,6 +75,12 @@ CFLAGS = ["-O2", "-fPIC", "-Wall", "-Wextra", "-std=c99"]  # never -ffast-math: 
 # about 2% slower (4.77 -> 4.86 us a state) and the same Jacobian. The arithmetic is the same
 # (no contraction under -std=c99): the results are bit-identical. docs/decisions.md.
 UNIT_CFLAGS = ["-O1", *CFLAGS[1:]]
+# cffi's wrapper (_native.c, about 100 kB of argument conversions for every declared function)
+# unoptimized: gcc takes 0.14 s on it instead of 0.37-0.43 at -O2, the largest job of a small
+# model's build, and its calls cost the same (model.rhs through cffi 1.15-1.18 us against
+# 1.18, simulate over [0, 0] 10.1-10.3 us either way: the time is in _cffi_backend's
+# conversions). docs/decisions.md, "A small model's build".
+WRAPPER_CFLAGS = ["-O0", "-fPIC"]
 COMPLETE = "BUILD_OK"
 # The cffi wrapper uses only CPython's stable ABI (3.10 on): the extension, named .abi3.so,
 # loads in any later CPython too. A free-threaded CPython has no stable ABI: its own suffix.
@@ -83,6 +95,11 @@ STALE_SCRATCH_S = 24 * 3600  # a temporary build folder this old was left by a k
 SCRATCH_PREFIX = ".nemc-tmp-"
 BROKEN_PREFIX = ".nemc-broken-"
 MAX_MANIFEST_BYTES = 1_000_000
+# The native integrators' file (templates/drivers.c.tmpl) and the headers every package shares
+DRIVERS = "nemc_drivers"
+RUN_HEADER = "nemc_run"
+# The cache's folder of compiled nemc_drivers.c, one object per text (drivers_object)
+DRIVERS_FOLDER = "drivers"
 # Compiler jobs at once, at most (a long model's unit files: up to about 150 MB of memory each)
 MAX_COMPILER_JOBS = 8
 
@@ -281,24 +298,66 @@ def start(command: list[str]) -> subprocess.Popen:
 
 
 def compile_c(c_file: Path, wrapper_file: Path, out_file: Path, units: Sequence[Path],
-              rhs_call: Path) -> None:
-    """Compile the model's C (its unit files too), the cffi wrapper and Model.rhs's extension
-    (RHS_CALL's C, linked apart into _rhs_call), in parallel on the available cores, then link
-    the extensions."""
+              rhs_call: Path, drivers: Path) -> None:
+    """Compile the model's C (its unit files too), the native integrators (DRIVERS's C: unless
+    the cache has its object), the cffi wrapper and Model.rhs's extension (RHS_CALL's C, linked
+    apart into _rhs_call), in parallel on the available cores, then link the extensions."""
     include = sysconfig.get_paths()["include"]
     cc = compiler()
+    cached_drivers = drivers_object(drivers)
     # the largest first, so that the last to finish is a short one
-    sources = sorted([c_file, *units], key=lambda c: c.stat().st_size, reverse=True)
-    jobs = [[*cc, *(CFLAGS if c == c_file else UNIT_CFLAGS), "-c", str(c), "-o",
+    sources = sorted([c_file, *units, *([] if cached_drivers else [drivers])],
+                     key=lambda c: c.stat().st_size, reverse=True)
+    jobs = [[*cc, *(UNIT_CFLAGS if c in units else CFLAGS), "-c", str(c), "-o",
              str(c.with_suffix(".o"))] for c in sources]
-    jobs.insert(1, [*cc, "-O2", "-fPIC", *limited_api_flags(), "-I", include, "-c",
+    jobs.insert(1, [*cc, *WRAPPER_CFLAGS, *limited_api_flags(), "-I", include, "-c",
                     str(wrapper_file), "-o", str(wrapper_file.with_suffix(".o"))])
     jobs.append([*cc, *CFLAGS, *package_c_flags(rhs_call), "-c", str(rhs_call), "-o",
                  str(rhs_call.with_suffix(".o"))])
     run_jobs(jobs, min(max(usable_cores(), 2), MAX_COMPILER_JOBS))
-    link(cc, [*(c.with_suffix(".o") for c in sources), wrapper_file.with_suffix(".o")],
-         out_file)
+    link(cc, [*(c.with_suffix(".o") for c in [c_file, *units, drivers]),
+              wrapper_file.with_suffix(".o")], out_file)
     link(cc, [rhs_call.with_suffix(".o")], out_file.with_name(RHS_CALL + call_suffix()))
+    if not cached_drivers:
+        keep_drivers_object(drivers)
+
+
+def drivers_key(drivers: Path) -> str:
+    """What the object of DRIVERS (nemc_drivers.c) depends on: its text, the text of the
+    headers it includes (beside it), the compiler command and the flags."""
+    digest = hashlib.sha256(json.dumps({"cc": compiler(), "cflags": CFLAGS}).encode())
+    for name in (drivers.name, f"{DRIVERS}.h", f"{RUN_HEADER}.h"):
+        digest.update(name.encode() + b"\0" + drivers.with_name(name).read_bytes() + b"\0")
+    return digest.hexdigest()[:32]
+
+
+def drivers_object(drivers: Path) -> bool:
+    """Put the cached object of DRIVERS beside it (nemc_drivers.o), if the cache has an
+    intact one (its content's sha256 is in its name); returns whether it did. A broken one
+    is discarded."""
+    key = drivers_key(drivers)
+    for entry in sorted((cache_root() / DRIVERS_FOLDER).glob(f"{key}-*.o")):
+        try:
+            data = entry.read_bytes() if is_regular(entry) else b""
+        except OSError:
+            continue
+        if hashlib.sha256(data).hexdigest()[:16] == entry.stem.partition("-")[2]:
+            drivers.with_suffix(".o").write_bytes(data)
+            return True
+        discard(entry)
+    return False
+
+
+def keep_drivers_object(drivers: Path) -> None:
+    """Move DRIVERS's object, just compiled and linked, into the cache by one atomic rename
+    (a copy another build kept meanwhile is as good). A cache that refuses it costs only the
+    next build's compile."""
+    compiled = drivers.with_suffix(".o")
+    name = f"{drivers_key(drivers)}-{file_digest(compiled)[:16]}.o"
+    with contextlib.suppress(OSError):
+        folder = cache_root() / DRIVERS_FOLDER
+        folder.mkdir(exist_ok=True)
+        os.replace(compiled, folder / name)
 
 
 def link(cc: list[str], objects: Sequence[Path], out_file: Path) -> None:
@@ -382,7 +441,7 @@ def extension_suffix() -> str:
 
 # The modules and files of a package besides <name>.c: a model named like one of them would
 # clash with it (a model named _native cannot import its own extension). validate refuses them.
-PACKAGE_FILE_STEMS = ("__init__", "_native", RHS_CALL, "model", COMPLETE,
+PACKAGE_FILE_STEMS = ("__init__", "_native", RHS_CALL, "model", COMPLETE, DRIVERS, RUN_HEADER,
                       *(Path(copied).stem for copied in RUNTIME_FILES.values()))
 
 
@@ -395,6 +454,9 @@ def write_package(code: Emitted, folder: Path) -> None:
     for path, text in side_sources(code, folder):
         path.write_text(text)
     (folder / f"{code.name}.h").write_text(code.header)
+    for name, text in code.shared_headers:
+        (folder / name).write_text(text)
+    (folder / f"{DRIVERS}.c").write_text(code.drivers)
     (folder / f"{RHS_CALL}.c").write_text(code.rhs_call)
 
 
@@ -449,10 +511,10 @@ def build(code: Emitted, key: str) -> Path:
             ffi.emit_c_code(str(wrapper))
         extension = package / ("_native" + extension_suffix())
         units = [path for path, _ in side_sources(code, package)]
-        rhs_call = package / f"{RHS_CALL}.c"
-        compile_c(package / f"{code.name}.c", wrapper, extension, units, rhs_call)
-        for c_file in [package / f"{code.name}.c", *units, rhs_call]:
-            c_file.with_suffix(".o").unlink()
+        rhs_call, drivers = package / f"{RHS_CALL}.c", package / f"{DRIVERS}.c"
+        compile_c(package / f"{code.name}.c", wrapper, extension, units, rhs_call, drivers)
+        for c_file in [package / f"{code.name}.c", *units, rhs_call, drivers]:
+            c_file.with_suffix(".o").unlink(missing_ok=True)  # the drivers' kept in the cache
         write_manifest(package, key)
         publish(package, final, key)
     except OSError as error:  # e.g. the disk filled up while writing the package

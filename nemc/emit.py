@@ -66,6 +66,9 @@ class Emitted:
     spectrum: str  # the C of <name>_spectrum.c (method auto's look at the start)
     units: tuple[str, ...] = ()  # the C of <name>_unit<k>.c, k = 1, 2, ... (long programs' parts)
     rhs_call: str = ""  # the C of _rhs_call.c: Model.rhs's extension (templates/rhs_call.c.tmpl)
+    drivers: str = ""  # the C of nemc_drivers.c: the native integrators (the same at one size)
+    # the headers every model shares, by file name: nemc_run.h (in the cdef), nemc_drivers.h
+    shared_headers: tuple[tuple[str, str], ...] = ()
 
 
 def template(name: str) -> Template:
@@ -699,9 +702,11 @@ def equation_labels(eqs: Equations) -> list[str]:
 CDEF = re.compile(r"/\* NEMC_CDEF_BEGIN \*/\n(.*)/\* NEMC_CDEF_END \*/", re.DOTALL)
 
 
-def cdef(header_text: str) -> str:
-    """The cffi declarations: the header's text between its NEMC_CDEF markers, verbatim."""
-    return CDEF.search(header_text).group(1)  # type: ignore[union-attr]
+def cdef(*header_texts: str) -> str:
+    """The cffi declarations: the headers' texts between their NEMC_CDEF markers, verbatim,
+    in order."""
+    return "".join(CDEF.search(text).group(1)  # type: ignore[union-attr]
+                   for text in header_texts)
 
 
 class FormText(NamedTuple):
@@ -871,18 +876,38 @@ def events_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, pr
 
 
 def native_section(eqs: Equations, prefix: str, taylor: str, lanes: str = "") -> str:
-    """The model-independent integrators and the model's thin entry points to them. Radau only
-    in builds with the Jacobian: it halves the compile time the integrators add elsewhere;
-    Taylor (the model's own coefficients) only in builds that ask for it, and its ensembles in
-    SIMD lanes (lanes: templates/batch.c.tmpl, else batch_absent.c.tmpl) only when asked."""
+    """The model's side of the native integrators in <name>.c: nemc.Taylor's code (the model's
+    own coefficients) only in builds that ask for it, its ensembles in SIMD lanes (lanes:
+    templates/batch.c.tmpl, else batch_absent.c.tmpl) only when asked, and the model's entry
+    points, which hand its functions to the drivers (drivers_source)."""
     entry = template("integrators_entry.c.tmpl").substitute(
         name=eqs.mechanism.name, prefix=prefix, jacobian=jacobian_function(eqs, prefix)
     )
-    sections = ["run_control.c.tmpl", "integrators.c.tmpl"]
-    if has_jacobian(eqs):  # Radau needs the Jacobian: built with it, on first need
-        sections.append("radau.c.tmpl")
     batch = lanes or template("batch_absent.c.tmpl").substitute(prefix=prefix)
-    return "\n" + "".join(read_template(name) for name in sections) + taylor + entry + batch
+    return "\n" + taylor + entry + batch
+
+
+def drivers_source(eqs: Equations) -> str:
+    """nemc_drivers.c: the model-independent integrators, run control and ensembles' loop for
+    a model of N_STATE states (templates/drivers.c.tmpl). Radau only in builds with the
+    Jacobian: it halves the compile time the integrators add elsewhere. The text names no
+    model, so models of one size (and Jacobian or not) share one compiled object (nemc/build.py,
+    drivers_object)."""
+    radau = has_jacobian(eqs)
+    return template("drivers.c.tmpl").substitute(
+        version=__version__, n_state=2 * eqs.n, radau_note=" (with the Jacobian)" if radau else "",
+        radau_name=", Radau" if radau else "",
+        run_control=read_template("run_control.c.tmpl"),
+        integrators=read_template("integrators.c.tmpl"),
+        radau=read_template("radau.c.tmpl") if radau else "")
+
+
+def shared_headers() -> tuple[tuple[str, str], ...]:
+    """The headers every model's package holds, the same in each: nemc_run.h, the C interface
+    all models share (its cdef comes first), and nemc_drivers.h, what <name>.c and
+    nemc_drivers.c share."""
+    return (("nemc_run.h", template("nemc_run.h.tmpl").substitute(version=__version__)),
+            ("nemc_drivers.h", template("drivers.h.tmpl").substitute(version=__version__)))
 
 
 def has_jacobian(eqs: Equations) -> bool:
@@ -1271,6 +1296,7 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
     if taylor_unavailable:
         info["taylor_unavailable"] = info["lanes_unavailable"] = taylor_unavailable
     interface = header(eqs, prefix)
+    headers = shared_headers()
     return Emitted(
         name=eqs.mechanism.name,
         c_source=c_source(eqs, block, prefix, chunk_steps, units)
@@ -1278,7 +1304,7 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
         units=units.files(eqs.mechanism.name) if units is not None else (),
         spectrum=spectrum_source(eqs, prefix),
         header=interface,
-        cdef=cdef(interface),
+        cdef=cdef(dict(headers)["nemc_run.h"], interface),
         package_init=template("package_init.py.tmpl").substitute(
             name=eqs.mechanism.name, version=__version__
         ),
@@ -1286,5 +1312,7 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
         rhs_call=template("rhs_call.c.tmpl").substitute(
             name=eqs.mechanism.name, prefix=prefix, version=__version__
         ),
+        drivers=drivers_source(eqs),
+        shared_headers=headers,
     )
 

@@ -1,7 +1,8 @@
 """The code's shape, as docs/architecture.md describes it: a joint or load kind lives in one
-module of its registry and nothing else tests a kind by its name; the C interface is one header
-whose declarations are the cffi cdef; the printer names arrays only through its layout macros;
-the build key covers the modules that make builds and nothing else."""
+module of its registry and nothing else tests a kind by its name; the C interface is the model's
+header and nemc_run.h (what every model shares), whose declarations are the cffi cdef; the
+printer names arrays only through its layout macros; the build key covers the modules that make
+builds and nothing else."""
 
 from __future__ import annotations
 
@@ -136,17 +137,23 @@ def test_the_printer_names_arrays_only_through_layout_macros(name: str) -> None:
     arrays = {symbol: c for symbol, c in names.items() if not re.fullmatch(r"[a-z]\w*", c)}
     assert arrays and all(re.fullmatch(r"[A-Z_]+\(\d+\)", c) for c in arrays.values())
     code = emit(eqs, block)
-    defined = set(re.findall(r"#define (\w+)\(", code.header))
+    run_header = dict(code.shared_headers)["nemc_run.h"]
+    defined = set(re.findall(r"#define (\w+)\(", code.header + run_header))
     used = set(re.findall(r"\b([A-Z_]+)\(\d+\)", code.c_source))
     assert {"Q", "DQ", "P", "QDD"} <= used <= defined | {"TAYLOR_ROW"}
-    # the state's layout is spelled in the header alone
-    assert "2 * (i)" in code.header and "2 * i" not in code.c_source
+    # the state's layout is spelled in nemc_run.h alone, which the model's header includes
+    assert "2 * (i)" in run_header and '#include "nemc_run.h"' in code.header
+    assert all("2 * i" not in c for c in (code.c_source, code.header, code.drivers))
 
 
 def test_the_cdef_is_the_headers_text() -> None:
+    """The cdef is nemc_run.h's declarations (what every model shares) and then the model
+    header's, word for word."""
     eqs, block = equations("double_pendulum")
     code = emit(eqs, block)
-    assert code.cdef in code.header and "double_pendulum_integrate(" in code.cdef
+    shared, model = code.cdef.split("/* dy/dt at (t, y)", 1)
+    assert shared in dict(code.shared_headers)["nemc_run.h"] and "} nemc_run;" in shared
+    assert "/* dy/dt at (t, y)" + model in code.header and "double_pendulum_integrate(" in model
     assert "#define" not in code.cdef  # cffi's part: declarations only
     package_c = code.c_source + code.spectrum + "".join(code.units)  # every C file's text
     for function in re.findall(r"\b(double_pendulum_\w+)\(", code.cdef):

@@ -18,7 +18,7 @@ import pytest
 from nemc import build
 from nemc.build import COMPLETE, build_key, cached_package, is_intact
 from nemc.cli import main
-from nemc.pipeline import generate_and_build, read_source
+from nemc.pipeline import compile_mechanism, generate_and_build, read_source
 
 ROOT = Path(__file__).resolve().parent.parent
 COMPOUND = ROOT / "examples" / "compound_pendulum.yaml"
@@ -39,7 +39,9 @@ def cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 
 def entries(cache: Path) -> list[Path]:
-    return sorted(p for p in cache.iterdir() if not p.name.startswith("."))
+    """The builds in the cache (not the compiled drivers kept beside them)."""
+    return sorted(p for p in cache.iterdir()
+                  if not p.name.startswith(".") and p.name != build.DRIVERS_FOLDER)
 
 
 def leftovers(cache: Path) -> list[Path]:
@@ -294,3 +296,88 @@ def test_unwritable_cache_folder(tmp_path: Path) -> None:
     done = run_cli(["compile", str(COMPOUND)], environment(blocker / "cache"))
     assert done.returncode == 1 and "Traceback" not in done.stderr
     assert "set NEMC_CACHE to a writable folder" in done.stderr
+
+
+# ---- the native integrators' object, shared by the models of one size ----------------------
+
+TWIN = TINY.replace("name: tiny", "name: twin").replace("m: 2, L: 0.5", "m: 3, L: 0.8")
+
+
+def compiler_outputs(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The object files each later build's compiler jobs write, in one growing list."""
+    written: list[str] = []
+    run_jobs = build.run_jobs
+
+    def recording(jobs, workers):
+        written.extend(Path(job[-1]).name for job in jobs)
+        return run_jobs(jobs, workers)
+
+    monkeypatch.setattr(build, "run_jobs", recording)
+    return written
+
+
+def drivers_objects(cache: Path) -> list[Path]:
+    return sorted((cache / build.DRIVERS_FOLDER).glob("*.o"))
+
+
+def runs(path: Path) -> list:
+    """Runs of every explicit native method, with t_eval and a step record."""
+    import numpy as np
+
+    model = compile_mechanism(path).model
+    results = [model.simulate((0, 3), method=method, rtol=1e-9, atol=1e-12,
+                              t_eval=np.linspace(0, 3, 7)) for method in ("nemc.DOP853",
+                                                                          "nemc.Vern9")]
+    results.append(model.simulate((0, 3), method="nemc.DOP853"))
+    return [(r.status, r.nfev, r.t.tobytes(), r.y.tobytes()) for r in results]
+
+
+def test_models_of_one_size_share_the_compiled_drivers(cache: Path, tmp_path: Path,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    """nemc_drivers.c names no model: the second model of one size links the first one's
+    object, and runs as a build that compiled its own (another cache) to the bit."""
+    tiny, twin = tmp_path / "tiny.yaml", tmp_path / "twin.yaml"
+    tiny.write_text(TINY)
+    twin.write_text(TWIN)
+    written = compiler_outputs(monkeypatch)
+    compile_mechanism(tiny)
+    assert "nemc_drivers.o" in written and len(drivers_objects(cache)) == 1
+    written.clear()
+    shared = runs(twin)
+    assert "twin.o" in written and "nemc_drivers.o" not in written
+    assert len(drivers_objects(cache)) == 1
+    monkeypatch.setenv("NEMC_CACHE", str(tmp_path / "another"))
+    assert runs(twin) == shared and "nemc_drivers.o" in written
+    monkeypatch.setenv("NEMC_CACHE", str(cache))
+    compile_mechanism(ROOT / "examples" / "double_pendulum.yaml")  # 4 states: its own
+    assert len(drivers_objects(cache)) == 2
+
+
+@pytest.mark.parametrize("damage", ["flipped", "truncated", "link"])
+def test_a_damaged_drivers_object_is_compiled_again(cache: Path, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch,
+                                                    damage: str) -> None:
+    """The object's sha256 is in its name: a changed, cut or replaced object is never linked;
+    it is discarded and compiled again, and the build runs as before."""
+    tiny, twin = tmp_path / "tiny.yaml", tmp_path / "twin.yaml"
+    tiny.write_text(TINY)
+    twin.write_text(TWIN)
+    expected = runs(tiny)
+    (kept,) = drivers_objects(cache)
+    data = kept.read_bytes()
+    if damage == "flipped":
+        kept.write_bytes(data[:1000] + bytes([data[1000] ^ 1]) + data[1001:])
+    elif damage == "truncated":
+        kept.write_bytes(data[: len(data) // 2])
+    else:
+        kept.unlink()
+        kept.symlink_to("/dev/zero")
+    written = compiler_outputs(monkeypatch)
+    compile_mechanism(twin)
+    assert "nemc_drivers.o" in written
+    (again,) = drivers_objects(cache)
+    assert again.read_bytes() == data and not again.is_symlink()
+    assert leftovers(cache / build.DRIVERS_FOLDER) == []
+    for entry in entries(cache):
+        shutil.rmtree(entry)
+    assert runs(tiny) == expected

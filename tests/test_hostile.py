@@ -168,6 +168,8 @@ EXPECTED: dict[str, tuple[int, str, str]] = {
     # round 2 (issue 21): names that clash with the package's own files, or are too long
     "model_name_native": (2, "name", "'_native' is the name of a module or file inside every"),
     "model_name_rhs_call": (2, "name", "'_rhs_call' is the name of a module or file inside"),
+    "model_name_nemc_drivers": (2, "name", "'nemc_drivers' is the name of a module or file"),
+    "model_name_nemc_run": (2, "name", "'nemc_run' is the name of a module or file inside"),
     "model_name_runtime": (2, "name", "'_runtime' is the name of a module or file inside"),
     "model_name_model": (2, "name", "'model' is the name of a module or file inside"),
     "model_name_init": (2, "name", "'__init__' is the name of a module or file inside"),

@@ -651,7 +651,8 @@ def compile_in_a_process(path: Path, cache: Path) -> tuple[bool, str]:
 
 
 def the_entry(cache: Path) -> Path:
-    (entry,) = [p for p in cache.iterdir() if not p.name.startswith(".")]
+    (entry,) = [p for p in cache.iterdir()
+                if not p.name.startswith(".") and p.name != build.DRIVERS_FOLDER]
     return entry
 
 

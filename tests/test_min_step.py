@@ -1,4 +1,4 @@
-"""The smallest step a native method takes (templates/integrators.c.tmpl's min_step: 10 ulps of
+"""The smallest step a native method takes (templates/drivers.h.tmpl's min_step: 10 ulps of
 t in the direction of integration, scipy's rule), written with the neighbouring bit pattern
 instead of libm's nextafter: compiled alone and compared, bit for bit, with Python's
 math.nextafter on doubles of every exponent, signs, zeros, subnormals, the largest double and
@@ -18,9 +18,9 @@ from nemc.resources import read_template
 
 
 def min_step_source() -> str:
-    text = read_template("integrators.c.tmpl")
+    text = read_template("drivers.h.tmpl")
     found = re.search(r"static inline double min_step\(.*?\n}\n", text, re.S)
-    assert found, "min_step not found in integrators.c.tmpl"
+    assert found, "min_step not found in drivers.h.tmpl"
     return found.group(0)
 
 

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import nemc
+from nemc import build
 from nemc.build import package_c_flags
 from nemc.cli import main
 from nemc.pipeline import compile_mechanism
@@ -167,5 +168,8 @@ def test_concurrent_compiles_of_one_model_both_succeed(tmp_path: Path) -> None:
     results = [p.communicate(timeout=180) for p in procs]
     assert all(p.returncode == 0 for p in procs), [r[1] for r in results]
     assert len({r[0] for r in results}) == 1
-    builds = [p for p in cache.iterdir() if not p.name.startswith(".")]
+    builds = [p for p in cache.iterdir()
+              if not p.name.startswith(".") and p.name != build.DRIVERS_FOLDER]
     assert len(builds) == 1 and not [p for p in cache.iterdir() if p.name.startswith(".tmp")]
+    # the three compiled the same drivers' object, and one of them is kept
+    assert len(list((cache / build.DRIVERS_FOLDER).iterdir())) == 1
