@@ -393,6 +393,12 @@ def spread(s: dict[str, Any]) -> str:
     return f"{fmt_time(s['median'])} ({fmt_time(s['min'])}–{fmt_time(s['max'])})"
 
 
+def spread_of(values: Sequence[float]) -> str:
+    """Times as `median (min-max)`."""
+    return (f"{fmt_time(statistics.median(values))} "
+            f"({fmt_time(min(values))}–{fmt_time(max(values))})")
+
+
 def md_environment(env: dict[str, Any]) -> list[str]:
     versions = ", ".join(f"{k} {v}" for k, v in env["versions"].items() if v is not None)
     absent = [k for k, v in env["versions"].items() if v is None]

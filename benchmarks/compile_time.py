@@ -19,14 +19,13 @@ import argparse
 import json
 import os
 import shutil
-import statistics
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import ROOT, fmt_time  # noqa: E402
+from common import ROOT, spread_of  # noqa: E402
 
 MODELS = {"double pendulum": ROOT / "examples" / "double_pendulum.yaml",
           "robot arm (Jacobian)": ROOT / "examples" / "robot_arm.yaml"}
@@ -75,11 +74,6 @@ def one_round(name: str, against: Path | None, scratch: Path) -> dict[str, dict]
     for folder in ("cold", "kept", "against"):
         shutil.rmtree(scratch / folder, ignore_errors=True)
     return results
-
-
-def spread_of(values: list[float]) -> str:
-    return (f"{fmt_time(statistics.median(values))} "
-            f"({fmt_time(min(values))}–{fmt_time(max(values))})")
 
 
 def main() -> int:

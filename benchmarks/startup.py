@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import os
 import resource
-import statistics
 import subprocess
 import sys
 import time
@@ -26,7 +25,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import ROOT, fmt_time  # noqa: E402
+from common import ROOT, spread_of  # noqa: E402
 
 EXAMPLE = ROOT / "examples" / "double_pendulum.yaml"
 # Each prints pairs (wall, CPU) of seconds.
@@ -73,11 +72,6 @@ def contenders() -> dict[str, tuple[list[str], list[str]]]:
         "nemc simulate --method nemc.DOP853 (process)": (
             [*simulate, "--method", "nemc.DOP853"], []),
     }
-
-
-def spread_of(values: list[float]) -> str:
-    return (f"{fmt_time(statistics.median(values))} "
-            f"({fmt_time(min(values))}–{fmt_time(max(values))})")
 
 
 def environment(pycache: str | None) -> dict[str, str]:
