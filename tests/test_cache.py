@@ -381,3 +381,19 @@ def test_a_damaged_drivers_object_is_compiled_again(cache: Path, tmp_path: Path,
     for entry in entries(cache):
         shutil.rmtree(entry)
     assert runs(tiny) == expected
+
+
+def test_the_drivers_functions_stay_inside_the_extension(cache: Path, tmp_path: Path) -> None:
+    """What nemc_drivers.c and <name>.c share is hidden (NEMC_SHARED): the extension exports
+    the model's own functions only, so two models in one process never share a symbol."""
+    import ctypes
+
+    tiny = tmp_path / "tiny.yaml"
+    tiny.write_text(TINY)
+    package = compile_mechanism(tiny).package
+    (extension,) = package.glob("_native.*so")
+    library = ctypes.CDLL(str(extension))
+    assert hasattr(library, "tiny_integrate") and hasattr(library, "tiny_rhs")
+    for shared in ("nemc_integrate", "nemc_integrate_many", "control_after_step",
+                   "control_start", "record_step", "many_run", "start_run"):
+        assert not hasattr(library, shared), shared
