@@ -52,6 +52,7 @@ from .resources import template_files
 
 if TYPE_CHECKING:  # emit imports sympy; a cached load must not (nor subprocess, cffi, ...)
     import subprocess
+    from importlib.abc import Traversable
 
     from .emit import Emitted
 
@@ -136,15 +137,40 @@ def build_modules() -> list[Path]:
                   if path.relative_to(NEMC_DIR).as_posix() not in NOT_IN_BUILD_KEY)
 
 
+@functools.cache
+def code_files() -> tuple[tuple[str, Traversable], ...]:
+    """The files of code_fingerprint, each with the name it is hashed under: build_modules and
+    the templates, listed once per process (a new module or template is used only by code that
+    a new process imports)."""
+    return (*((path.relative_to(NEMC_DIR).as_posix(), path) for path in build_modules()),
+            *((f"templates/{template.name}", template) for template in template_files()))
+
+
 def code_fingerprint() -> str:
     """A hash of the code that makes builds (build_modules and the templates): any change to
-    it changes every build key."""
+    it changes every build key. Read and hashed again only when a file's size or modification
+    time changed: every compile asks, cached ones too, and the stat calls take 0.1 ms where
+    reading and hashing take 2.4 (a cached nemc.compile took 3.1 ms in all)."""
+    files = code_files()
+    return hashed_files(files, tuple(file_stamp(path) for _, path in files))
+
+
+def file_stamp(path: Traversable) -> object:
+    """A file's inode, size and modification and change times (an editor that replaces the
+    file gives a new inode); a fresh object where it has none to give (a template inside an
+    archive), so that it is hashed every time."""
+    if not isinstance(path, Path):
+        return object()
+    info = path.stat()
+    return info.st_ino, info.st_size, info.st_mtime_ns, info.st_ctime_ns
+
+
+@functools.lru_cache(maxsize=1)
+def hashed_files(files: tuple[tuple[str, Traversable], ...], stamps: tuple[object, ...]) -> str:
+    """The sha256 of FILES's names and contents (STAMPS: their stat, the cache's key)."""
     digest = hashlib.sha256()
-    for path in build_modules():
-        name = path.relative_to(NEMC_DIR).as_posix()
+    for name, path in files:
         digest.update(name.encode() + b"\0" + path.read_bytes())
-    for template in template_files():
-        digest.update(f"templates/{template.name}".encode() + b"\0" + template.read_bytes())
     return digest.hexdigest()
 
 

@@ -397,3 +397,26 @@ def test_the_drivers_functions_stay_inside_the_extension(cache: Path, tmp_path: 
     for shared in ("nemc_integrate", "nemc_integrate_many", "control_after_step",
                    "control_start", "record_step", "many_run", "start_run"):
         assert not hasattr(library, shared), shared
+
+
+def test_the_code_fingerprint_follows_an_edited_file(tmp_path: Path,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """code_fingerprint hashes again only when a file's stat changed, and then it does."""
+    module, template = tmp_path / "kind.py", tmp_path / "part.c.tmpl"
+    module.write_text("x = 1\n")
+    template.write_text("int f(void);\n")
+    monkeypatch.setattr(build, "code_files",
+                        lambda: (("kind.py", module), ("templates/part.c.tmpl", template)))
+    first = build.code_fingerprint()
+    assert build.code_fingerprint() == first
+    stamp = module.stat().st_mtime_ns
+    module.write_text("x = 2\n")  # the same size, another content, another time
+    os.utime(module, ns=(stamp + 10**9, stamp + 10**9))
+    second = build.code_fingerprint()
+    assert second != first
+    template.unlink()  # replaced by another file of the same text: hashed again, equal
+    template.write_text("int f(void);\n")
+    assert build.code_fingerprint() == second
+    template.write_text("int g(void);\n")
+    os.utime(template, ns=(stamp + 2 * 10**9, stamp + 2 * 10**9))
+    assert build.code_fingerprint() not in (first, second)
