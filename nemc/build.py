@@ -358,8 +358,13 @@ def compile_c(c_file: Path, wrapper_file: Path, out_file: Path, units: Sequence[
 
 def drivers_key(drivers: Path) -> str:
     """What the object of DRIVERS (nemc_drivers.c) depends on: its text, the text of the
-    headers it includes (beside it), the compiler command and the flags."""
-    digest = hashlib.sha256(json.dumps({"cc": compiler(), "cflags": DRIVERS_CFLAGS}).encode())
+    headers it includes (beside it), the compiler command and the flags, and the machine it is
+    for (a cache shared by the workers of a cluster may serve x86-64 and AArch64 alike)."""
+    import platform
+
+    identity = {"cc": compiler(), "cflags": DRIVERS_CFLAGS, "platform": sys.platform,
+                "machine": platform.machine()}
+    digest = hashlib.sha256(json.dumps(identity, sort_keys=True).encode())
     for name in (drivers.name, f"{DRIVERS}.h", f"{RUN_HEADER}.h"):
         digest.update(name.encode() + b"\0" + drivers.with_name(name).read_bytes() + b"\0")
     return digest.hexdigest()[:32]

@@ -420,3 +420,25 @@ def test_the_code_fingerprint_follows_an_edited_file(tmp_path: Path,
     template.write_text("int g(void);\n")
     os.utime(template, ns=(stamp + 2 * 10**9, stamp + 2 * 10**9))
     assert build.code_fingerprint() not in (first, second)
+
+
+def test_the_drivers_object_is_kept_per_machine(tmp_path: Path,
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """A cache shared by machines of two architectures keeps an object for each: the key
+    names the machine, the compiler and its flags besides the text."""
+    import platform
+
+    drivers = tmp_path / "nemc_drivers.c"
+    for name, text in (("nemc_drivers.c", "int f(void);\n"), ("nemc_drivers.h", ""),
+                       ("nemc_run.h", "")):
+        (tmp_path / name).write_text(text)
+    here = build.drivers_key(drivers)
+    assert build.drivers_key(drivers) == here
+    monkeypatch.setattr(platform, "machine", lambda: "another-machine")
+    elsewhere = build.drivers_key(drivers)
+    monkeypatch.undo()
+    monkeypatch.setenv("CC", "clang")
+    assert len({here, elsewhere, build.drivers_key(drivers)}) == 3
+    monkeypatch.delenv("CC")
+    (tmp_path / "nemc_run.h").write_text("/* another version */\n")
+    assert build.drivers_key(drivers) not in (here, elsewhere)
