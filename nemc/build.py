@@ -21,9 +21,10 @@ right-hand side called through numpy's buffers), and model.json; `export` adds t
 
 nemc_drivers.c names no model: its text depends only on the number of states (and on whether
 the build has the Jacobian, for Radau). Its object is kept in the cache's drivers/ folder under
-a hash of that text, the headers it includes, the compiler and the flags, and reused by every
-later build of the same text: a small model's integrators are 90% of its compile time. The
-object's own sha256 is in its name, checked before it is linked.
+a hash of that text, the headers it includes, the compiler, the flags and the machine, and
+reused by every later build of the same text on the same kind of machine: a small model's
+integrators are 90% of its compile time. The object's own sha256 is in its name, checked
+before it is linked.
 """
 
 from __future__ import annotations
