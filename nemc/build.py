@@ -338,7 +338,8 @@ def compile_c(c_file: Path, wrapper_file: Path, out_file: Path, units: Sequence[
     apart into _rhs_call), in parallel on the available cores, then link the extensions."""
     include = sysconfig.get_paths()["include"]
     cc = compiler()
-    cached_drivers = drivers_object(drivers)
+    key = drivers_key(drivers)
+    cached_drivers = drivers_object(drivers, key)
     # the largest first, so that the last to finish is a short one
     sources = sorted([c_file, *units, *([] if cached_drivers else [drivers])],
                      key=lambda c: c.stat().st_size, reverse=True)
@@ -354,7 +355,7 @@ def compile_c(c_file: Path, wrapper_file: Path, out_file: Path, units: Sequence[
               wrapper_file.with_suffix(".o")], out_file)
     link(cc, [rhs_call.with_suffix(".o")], out_file.with_name(RHS_CALL + call_suffix()))
     if not cached_drivers:
-        keep_drivers_object(drivers)
+        keep_drivers_object(drivers, key)
 
 
 def drivers_key(drivers: Path) -> str:
@@ -371,11 +372,10 @@ def drivers_key(drivers: Path) -> str:
     return digest.hexdigest()[:32]
 
 
-def drivers_object(drivers: Path) -> bool:
-    """Put the cached object of DRIVERS beside it (nemc_drivers.o), if the cache has an
-    intact one (its content's sha256 is in its name); returns whether it did. A broken one
-    is discarded."""
-    key = drivers_key(drivers)
+def drivers_object(drivers: Path, key: str) -> bool:
+    """Put the cached object of DRIVERS (its drivers_key KEY) beside it (nemc_drivers.o), if
+    the cache has an intact one (its content's sha256 is in its name); returns whether it did.
+    A broken one is discarded."""
     for entry in sorted((cache_root() / DRIVERS_FOLDER).glob(f"{key}-*.o")):
         try:
             data = entry.read_bytes() if is_regular(entry) else b""
@@ -388,12 +388,12 @@ def drivers_object(drivers: Path) -> bool:
     return False
 
 
-def keep_drivers_object(drivers: Path) -> None:
-    """Move DRIVERS's object, just compiled and linked, into the cache by one atomic rename
-    (a copy another build kept meanwhile is as good). A cache that refuses it costs only the
-    next build's compile."""
+def keep_drivers_object(drivers: Path, key: str) -> None:
+    """Move DRIVERS's object (its drivers_key KEY), just compiled and linked, into the cache by
+    one atomic rename (a copy another build kept meanwhile is as good). A cache that refuses it
+    costs only the next build's compile."""
     compiled = drivers.with_suffix(".o")
-    name = f"{drivers_key(drivers)}-{file_digest(compiled)[:16]}.o"
+    name = f"{key}-{file_digest(compiled)[:16]}.o"
     with contextlib.suppress(OSError):
         folder = cache_root() / DRIVERS_FOLDER
         folder.mkdir(exist_ok=True)
