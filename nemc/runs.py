@@ -344,7 +344,8 @@ def after_run(flag: Any) -> None:
             guard = _ARMED.pop()
             guard.flag = flag  # the owner of the int: the watch thread may still hold guard
             guard.release()
-    raise_if_interrupted(flag)
+    if flag[0]:  # (raise_if_interrupted, its call saved in the usual case)
+        raise_if_interrupted(flag)
 
 
 # ---- progress on a terminal ------------------------------------------------------------------

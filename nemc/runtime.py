@@ -12,6 +12,7 @@ import importlib
 import json
 import math
 import os
+import sys
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -91,13 +92,17 @@ class LazyOutputs(Mapping[str, np.ndarray]):
     """The scene's outputs along a result, computed from its t and y on first access: a caller
     that never reads them (a sweep, a benchmark) does not pay for them."""
 
-    def __init__(self, compute: Callable[[], dict[str, np.ndarray]]):
-        self._compute: Callable[[], dict[str, np.ndarray]] | None = compute
+    __slots__ = ("_compute", "_arguments", "_values")
+
+    def __init__(self, compute: Callable[..., dict[str, np.ndarray]], *arguments: Any):
+        self._compute: Callable[..., dict[str, np.ndarray]] | None = compute
+        self._arguments = arguments  # compute's (no closure made per result: issue 19)
         self._values: dict[str, np.ndarray] = {}
 
     def _get(self) -> dict[str, np.ndarray]:
         if self._compute is not None:
-            self._values, self._compute = self._compute(), None
+            self._values, self._compute = self._compute(*self._arguments), None
+            self._arguments = ()
         return self._values
 
     def __getitem__(self, name: str) -> np.ndarray:
@@ -148,10 +153,18 @@ class SimulationResult:
         """As solve_ivp's: each event's states, (k, n_state) each."""
         return [states for _, states in self.events.values()]
 
-    # the model that ran it, and the same run at other times (dense curves for figures)
+    # the model that ran it, and its simulate() call's arguments (rerun)
     model: Any = field(default=None, repr=False, compare=False)
-    rerun: Callable[[Any], SimulationResult] | None = field(default=None, repr=False,
-                                                              compare=False)
+    run_arguments: tuple | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def rerun(self) -> Callable[[Any], SimulationResult] | None:
+        """The same run at other times: rerun(t_eval) (dense curves for figures); None for a
+        result that simulate() did not return. Made when asked for: simulate() only keeps
+        its arguments (0.2 us less per call, issue 19)."""
+        if self.model is None or self.run_arguments is None:
+            return None
+        return functools.partial(self.model._rerun, self.run_arguments)
 
     # -- the user's view: tables, figures, animation, notebooks (issue 20) ------------------
 
@@ -308,6 +321,7 @@ class Model(LoopsMixin):
         self._fast_rhs: Callable[[Any, Any], np.ndarray | None] | None = None
         self._rhs_call = rhs_call
         self._method_ids: dict[str, int] = {}  # _method_id's, looked up once
+        self._native_entries: dict[str, tuple[Any, int]] = {}  # _native_entry's
         self._native_models: dict[str, Model] = {}  # _native_model's, found once
         self._look: tuple[int, Model | None] = (-1, None)  # _look_model's (variants, model)
         self._taylor_cpu: bool | None = None  # _taylor_ready's answer
@@ -695,12 +709,13 @@ class Model(LoopsMixin):
         result = self._simulate(t_span, y0, method, t_eval, rtol, atol, params, events,
                                 max_step, tstops, max_steps)
         result.model = self  # the result knows its model, and runs again at other times
-        result.rerun = functools.partial(self._rerun, (
-            t_span, y0, method, rtol, atol, params, events, max_step, tstops, max_steps))
+        result.run_arguments = (t_span, y0, method, rtol, atol, params, events, max_step,
+                                tstops, max_steps)
         return result
 
     def _rerun(self, arguments: tuple, t_eval: Any) -> SimulationResult:
-        """A result's run again, at the times t_eval (SimulationResult.rerun)."""
+        """A result's run again, at the times t_eval (SimulationResult.rerun; arguments: its
+        run_arguments)."""
         t_span, y0, method, rtol, atol, params, events, max_step, tstops, max_steps = arguments
         return self._simulate(t_span, y0, method, t_eval, rtol, atol, params, events, max_step,
                               tstops, max_steps)
@@ -1093,6 +1108,15 @@ class Model(LoopsMixin):
                 self._lib, "NEMC_" + method.removeprefix("nemc.").upper())
         return known
 
+    def _native_entry(self, method: str) -> tuple[Any, int]:
+        """The native method's integrate entry point and its id (_native, _method_id), found
+        once per method: simulate() looks them up on every call."""
+        entry = self._native_entries.get(method)
+        if entry is None:
+            entry = self._native_entries[method] = (self._native(method),
+                                                    self._method_id(method))
+        return entry
+
     def _native(self, method: str, function: str = "integrate") -> Any:
         """A native entry point of this model's compiled module."""
         entry = self._c.get(function) or getattr(self._lib, self.metadata["c_prefix"] + function,
@@ -1106,15 +1130,15 @@ class Model(LoopsMixin):
         settings: runs.RunSettings = runs.DEFAULT_SETTINGS,
     ) -> tuple[Any, list]:
         """A nemc_run with the settings of one integration, and the buffers it points into.
-        times: checked already (checked_times), or None for the solver's own steps."""
+        times: a contiguous float array, checked already (checked_times), or None for the
+        solver's own steps; rtol, atol: as native_tolerances returns them."""
         run = self._ffi.new(self._run_pointer)
         run.t0, run.t_end = span
-        run.rtol, run.atol = native_tolerances(rtol, atol)
+        run.rtol, run.atol = rtol, atol
         keep: list = []
         if times is None:
             run.n_eval = -1
         else:
-            times = np.ascontiguousarray(times, dtype=float)
             run.n_eval, run.t_eval = len(times), self._buffer(times)
             keep.append(times)
         if settings is not runs.DEFAULT_SETTINGS:  # the usual case: no max_step, no tstops
@@ -1135,15 +1159,16 @@ class Model(LoopsMixin):
         ending: a list that gets (t, state, accepted steps, stiff_from) where a run that turned
         stiff (NEMC_STIFF, under settings.stiff_switch) ended.
         Every step here counts towards simulate()'s fixed cost (benchmarks/overhead.py)."""
-        integrate = self._native(method)
+        integrate, method_id = self._native_entry(method)
+        rtol, atol = native_tolerances(rtol, atol)
         run, keep = self._native_run(span, times, rtol, atol, settings)
-        n, n_eval, buffer = self.n_state, run.n_eval, self._buffer
+        n, n_eval, buffer = self.n_state, -1 if times is None else len(times), self._buffer
         # the states at t_eval, then the state where a run failed: one buffer
         out = np.empty((max(n_eval, 0) + 1, n))
         run.y_eval = out_buffer = buffer(out)
         run.y_fail = out_buffer + max(n_eval, 0) * n
         try:
-            status = self._run_in_c(integrate, self._method_id(method), run, buffer(y0),
+            status = self._run_in_c(integrate, method_id, run, buffer(y0),
                                     self._parameter_buffer(p))
             n_out = run.n_out
             if n_eval < 0:
@@ -1167,13 +1192,13 @@ class Model(LoopsMixin):
                                        TAYLOR_METHODS else "dynamics_program")
             failure = IntegrationFailure(run.t_fail, out[-1], run.rhs_status, self.state_names,
                                          cause)
-            return self._failed(failure, method, run.rtol, run.atol, self.parameters_at(p))
+            return self._failed(failure, method, rtol, atol, self.parameters_at(p))
         else:
             message = self._native_message(method, run, span, settings, out[-1], p)
         # positional, in the fields' order: keywords cost 0.4 us more (issue 19)
         return SimulationResult(
             t, y, self._lazy_outputs(t, y, p), run.nfev, run.njev, run.nlu, status, message,
-            status >= 0, method, run.rtol, run.atol, self.parameters_at(p), events)
+            status >= 0, method, rtol, atol, self.parameters_at(p), events)
 
     def _run_in_c(self, integrate: Any, method_id: int, run: Any, y0: Any, p: Any) -> int:
         """One native run, Ctrl-C watched for once it lasts (runs.arm_interrupts), or from its
@@ -1239,7 +1264,7 @@ class Model(LoopsMixin):
         """The outputs along (t, y) at parameter vector p, computed when first read."""
         if not t.size or not self.output_names:
             return NO_OUTPUTS
-        return LazyOutputs(lambda: self._outputs_at(t, y, p))  # p: never written to
+        return LazyOutputs(self._outputs_at, t, y, p)  # p: never written to
 
     def parameters_at(self, p: np.ndarray) -> dict[str, float]:
         if p is self._default_p:  # never written to (parameter_vector copies it)
@@ -1320,6 +1345,7 @@ class Model(LoopsMixin):
         capacity = checked_max_events(max_events)
         integrate_many = self._native(method, "integrate_lanes" if in_lanes else "integrate_many")
         method_id = self._method_id(method)
+        rtol, atol = native_tolerances(rtol, atol)
         run, keep = self._native_run(span, times, rtol, atol, settings)
         run.event_capacity = capacity
         k, n = len(y0s), self.n_state
@@ -1353,7 +1379,7 @@ class Model(LoopsMixin):
         return EnsembleResult(
             t=keep[0], y=y.transpose(0, 2, 1), status=statuses.astype(int),
             success=statuses >= 0, nfev=counts[:, 0].copy(), njev=counts[:, 1].copy(),
-            nlu=counts[:, 2].copy(), method=method, rtol=run.rtol, atol=run.atol,
+            nlu=counts[:, 2].copy(), method=method, rtol=rtol, atol=atol,
             event_names=tuple(e["name"] for e in self.metadata.get("events") or []),
             event_t=event_t[:, :capacity], event_which=event_which[:, :capacity],
             event_count=event_counts,
@@ -1526,14 +1552,24 @@ FLOAT64 = np.dtype(np.float64)  # native float64's dtype, one object: checked wi
 
 
 def native_tolerances(rtol: float, atol: float) -> tuple[float, float]:
-    """rtol and atol checked as scipy's validate_tol (rtol raised to 100 eps, with a warning)."""
+    """rtol and atol checked as scipy's validate_tol (rtol raised to 100 eps, with a warning
+    that names the user's line)."""
     if rtol < MIN_RTOL:
         warnings.warn(f"At least one element of `rtol` is too small. Setting"
-                      f" `rtol = np.maximum(rtol, {MIN_RTOL})`.", stacklevel=4)
+                      f" `rtol = np.maximum(rtol, {MIN_RTOL})`.", stacklevel=_user_stacklevel())
         rtol = MIN_RTOL
     if not (atol >= 0 and math.isfinite(atol) and math.isfinite(rtol)):
         raise ModelError(f"atol must be finite and >= 0, rtol finite; got {atol}, {rtol}")
     return rtol, atol
+
+
+def _user_stacklevel() -> int:
+    """warnings.warn's stacklevel, called here, that names the first frame outside nemc: the
+    user's line, however deep in nemc the warning is made."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_globals.get("__name__", "").partition(".")[0] == "nemc":
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def checked_times(times: np.ndarray, span: tuple[float, ...]) -> np.ndarray:
@@ -1548,10 +1584,11 @@ def checked_times(times: np.ndarray, span: tuple[float, ...]) -> np.ndarray:
         low = high = times.item()
     else:
         low, high = times.min(), times.max()  # a nan or inf shows in min or max
-    if not (math.isfinite(low) and math.isfinite(high)):
-        raise ModelError("Values in `t_eval` are not within `t_span`: "
-                         f"{times[~np.isfinite(times)][0]} is not finite")
-    if low < min(t0, tf) or high > max(t0, tf):
+    first, last = (t0, tf) if t0 <= tf else (tf, t0)
+    if not (first <= low and high <= last):  # the span is finite: so are the times, if within
+        if not (math.isfinite(low) and math.isfinite(high)):
+            raise ModelError("Values in `t_eval` are not within `t_span`: "
+                             f"{times[~np.isfinite(times)][0]} is not finite")
         raise ModelError(f"Values in `t_eval` are not within `t_span` {list(span)}")
     if times.size > 1:
         d = np.diff(times)

@@ -253,6 +253,21 @@ def test_t_eval_is_checked(pendulum) -> None:
     assert backwards.success and list(backwards.t) == [0.75, 0.25]
 
 
+@pytest.mark.parametrize("method", ["nemc.DOP853", "auto", "ensemble"])
+def test_rtol_below_100_eps_is_raised_with_a_warning_at_the_callers_line(pendulum,
+                                                                          method: str) -> None:
+    """As scipy's validate_tol: rtol 1e-20 runs at 100 eps, and the warning names the line of
+    the caller's call, however deep in nemc it is made."""
+    with pytest.warns(UserWarning, match="`rtol` is too small") as record:
+        if method == "ensemble":
+            result = pendulum.simulate_many(np.array([pendulum.initial_state()] * 2),
+                                            t_span=(0, 0.1), method="nemc.DOP853", rtol=1e-20)
+        else:
+            result = pendulum.simulate((0, 0.1), method=method, rtol=1e-20)
+    assert result.rtol == 100 * np.finfo(float).eps
+    assert [Path(warning.filename) for warning in record] == [Path(__file__)]
+
+
 def test_default_method_is_native_when_the_scene_names_none(tmp_path: Path) -> None:
     path = tmp_path / "no_method.yaml"
     path.write_text(PENDULUM.read_text().replace("  method: RK45\n", ""))
