@@ -8,6 +8,7 @@ contenders interleaved and repeated (`interleaved`), and reports medians with th
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime as dt
 import gc
 import importlib
@@ -21,7 +22,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -98,6 +99,26 @@ def environment(mode: str) -> dict[str, Any]:
         "nemc_cache": os.environ.get("NEMC_CACHE", "(default)"),
         "loadavg_start": load_average(),
     }
+
+
+@contextlib.contextmanager
+def one_cpu(env: dict[str, Any]) -> Iterator[int | None]:
+    """Timed work on one CPU, and the worker processes started meanwhile (they inherit it).
+    The two CPUs of this shared machine run at different speeds at times (measured: the same
+    nemc.Taylor run 1.7-2.3x slower on one than on the other, for minutes, from a neighbour on a
+    sibling thread), so contenders in two processes on two CPUs compared the CPUs. The CPU is
+    recorded in ENV; the affinity is restored after."""
+    if not hasattr(os, "sched_setaffinity"):
+        yield None
+        return
+    before = os.sched_getaffinity(0)
+    cpu = min(before)
+    os.sched_setaffinity(0, {cpu})
+    env["pinned_cpu"] = cpu
+    try:
+        yield cpu
+    finally:
+        os.sched_setaffinity(0, before)
 
 
 def c_compiler_version() -> str | None:
@@ -413,7 +434,9 @@ def md_environment(env: dict[str, Any]) -> list[str]:
         f"- git commit {commit}; NEMC_CACHE {env['nemc_cache']}",
         f"- load average (1, 5, 15 min) at start {env['loadavg_start']}, at end "
         f"{env.get('loadavg_end')}: other work on the machine shows here and in the spreads",
-    ]
+    ] + ([f"- contenders timed against each other across processes ran on CPU "
+          f"{env['pinned_cpu']} alone, their worker processes too (`common.one_cpu`)"]
+         if "pinned_cpu" in env else [])
 
 
 def write_json(result: dict[str, Any], path: Path) -> None:

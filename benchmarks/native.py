@@ -423,7 +423,8 @@ def run(config: Config) -> dict[str, Any]:
     if not result["peers"]["heyoka"]:
         result["notes"].append("heyoka: skipped: not installed (pip install '.[peers]')")
     start = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="nemc-bench-native-") as folder:
+    with (tempfile.TemporaryDirectory(prefix="nemc-bench-native-") as folder,
+          common.one_cpu(result["environment"])):  # heyoka's worker on nemc's CPU
         for name, path, span in systems(config, Path(folder)):
             run_system(name, path, span, config, result)
     print("5.4 two-link arm:", flush=True)
