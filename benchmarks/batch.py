@@ -9,7 +9,8 @@ book's double pendulum, `runs` random initial angles (seeded, uniform in
 [-1.5, 1.5] rad, at rest) over [0, 10] (the ensemble of benchmarks/native.py and of issue 19's
 table); in full and quick mode also `chain_runs` 8-link chains (`common.chain_yaml(8)`, angles
 uniform in [-0.5, 0.5] rad, at rest) over [0, 5]. 101 output times, rtol 1e-8, atol 1e-10.
-Contenders per system, each timed once per round, interleaved, the order rotating each round:
+Contenders per system, each timed once per round, interleaved, the order rotating each round
+(those on 1 thread on one CPU, the same for all: common.one_cpu):
 - lanes: simulate_many(method="nemc.Taylor") (the part "lanes", built before timing);
 - one by one: the same with lanes=False (integrate_many's loop);
 each on 1 thread and on all the machine's cores. The lanes' states are checked equal to the
@@ -26,6 +27,7 @@ average before and after.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 import tempfile
@@ -202,14 +204,18 @@ def contenders(system: System) -> tuple[dict[str, Callable[[], Any]], dict[str, 
     return calls, checks
 
 
-def measure(calls: dict[str, Callable[[], Any]], rounds: int) -> dict[str, dict[str, Any]]:
+def measure(calls: dict[str, Callable[[], Any]], rounds: int,
+            env: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """Interleaved rounds, the order rotating; the contenders on 1 thread each on the same one
+    CPU (common.one_cpu: this machine's two CPUs can run at different speeds)."""
     samples: dict[str, list[float]] = {name: [] for name in calls}
     names = list(calls)
     for r in range(rounds):
         for name in names[r % len(names):] + names[:r % len(names)]:
-            start = time.perf_counter()
-            calls[name]()
-            samples[name].append(time.perf_counter() - start)
+            with common.one_cpu(env) if name.endswith(", 1 thread") else contextlib.nullcontext():
+                start = time.perf_counter()
+                calls[name]()
+                samples[name].append(time.perf_counter() - start)
         print(f"  round {r + 1}/{rounds}: " + ", ".join(
             f"{name} {fmt_time(samples[name][-1])}" for name in names), flush=True)
     return {name: common.summary(values) for name, values in samples.items()}
@@ -224,16 +230,16 @@ def run(config: Config) -> dict[str, Any]:
     started = time.perf_counter()
     env = common.environment("")
     with tempfile.TemporaryDirectory(prefix="nemc-batch-") as folder:
-        results = {system.name: run_system(system, config.rounds)
+        results = {system.name: run_system(system, config.rounds, env)
                    for system in systems(config, Path(folder))}
     common.finish_environment(env, started)
     return {"environment": env, "config": vars(config), "systems": results}
 
 
-def run_system(system: System, rounds: int) -> dict[str, Any]:
+def run_system(system: System, rounds: int, env: dict[str, Any]) -> dict[str, Any]:
     print(f"{system.name}, {system.runs:,} runs:", flush=True)
     calls, checks = contenders(system)
-    times = measure(calls, rounds)
+    times = measure(calls, rounds, env)
     cores = os.cpu_count() or 1
     ratios = {"lanes vs one by one, 1 thread": ratio(times, "one by one, 1 thread",
                                                       "lanes, 1 thread")}

@@ -434,8 +434,8 @@ def md_environment(env: dict[str, Any]) -> list[str]:
         f"- git commit {commit}; NEMC_CACHE {env['nemc_cache']}",
         f"- load average (1, 5, 15 min) at start {env['loadavg_start']}, at end "
         f"{env.get('loadavg_end')}: other work on the machine shows here and in the spreads",
-    ] + ([f"- contenders timed against each other across processes ran on CPU "
-          f"{env['pinned_cpu']} alone, their worker processes too (`common.one_cpu`)"]
+    ] + ([f"- single-thread contenders compared with each other ran on CPU {env['pinned_cpu']}"
+          " alone, worker processes started meanwhile too (`common.one_cpu`)"]
          if "pinned_cpu" in env else [])
 
 
