@@ -105,9 +105,9 @@ def environment(mode: str) -> dict[str, Any]:
 def one_cpu(env: dict[str, Any]) -> Iterator[int | None]:
     """Timed work on one CPU, and the worker processes started meanwhile (they inherit it).
     The two CPUs of this shared machine run at different speeds at times (measured: the same
-    nemc.Taylor run 1.7-2.3x slower on one than on the other, for minutes, from a neighbour on a
-    sibling thread), so contenders in two processes on two CPUs compared the CPUs. The CPU is
-    recorded in ENV; the affinity is restored after."""
+    nemc.Taylor run 1.7-2.3x slower on one than on the other, for minutes; likely a neighbour
+    on a sibling thread), so contenders in two processes on two CPUs compared the CPUs. The CPU
+    is recorded in ENV; the affinity is restored after."""
     if not hasattr(os, "sched_setaffinity"):
         yield None
         return
