@@ -41,9 +41,11 @@ COMPILE = ("import json, sys, time; t = time.perf_counter(); import nemc.pipelin
 def compile_in_process(path: Path, cache: Path, code_path: Path, jacobian: bool) -> dict:
     """nemc.compile(path) in a fresh process with NEMC_CACHE=cache and nemc from code_path."""
     env = {**os.environ, "NEMC_CACHE": str(cache), "PYTHONPATH": str(code_path)}
+    # cwd=code_path: `python -c` puts the working folder first on sys.path, ahead of
+    # PYTHONPATH, so a run from ROOT imported ROOT's nemc whatever --against named.
     done = subprocess.run([sys.executable, "-c", COMPILE, str(path),
                            "jacobian" if jacobian else "rhs"], env=env, capture_output=True,
-                          text=True, timeout=600, cwd=ROOT)
+                          text=True, timeout=600, cwd=code_path)
     if done.returncode != 0:
         raise RuntimeError(f"compiling {path} failed: {done.stderr}")
     return json.loads(done.stdout.strip().splitlines()[-1])
