@@ -350,6 +350,9 @@ def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
                  else writer.coefficient(result))
         writer.loop.append(f"{q_row}[k + 1] = {dq_row}[k] * (1.0 / (k + 1));")
         writer.loop.append(f"{dq_row}[k + 1] = {value} * (1.0 / (k + 1));")
+    writer.declarations, writer.loop = rows_read_back(writer.declarations, writer.loop,
+                                                      dialect)
+    writer._rows = len(writer.declarations)
     # the time's series, filled before the loop over the orders (its row is declared for the
     # loop's body too); lines are relative to the block they sit in: "    " marks one more level
     start: tuple[str, ...] = ()
@@ -362,6 +365,33 @@ def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
                  f"        tt[j] = {dialect.broadcast('j == 1 ? 1.0 : 0.0')};", "}")
     return SeriesCode(writer._rows, tuple(writer.declarations), tuple(writer.constants),
                       tuple(writer.constant_names), start, tuple(writer.loop), writer.cost)
+
+
+ROW_DECLARATION = re.compile(r"(?P<type>\w+) \*(?P<name>\w+) = (?P<macro>\w+)\(work, \d+\);")
+
+
+def rows_read_back(declarations: Sequence[str], loop: Sequence[str],
+                   dialect: Dialect) -> tuple[list[str], list[str]]:
+    """The work rows the loop over the orders reads back, numbered again from 0, and the loop
+    with every other value a local of its order: a value whose earlier coefficients no
+    recurrence reads (a product only added to others, a sum only scaled) needs coefficient k
+    alone, at order k. Kept in a row, each order wrote it into a cache line of its own that it
+    had not touched since the last expansion; a local stays in a register or the stack frame.
+    Half the rows of an 8-link chain's articulated-body program are such values. The same
+    operations in the same order: the same bits."""
+    text = "\n".join(loop)
+    rows, local = [], []
+    for line in declarations:
+        name = ROW_DECLARATION.fullmatch(line)["name"]  # type: ignore[index]
+        (rows if re.search(rf"\b{name}\b(?!\[k\])", text) else local).append(name)
+    if local:
+        pattern = re.compile(rf"\b({'|'.join(local)})\[k\]")
+        defined = re.compile(rf"^({'|'.join(local)})\[k\] = ")
+        loop = [pattern.sub(r"\1", defined.sub(rf"const {dialect.value_type} \1 = ", line,
+                                                 count=1))
+                for line in loop]
+    return ([f"{dialect.value_type} *{name} = {dialect.work_row}(work, {j});"
+             for j, name in enumerate(rows)], list(loop))
 
 
 # Cauchy sums per order of each recurrence: what a program costs nemc.Taylor (sums and constant

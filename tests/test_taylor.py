@@ -16,7 +16,7 @@ from nemc.emit import TAYLOR_MARGIN, TAYLOR_MIN_EXPONENT, StepCosts, taylor_rule
 from nemc.model import Simulation
 from nemc.pipeline import Source, compile_source
 from nemc.runtime import ModelError
-from nemc.taylor import SeriesCode
+from nemc.taylor import LANES, SCALAR, SeriesCode, rows_read_back
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"
@@ -292,3 +292,33 @@ def test_a_series_in_t_to_the_fourth_takes_finite_steps() -> None:
         times, _ = result.events["vertical"]
         assert result.success and result.nfev > 2
         assert abs(times[0] - quarter) < 10 * rtol
+
+
+def test_values_read_back_keep_rows_the_others_are_locals() -> None:
+    """A value whose earlier coefficients a recurrence reads keeps a row of the work array
+    (numbered again from 0); one needed only at coefficient k becomes a local of the loop's
+    body, defined where its row's coefficient k was written and read where it was read."""
+    declarations = ["double *s0 = TAYLOR_ROW(work, 0);", "double *w1 = TAYLOR_ROW(work, 1);",
+                    "double *s2 = TAYLOR_ROW(work, 2);", "double *s3 = TAYLOR_ROW(work, 3);"]
+    loop = ["s0[k] = series_product(xq0, xdq0, k);",
+            "w1[k] = (s0[k] + xq0[k]);",
+            "s2[k] = series_product(w1, xq0, k);",
+            "s3[k] = series_reciprocal(w1, s3, k);",
+            "if (k == 0 && !(s2[k] > 0.0))",
+            "    return 1;",
+            "xdq0[k + 1] = (s2[k] + s0[k] * s3[k]) * (1.0 / (k + 1));"]
+    rows, body = rows_read_back(declarations, loop, SCALAR)
+    assert rows == ["double *w1 = TAYLOR_ROW(work, 0);", "double *s3 = TAYLOR_ROW(work, 1);"]
+    assert body == ["const double s0 = series_product(xq0, xdq0, k);",
+                    "w1[k] = (s0 + xq0[k]);",
+                    "const double s2 = series_product(w1, xq0, k);",
+                    "s3[k] = series_reciprocal(w1, s3, k);",
+                    "if (k == 0 && !(s2 > 0.0))",
+                    "    return 1;",
+                    "xdq0[k + 1] = (s2 + s0 * s3[k]) * (1.0 / (k + 1));"]
+    lanes_rows, lanes_body = rows_read_back(
+        [line.replace("double", "lanes").replace("TAYLOR_ROW", "LANES_WORK_ROW")
+         for line in declarations], loop[:2], LANES)
+    assert lanes_rows == []  # nothing reads a row back
+    assert lanes_body == ["const lanes s0 = series_product(xq0, xdq0, k);",
+                          "const lanes w1 = (s0 + xq0[k]);"]
