@@ -368,6 +368,9 @@ def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
 
 
 ROW_DECLARATION = re.compile(r"(?P<type>\w+) \*(?P<name>\w+) = (?P<macro>\w+)\(work, \d+\);")
+NAME_USE = re.compile(r"\b(?P<name>[A-Za-z_]\w*)(?P<at_k>\[k\])?")  # with [k] after it or not
+AT_K = re.compile(r"\b(?P<name>[A-Za-z_]\w*)\[k\]")
+DEFINITION = re.compile(r"(?P<name>\w+)\[k\] = ")  # a loop line that writes a coefficient k
 
 
 def rows_read_back(declarations: Sequence[str], loop: Sequence[str],
@@ -379,17 +382,24 @@ def rows_read_back(declarations: Sequence[str], loop: Sequence[str],
     had not touched since the last expansion; a local stays in a register or the stack frame.
     Half the rows of an 8-link chain's articulated-body program are such values. The same
     operations in the same order: the same bits."""
-    text = "\n".join(loop)
-    rows, local = [], []
-    for line in declarations:
-        name = ROW_DECLARATION.fullmatch(line)["name"]  # type: ignore[index]
-        (rows if re.search(rf"\b{name}\b(?!\[k\])", text) else local).append(name)
-    if local:
-        pattern = re.compile(rf"\b({'|'.join(local)})\[k\]")
-        defined = re.compile(rf"^({'|'.join(local)})\[k\] = ")
-        loop = [pattern.sub(r"\1", defined.sub(rf"const {dialect.value_type} \1 = ", line,
-                                                 count=1))
-                for line in loop]
+    read_back = {use["name"] for line in loop for use in NAME_USE.finditer(line)
+                 if not use["at_k"]}
+    names = [ROW_DECLARATION.fullmatch(line)["name"]  # type: ignore[index]
+             for line in declarations]
+    local = set(names) - read_back
+
+    def at_k(use: re.Match[str]) -> str:
+        return use["name"] if use["name"] in local else use[0]
+
+    def written(line: str) -> str:
+        """The line with the locals' [k] dropped, a local's definition declaring it."""
+        target = DEFINITION.match(line)
+        if target and target["name"] in local:
+            line = f"const {dialect.value_type} {target['name']} = {line[target.end():]}"
+        return AT_K.sub(at_k, line)
+
+    loop = [written(line) for line in loop]
+    rows = [name for name in names if name in read_back]
     return ([f"{dialect.value_type} *{name} = {dialect.work_row}(work, {j});"
              for j, name in enumerate(rows)], list(loop))
 
