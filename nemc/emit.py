@@ -49,6 +49,7 @@ from .taylor import (
     SeriesCode,
     TaylorUnsupported,
     series_code,
+    sums_in_blocks,
 )
 from .units import unit_metadata
 
@@ -1075,7 +1076,7 @@ def coefficient_fields(eqs: Equations, code: SeriesCode, constants: list[str],
             [f"const {dialect.value_type} {name} = constants[{j}];"
              for j, name in enumerate(names)], "    "),
         constants=block_lines(constants, "    "), start=block_lines(code.start, "    "),
-        loop=block_lines(code.loop, "    "),
+        loop=block_lines(sums_in_blocks(code.loop, dialect), "    "),
         orders=block_lines(order_loop(code, dialect), "    "),
         order_functions="".join(order_function(order, dialect, n_series) for order in orders),
         order_cases=block_lines([order_case(order, dialect) for order in orders], "    "),

@@ -52,6 +52,11 @@ class Dialect:
     def lanes(self) -> bool:
         return self.value_type != "double"
 
+    @property
+    def muladd(self) -> str:
+        """The C macro of a Cauchy sum's multiply-add (fused where the build has FMA)."""
+        return "LANES_MULADD" if self.lanes else "TAYLOR_MULADD"
+
     def helper(self, name: str) -> str:
         return self.prefix + name.removeprefix("series_")
 
@@ -402,6 +407,63 @@ def rows_read_back(declarations: Sequence[str], loop: Sequence[str],
     rows = [name for name in names if name in read_back]
     return ([f"{dialect.value_type} *{name} = {dialect.work_row}(work, {j});"
              for j, name in enumerate(rows)], list(loop))
+
+
+# A product's or a square's line of the loop, as SeriesWriter.cauchy writes it (a row's, or a
+# local's after rows_read_back)
+CAUCHY_LINE = re.compile(r"(?P<head>(const \w+ )?(?P<name>\w+)(\[k\])? = )(?P<helper>\w+)_"
+                         r"(?P<kind>product|square)\((?P<operands>\w+(, \w+)?), k\);")
+# the Cauchy sums whose terms below k one loop over j adds (each its own accumulator): gcc keeps
+# them in registers (16 vector registers on AVX2, 32 with AVX-512)
+SUMS_PER_BLOCK = 12
+
+
+def sums_in_blocks(loop: Sequence[str], dialect: Dialect) -> list[str]:
+    """The loop over the orders with its products' and squares' Cauchy sums in blocks: the
+    terms of coefficients below k of SUMS_PER_BLOCK sums, one loop over j adding a term to each,
+    before the first of them, and each sum's line then finishing it with its coefficient-k
+    terms (series_product_end, series_square_end). Summed one after the other, every sum was a
+    loop of its own whose length changes with k: its exit mispredicted once an order, and its
+    multiply-adds were one chain; in a block, 12 chains run side by side, one exit a block.
+    Every sum adds the same terms in the same order, from the same 0.0: the same bits."""
+    sums = [(index, match) for index, line in enumerate(loop)
+            if (match := CAUCHY_LINE.fullmatch(line))]
+    blocks: dict[int, list[str]] = {}
+    for kind in ("product", "square"):
+        members = [(index, match) for index, match in sums if match["kind"] == kind]
+        for start in range(0, len(members), SUMS_PER_BLOCK):
+            block = [match for _, match in members[start:start + SUMS_PER_BLOCK]]
+            blocks[members[start][0]] = block_of_sums(block, kind, dialect)
+    written: list[str] = []
+    for index, line in enumerate(loop):
+        written += blocks.get(index, [])
+        match = CAUCHY_LINE.fullmatch(line)
+        if match:
+            old = dialect.argument(f"old_{match['name']}")
+            line = (f"{match['head']}{match['helper']}_{match['kind']}_end("
+                    f"{match['operands']}, {old}, k);")
+        written.append(line)
+    return written
+
+
+def block_of_sums(block: Sequence[re.Match[str]], kind: str, dialect: Dialect) -> list[str]:
+    """The lines summing the terms below k of a block of products (j = 1..k-1) or squares
+    (j = 1..(k+1)/2-1), each into old_<its name>, from 0.0."""
+    names = [f"old_{match['name']}" for match in block]
+    terms = []
+    for name, match in zip(names, block):
+        a, _, b = match["operands"].partition(", ")
+        terms.append(f"{name} = {dialect.muladd}({a}[j], {b or a}[k - j], {name});")
+    zero = dialect.broadcast("0.0")
+    starts = [", ".join(f"{name} = {zero}" for name in names[i:i + 4])
+              for i in range(0, len(names), 4)]
+    declaration = [f"{dialect.value_type} {starts[0]}"]
+    declaration += [" " * (len(dialect.value_type) + 1) + line for line in starts[1:]]
+    head = f"TAYLOR_LOOP(j, 1, {'k' if kind == 'product' else '(k + 1) / 2'}, "
+    loop = [head + terms[0]] + [" " * len(head) + term for term in terms[1:]]
+    return ([f"/* the terms below k of the next {len(block)} {kind}{'s' * (len(block) > 1)} */"]
+            + [line + "," for line in declaration[:-1]] + [declaration[-1] + ";"]
+            + loop[:-1] + [loop[-1] + ");"])
 
 
 # Cauchy sums per order of each recurrence: what a program costs nemc.Taylor (sums and constant

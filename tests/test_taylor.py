@@ -16,7 +16,7 @@ from nemc.emit import TAYLOR_MARGIN, TAYLOR_MIN_EXPONENT, StepCosts, taylor_rule
 from nemc.model import Simulation
 from nemc.pipeline import Source, compile_source
 from nemc.runtime import ModelError
-from nemc.taylor import LANES, SCALAR, SeriesCode, rows_read_back
+from nemc.taylor import LANES, SCALAR, SUMS_PER_BLOCK, SeriesCode, rows_read_back, sums_in_blocks
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"
@@ -322,3 +322,25 @@ def test_values_read_back_keep_rows_the_others_are_locals() -> None:
     assert lanes_rows == []  # nothing reads a row back
     assert lanes_body == ["const lanes s0 = series_product(xq0, xdq0, k);",
                           "const lanes w1 = (s0 + xq0[k]);"]
+
+
+def test_products_and_squares_sum_their_older_terms_in_blocks() -> None:
+    """Each product's and square's terms below k are summed in a block's loop over j, before
+    its line, which then adds its coefficient-k terms (series_*_end); products and squares in
+    blocks of their own, at most SUMS_PER_BLOCK sums a block, every other line unchanged."""
+    products = [f"s{i}[k] = series_product(w{i}, xq0, k);" for i in range(SUMS_PER_BLOCK + 1)]
+    loop = ["w0[k] = (xq0[k] + xdq0[k]);", products[0], "const double s99 = series_square(w0, k);",
+            *products[1:], "xdq0[k + 1] = s99 * (1.0 / (k + 1));"]
+    blocked = sums_in_blocks(loop, SCALAR)
+    text = "\n".join(blocked)
+    assert blocked[0] == loop[0] and blocked[-1] == loop[-1]
+    assert "series_product(" not in text and "series_square(" not in text
+    assert text.count("TAYLOR_LOOP(j, 1, k, ") == 2  # 12 products, then the 13th
+    assert ("TAYLOR_LOOP(j, 1, (k + 1) / 2, old_s99 = TAYLOR_MULADD(w0[j], w0[k - j], old_s99););"
+            in text)
+    assert "old_s0 = TAYLOR_MULADD(w0[j], xq0[k - j], old_s0);" in text
+    first, second = (text.index(f"/* the terms below k of the next {count}") for count in
+                     (f"{SUMS_PER_BLOCK} products", "1 product "))
+    assert first < text.index("s0[k] = series_product_end(w0, xq0, old_s0, k);") < second
+    assert second < text.index(f"s{SUMS_PER_BLOCK}[k] = series_product_end(")
+    assert "const double s99 = series_square_end(w0, old_s99, k);" in text
