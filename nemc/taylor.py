@@ -409,59 +409,102 @@ def rows_read_back(declarations: Sequence[str], loop: Sequence[str],
              for j, name in enumerate(rows)], list(loop))
 
 
-# A product's or a square's line of the loop, as SeriesWriter.cauchy writes it (a row's, or a
-# local's after rows_read_back)
-CAUCHY_LINE = re.compile(r"(?P<head>(const \w+ )?(?P<name>\w+)(\[k\])? = )(?P<helper>\w+)_"
-                         r"(?P<kind>product|square)\((?P<operands>\w+(, \w+)?), k\);")
+# A recurrence's line of the loop as SeriesWriter writes it (a row's, or a local's after
+# rows_read_back; sin and cos write their rows themselves): its operands are names
+RECURRENCE_LINE = re.compile(r"(?P<head>(const \w+ )?(?P<name>\w+)(\[k\])? = )?(?P<helper>\w+)_"
+                             r"(?P<kind>[a-z]+)\((?P<operands>\w+(, \w+)*), k\);")
+
+
+@dataclass(frozen=True)
+class CauchySums:
+    """A recurrence's sums over j of terms of coefficients below k: each a[j] b[k - j], a and b
+    formats of its operands ({0} the first), j = 1..last-1 (templates/taylor.c.tmpl)."""
+
+    last: str
+    terms: tuple[tuple[str, str], ...]
+    results: tuple[int, ...]  # the operand naming each sum (old_<name>); -1: the line's result
+
+
+FULL, HALF = "k", "(k + 1) / 2"
+# the recurrences summed in blocks: each one's *_end helper finishes it (series_power, whose
+# exponent is not a name, keeps its loop)
+CAUCHY_SUMS = {
+    "product": CauchySums(FULL, (("{0}", "{1}"),), (-1,)),
+    "square": CauchySums(HALF, (("{0}", "{0}"),), (-1,)),
+    "quotient": CauchySums(FULL, (("{1}", "{2}"),), (2,)),
+    "reciprocal": CauchySums(FULL, (("{0}", "{1}"),), (1,)),
+    "sincos": CauchySums(FULL, (("{1}", "{3}"), ("{1}", "{2}")), (2, 3)),
+    "sinhcosh": CauchySums(FULL, (("{1}", "{3}"), ("{1}", "{2}")), (2, 3)),
+    "exp": CauchySums(FULL, (("{1}", "{2}"),), (2,)),
+    "log": CauchySums(FULL, (("(double)j * {1}", "{0}"),), (1,)),
+}
 # the Cauchy sums whose terms below k one loop over j adds (each its own accumulator): gcc keeps
 # them in registers (16 vector registers on AVX2, 32 with AVX-512)
 SUMS_PER_BLOCK = 12
 
 
+@dataclass(frozen=True)
+class Sum:
+    """One sum of a recurrence's line: its accumulator and its term at j."""
+
+    old: str
+    term: str
+
+
+def line_sums(match: re.Match[str], dialect: Dialect) -> list[Sum]:
+    """The sums of a recurrence's line, each into old_<the row or local it names>."""
+    spec = CAUCHY_SUMS[match["kind"]]
+    operands = match["operands"].split(", ")
+    names = [operands[i] if i >= 0 else match["name"] for i in spec.results]
+    sums = []
+    for name, (a, b) in zip(names, spec.terms):
+        old = f"old_{name}"
+        a_j, b_k = a.format(*operands), b.format(*operands)
+        sums.append(Sum(old, f"{old} = {dialect.muladd}({a_j}[j], {b_k}[k - j], {old});"))
+    return sums
+
+
 def sums_in_blocks(loop: Sequence[str], dialect: Dialect) -> list[str]:
-    """The loop over the orders with its products' and squares' Cauchy sums in blocks: the
-    terms of coefficients below k of SUMS_PER_BLOCK sums, one loop over j adding a term to each,
-    before the first of them, and each sum's line then finishing it with its coefficient-k
-    terms (series_product_end, series_square_end). Summed one after the other, every sum was a
-    loop of its own whose length changes with k: its exit mispredicted once an order, and its
-    multiply-adds were one chain; in a block, 12 chains run side by side, one exit a block.
-    Every sum adds the same terms in the same order, from the same 0.0: the same bits."""
-    sums = [(index, match) for index, line in enumerate(loop)
-            if (match := CAUCHY_LINE.fullmatch(line))]
+    """The loop over the orders with its Cauchy sums in blocks: the terms of coefficients below
+    k of SUMS_PER_BLOCK sums, one loop over j adding a term to each, before the first of them,
+    and each recurrence's line then finishing its sums with the terms of coefficient k
+    (series_product_end...). Summed one after the other, every sum was a loop of its own whose
+    length changes with k: its exit mispredicted once an order, and its multiply-adds were one
+    chain; in a block, 12 chains run side by side, one exit a block. Every sum adds the same
+    terms in the same order, from the same 0.0: the same bits."""
+    found = [(index, match) for index, line in enumerate(loop)
+             if (match := RECURRENCE_LINE.fullmatch(line)) and match["kind"] in CAUCHY_SUMS]
     blocks: dict[int, list[str]] = {}
-    for kind in ("product", "square"):
-        members = [(index, match) for index, match in sums if match["kind"] == kind]
-        for start in range(0, len(members), SUMS_PER_BLOCK):
-            block = [match for _, match in members[start:start + SUMS_PER_BLOCK]]
-            blocks[members[start][0]] = block_of_sums(block, kind, dialect)
+    for last in (FULL, HALF):
+        sums = [(index, total) for index, match in found
+                if CAUCHY_SUMS[match["kind"]].last == last
+                for total in line_sums(match, dialect)]
+        for start in range(0, len(sums), SUMS_PER_BLOCK):
+            block = [total for _, total in sums[start:start + SUMS_PER_BLOCK]]
+            blocks.setdefault(sums[start][0], []).extend(block_of_sums(block, last, dialect))
+    ends = {index: match for index, match in found}
     written: list[str] = []
     for index, line in enumerate(loop):
         written += blocks.get(index, [])
-        match = CAUCHY_LINE.fullmatch(line)
+        match = ends.get(index)
         if match:
-            old = dialect.argument(f"old_{match['name']}")
-            line = (f"{match['head']}{match['helper']}_{match['kind']}_end("
-                    f"{match['operands']}, {old}, k);")
+            olds = ", ".join(dialect.argument(total.old) for total in line_sums(match, dialect))
+            line = (f"{match['head'] or ''}{match['helper']}_{match['kind']}_end("
+                    f"{match['operands']}, {olds}, k);")
         written.append(line)
     return written
 
 
-def block_of_sums(block: Sequence[re.Match[str]], kind: str, dialect: Dialect) -> list[str]:
-    """The lines summing the terms below k of a block of products (j = 1..k-1) or squares
-    (j = 1..(k+1)/2-1), each into old_<its name>, from 0.0."""
-    names = [f"old_{match['name']}" for match in block]
-    terms = []
-    for name, match in zip(names, block):
-        a, _, b = match["operands"].partition(", ")
-        terms.append(f"{name} = {dialect.muladd}({a}[j], {b or a}[k - j], {name});")
+def block_of_sums(block: Sequence[Sum], last: str, dialect: Dialect) -> list[str]:
+    """The lines summing a block's terms below k (j = 1..last-1), each from 0.0."""
     zero = dialect.broadcast("0.0")
-    starts = [", ".join(f"{name} = {zero}" for name in names[i:i + 4])
-              for i in range(0, len(names), 4)]
+    starts = [", ".join(f"{total.old} = {zero}" for total in block[i:i + 4])
+              for i in range(0, len(block), 4)]
     declaration = [f"{dialect.value_type} {starts[0]}"]
     declaration += [" " * (len(dialect.value_type) + 1) + line for line in starts[1:]]
-    head = f"TAYLOR_LOOP(j, 1, {'k' if kind == 'product' else '(k + 1) / 2'}, "
-    loop = [head + terms[0]] + [" " * len(head) + term for term in terms[1:]]
-    return ([f"/* the terms below k of the next {len(block)} {kind}{'s' * (len(block) > 1)} */"]
+    head = f"TAYLOR_LOOP(j, 1, {last}, "
+    loop = [head + block[0].term] + [" " * len(head) + total.term for total in block[1:]]
+    return ([f"/* the terms below k of the next {len(block)} sum{'s' * (len(block) > 1)} */"]
             + [line + "," for line in declaration[:-1]] + [declaration[-1] + ";"]
             + loop[:-1] + [loop[-1] + ");"])
 

@@ -344,3 +344,22 @@ def test_products_and_squares_sum_their_older_terms_in_blocks() -> None:
     assert first < text.index("s0[k] = series_product_end(w0, xq0, old_s0, k);") < second
     assert second < text.index(f"s{SUMS_PER_BLOCK}[k] = series_product_end(")
     assert "const double s99 = series_square_end(w0, old_s99, k);" in text
+
+
+def test_every_recurrence_but_the_power_finishes_a_blocked_sum() -> None:
+    """Quotients, reciprocals, sin-cos pairs, exp and log sum their older terms in the blocks
+    too (each with the terms of templates/taylor.c.tmpl's recurrence); a power, whose exponent
+    is no name, keeps its own loop."""
+    loop = ["series_sincos(w1, s3, s4, s5, k);", "s6[k] = series_quotient(w1, s5, s6, k);",
+            "s7[k] = series_log(w1, s7, k);", "s8[k] = series_power(w1, s8, c3, k);",
+            "s9[k] = series_exp(w1, s10, s9, k);", "s11[k] = series_reciprocal(w1, s11, k);"]
+    text = "\n".join(sums_in_blocks(loop, SCALAR))
+    for term in ("old_s4 = TAYLOR_MULADD(s3[j], s5[k - j], old_s4);",  # j a[j] cos[k-j]
+                 "old_s5 = TAYLOR_MULADD(s3[j], s4[k - j], old_s5);",  # j a[j] sin[k-j]
+                 "old_s6 = TAYLOR_MULADD(s5[j], s6[k - j], old_s6);",  # b[j] q[k-j]
+                 "old_s7 = TAYLOR_MULADD((double)j * s7[j], w1[k - j], old_s7);",
+                 "old_s9 = TAYLOR_MULADD(s10[j], s9[k - j], old_s9);",
+                 "old_s11 = TAYLOR_MULADD(w1[j], s11[k - j], old_s11);"):
+        assert term in text
+    assert "series_sincos_end(w1, s3, s4, s5, old_s4, old_s5, k);" in text
+    assert "s8[k] = series_power(w1, s8, c3, k);" in text and "old_s8" not in text
