@@ -326,8 +326,8 @@ def test_values_read_back_keep_rows_the_others_are_locals() -> None:
 
 def test_products_and_squares_sum_their_older_terms_in_blocks() -> None:
     """Each product's and square's terms below k are summed in a block's loop over j, before
-    its line, which then adds its coefficient-k terms (series_*_end); products and squares in
-    blocks of their own, at most SUMS_PER_BLOCK sums a block, every other line unchanged."""
+    its line, which then adds its coefficient-k terms (series_*_end); squares (half the terms)
+    in blocks of their own, at most SUMS_PER_BLOCK sums a block, every other line unchanged."""
     products = [f"s{i}[k] = series_product(w{i}, xq0, k);" for i in range(SUMS_PER_BLOCK + 1)]
     loop = ["w0[k] = (xq0[k] + xdq0[k]);", products[0], "const double s99 = series_square(w0, k);",
             *products[1:], "xdq0[k + 1] = s99 * (1.0 / (k + 1));"]
@@ -340,7 +340,7 @@ def test_products_and_squares_sum_their_older_terms_in_blocks() -> None:
             in text)
     assert "old_s0 = TAYLOR_MULADD(w0[j], xq0[k - j], old_s0);" in text
     first, second = (text.index(f"/* the terms below k of the next {count}") for count in
-                     (f"{SUMS_PER_BLOCK} products", "1 product "))
+                     (f"{SUMS_PER_BLOCK} sums", "1 sum "))
     assert first < text.index("s0[k] = series_product_end(w0, xq0, old_s0, k);") < second
     assert second < text.index(f"s{SUMS_PER_BLOCK}[k] = series_product_end(")
     assert "const double s99 = series_square_end(w0, old_s99, k);" in text
