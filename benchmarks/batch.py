@@ -4,7 +4,7 @@ after the other, and heyoka's batch mode when it is installed (issue 19).
 Run: `python benchmarks/batch.py [--quick | --smoke] [--out DIR]`; part of `make bench`.
 Results: benchmarks/results/batch-latest.{json,md} (smoke: a temporary folder).
 
-Systems (each scene's rtol and atol set to the ensembles', as heyoka compiles for its tol): the
+Systems (each scene's rtol and atol set to the ensembles'): the
 book's double pendulum, `runs` random initial angles (seeded, uniform in
 [-1.5, 1.5] rad, at rest) over [0, 10] (the ensemble of benchmarks/native.py and of issue 19's
 table); in full and quick mode also `chain_runs` 8-link chains (`common.chain_yaml(8)`, angles
@@ -74,8 +74,7 @@ class System:
 
 
 def systems(config: Config, folder: Path) -> list[System]:
-    """The mechanisms, each with its scene's tolerances the ensembles' (nemc.Taylor writes its
-    coefficients out for the scene's orders, as heyoka compiles for its tol)."""
+    """The mechanisms, each with its scene's tolerances the ensembles'."""
     texts = {"double pendulum": PENDULUM.read_text()}
     if config.chain_runs:
         texts["8-link chain"] = common.chain_yaml(8)

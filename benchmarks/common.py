@@ -268,8 +268,7 @@ def chain_yaml(n: int, mixed: bool = False, method: str = "DOP853") -> str:
 
 
 def with_scene_tolerances(text: str, rtol: float, atol: float) -> str:
-    """A mechanism's YAML with its scene's rtol and atol set (nemc.Taylor writes its
-    coefficients out for the orders of the scene's tolerances)."""
+    """A mechanism's YAML with its scene's rtol and atol set."""
     import yaml
 
     document = yaml.safe_load(text)

@@ -17,10 +17,6 @@ Run: `python benchmarks/native.py [--quick | --smoke] [--sizes 4,8,16] [--out DI
    - solve_ivp DOP853 + nemc's C RHS (`Model.simulate(method="DOP853")`);
    - every native explicit method of nemc (`nemc.runtime.NATIVE_METHODS` without the implicit
      ones: nemc.DOP853, nemc.Vern9, and any added later);
-   - "nemc.Taylor, scene at its rtol": nemc.Taylor from a build whose scene names the run's rtol
-     and atol, so that its coefficients are written out for those orders, as heyoka compiles
-     for its tol (each build made before its first timed run, untimed, and cached); only where
-     the build writes orders out (model.json's `taylor_written_out`: small systems);
    - heyoka's Taylor integrator (benchmarks/peers.py, in a worker process of its own, when
      installed), tol from the same ladder (each tol JIT-compiled once, untimed); on the double
      pendulum and the 4-link chain (the cells of issue 19's targets), in full mode also on
@@ -75,7 +71,6 @@ HEYOKA = "heyoka taylor_adaptive"
 SCIPY_FOLLOWS = "nemc.DOP853"  # solve_ivp DOP853's ladder search starts one step above its rtol
 
 Solver = Callable[[float], tuple[np.ndarray, int]]  # rtol -> (y at the output times, nfev)
-TAYLOR_AT_SCENE = "nemc.Taylor, scene at its rtol"
 
 
 @dataclass(frozen=True)
@@ -114,29 +109,6 @@ def nemc_solver(model, method: str, span, times) -> Solver:
         return (res.y if res.success else None), res.nfev
 
     return solve
-
-
-class SceneTolerance:
-    """nemc.Taylor from a build of the mechanism whose scene's rtol and atol are the run's
-    (its orders written out); `prepare(rtol)` makes that build, untimed, before a timed run."""
-
-    def __init__(self, path: Path, span, times):
-        self.path, self.span, self.times = path, span, times
-        self.models: dict[float, Any] = {}
-
-    def prepare(self, rtol: float) -> None:
-        import nemc
-
-        if rtol not in self.models:
-            text = common.with_scene_tolerances(self.path.read_text(), rtol, rtol * ATOL_FACTOR)
-            self.models[rtol] = nemc.compile(text=text, name=self.path.stem, taylor=True)
-
-    def __call__(self, rtol: float) -> tuple[np.ndarray, int]:
-        self.prepare(rtol)
-        model = self.models[rtol]
-        res = model.simulate(self.span, model.initial_state(), method="nemc.Taylor", rtol=rtol,
-                             atol=rtol * ATOL_FACTOR, t_eval=self.times)
-        return (res.y if res.success else None), res.nfev
 
 
 def lambdify_solver(rhs, model, span, times) -> Solver:
@@ -189,10 +161,7 @@ def loosest_rtol(solve: Solver, ref: np.ndarray, target: float, start: int = 0,
     """Walk down the ladder from LADDER[start] until the error is at most the target; stop early
     when one run takes longer than `give_up` seconds (the best run so far is returned)."""
     best: Found | None = None
-    prepare = getattr(solve, "prepare", None)  # a build for this rtol, untimed (SceneTolerance)
     for rtol in LADDER[start:]:
-        if prepare is not None:
-            prepare(rtol)
         seconds, (y, nfev) = common.timed(lambda r=rtol: solve(r))
         found = Found(rtol, error_of(y, ref), int(nfev), seconds, False)
         if found.error <= target:
@@ -223,15 +192,13 @@ def time_contenders(solvers: dict[str, Solver], found: dict[str, Found],
 # -- 1. equal error -----------------------------------------------------------------------------
 
 
-def contenders(model, path: Path, baselines, span, times) -> dict[str, Solver]:
+def contenders(model, baselines, span, times) -> dict[str, Solver]:
     solvers = {}
     if LABELS["cse"] in baselines.rhs:
         solvers[LAMBDIFY] = lambdify_solver(baselines.rhs[LABELS["cse"]], model, span, times)
     solvers[SCIPY_C] = nemc_solver(model, "DOP853", span, times)
     for method in common.native_methods(explicit_only=True):
         solvers[method] = nemc_solver(model, method, span, times)
-    if model.compiled_with("taylor").metadata.get("taylor_written_out"):
-        solvers[TAYLOR_AT_SCENE] = SceneTolerance(path, span, times)
     return solvers
 
 
@@ -254,7 +221,7 @@ def equal_error_rows(system: str, model, path: Path, baselines, span,
                      config: Config) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     times = list(span)  # y(t0) = y0 exactly for every contender: the error is the final one
     ref = reference(model, span, times)
-    solvers = contenders(model, path, baselines, span, times)
+    solvers = contenders(model, baselines, span, times)
     rows, previous = [], {}
     for target in sorted(config.targets, reverse=True):
         found = search_all(solvers, ref["y"], target, previous, config)

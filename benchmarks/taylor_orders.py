@@ -1,16 +1,16 @@
-"""nemc.Taylor from a model's default build at a ladder of tolerances (issue 19): the orders its
-scene writes out and the loop over the orders every other order runs, in a fresh process per
-round, on one CPU (`common.one_cpu`: this machine's two CPUs can run at different speeds), and
-optionally the same with another nemc checkout (--against PATH, e.g. a git worktree of an older
-commit), the processes of the two alternated. Systems: the book's double pendulum over [0, 20]
-(its rtol 1e-6 order written out) and a 3-link chain over [0, 5] (`common.chain_yaml(3)`, no
-order written out), rtol 1e-3 ... 1e-13, atol = rtol x 1e-3. Per rtol, the best of `--repeats`
-runs in a process, then the best over the rounds; the final states of the two checkouts are
+"""nemc.Taylor from a model's default build at a ladder of tolerances (issue 19), in a fresh
+process per round, on one CPU (`common.one_cpu`: this machine's two CPUs can run at different
+speeds), and optionally the same with another nemc checkout (--against PATH, e.g. a git
+worktree of an older commit), the processes of the two alternated. Systems: the book's double
+pendulum over [0, 20] and a 3-link chain over [0, 5] (`common.chain_yaml(3)`), rtol 1e-3 ...
+1e-13, atol = rtol x 1e-3. Per rtol, the best of `--repeats` runs in a process, then the best
+over the rounds; the final states of the two checkouts are
 compared bit for bit.
 
 Run: `python benchmarks/taylor_orders.py [--rounds 6] [--repeats 41] [--against PATH]` (a few
 seconds a round once the builds are cached). Prints a Markdown table and the load average;
-writes nothing. docs/decisions.md quotes it ("nemc.Taylor's Cauchy sums inlined").
+writes nothing. docs/decisions.md quotes it ("nemc.Taylor's Cauchy sums inlined", "nemc.Taylor's
+values of one order as locals").
 """
 
 from __future__ import annotations

@@ -37,7 +37,7 @@ from .derive import (
     taylor_cost_ratio,
 )
 from .mass_form import rhs_solve_text
-from .methods import AUTO_SPECTRUM_MAX_STATES, DEFAULT_ATOL, DEFAULT_RTOL
+from .methods import AUTO_SPECTRUM_MAX_STATES
 from .optimize import Block, rewrite
 from .program import Guard, Program, prune
 from .resources import read_template
@@ -934,33 +934,13 @@ def spectrum_source(eqs: Equations, prefix: str) -> str:
 # recurrences' k == 0 cases fold away (the double pendulum's steps: 3-5% faster); longer ones
 # would double their compile time for that.
 PEEL_MAX_LINES = 300
-# nemc.Taylor's coefficients are also written out in full, as straight-line code, for the
-# orders of the scene's rtol and atol (taylor_rule), as long as
-# what is written out has at most this many terms: a program of L lines and S Cauchy sums
-# per order costs L p + S p (p - 1) / 2 at order p (gcc: about 0.2 ms a term in the one-run
-# code, 0.35 ms in the lanes'). Written out, a run costs 1.15-1.5x less (the double pendulum, a
-# 3-link chain: the mechanisms "auto" gives nemc.Taylor), an ensemble in lanes 2-8% less; a
-# 4-link chain's order 8 (3,830 terms) gains 1.2x for 0.7-1.2 s more gcc, an 8-link chain's
-# order 12 (30,078) nothing for 7 s (docs/decisions.md, "nemc.Taylor written out for the
-# scene's orders"). At the orders of taylor_rule (11 at 1e-6 where Jorba & Zou's was 8) the
-# pendulum's rtol order fits, a 3-link chain's order 10 (2,850 terms) does not: written out,
-# 1.11x faster for 0.6 s more gcc (169 against 189 us at rtol 1e-6, scratch script); the
-# budget stays.
-WRITTEN_OUT_TERMS = 2000
-# A function of one order in lanes keeps its work rows in its frame up to this many bytes
-# (order_function), of vectors of at most LANES_BYTES_MAX bytes (8 lanes, AVX-512): well
-# inside a thread's stack (8 MiB on Linux). Programs within WRITTEN_OUT_TERMS need under
-# 300 KiB (the worst: 500 sin-cos lines of 3 rows at order 2); a larger one would use the
-# caller's array.
-LANES_FRAME_BYTES = 512 * 1024
-LANES_BYTES_MAX = 64
 
 
 # nemc.Taylor's step rule (taylor_rule here and in templates/taylor.c.tmpl): a local error
 # bound e^(-A p) = eps / e^(2 + TAYLOR_MARGIN) for a step h = rho / e^A of order p, met at the
 # order and exponent that cost least per unit of time, c(p) e^A, under nemc's cost model of a
 # step, c(p) = STEP_TERMS_PER_STATE n + L p + S p (p - 1) / 2 (a program of L lines and S
-# Cauchy sums per order: written_out_orders' terms). With A = 2 the bound is Jorba & Zou's,
+# Cauchy sums per order: StepCosts.terms). With A = 2 the bound is Jorba & Zou's,
 # eps / e^2, as their order p = ceil(-ln(eps) / 2 + 1) rounds it up: half an order, e^1, on
 # average. Their rule is this choice when the Cauchy sums are the whole cost; with a step's
 # fixed work, longer steps of a higher order cost less (the double pendulum at 1e-6: order 11
@@ -1021,22 +1001,6 @@ def taylor_rule(eps: float, costs: StepCosts) -> tuple[int, float]:
     return best, best_exponent
 
 
-def written_out_orders(code: SeriesCode, simulation: m.Simulation, n_state: int) -> list[int]:
-    """The orders whose coefficients are written out: rtol's, then atol's (taylor_rule), each
-    while the terms written out stay within WRITTEN_OUT_TERMS."""
-    rtol = simulation.rtol or DEFAULT_RTOL
-    atol = simulation.atol or DEFAULT_ATOL
-    costs = step_costs(code, n_state)
-    orders: list[int] = []
-    terms = 0.0
-    for order in dict.fromkeys((taylor_rule(rtol, costs)[0], taylor_rule(atol, costs)[0])):
-        cost = costs.terms(order)
-        if terms + cost <= WRITTEN_OUT_TERMS:
-            orders.append(order)
-            terms += cost
-    return orders
-
-
 def taylor_rows(eqs: Equations) -> dict[sympy.Symbol, str]:
     """The row of Taylor coefficients of each state entry (declared by taylor_declarations)."""
     rows = {q: f"xq{i}" for i, q in enumerate(eqs.coordinates)}
@@ -1063,13 +1027,11 @@ def constants_read(code: SeriesCode) -> list[str]:
 def coefficient_fields(eqs: Equations, code: SeriesCode, constants: list[str],
                        dialect: Dialect) -> dict[str, object]:
     """The fields of the coefficients' functions, shared by taylor.c.tmpl and batch.c.tmpl:
-    the program at order k (declarations, its constants by name, the loop body), the loop
-    over the orders, and the functions of the orders written out."""
+    the program at order k (declarations, its constants by name, the loop body) and the loop
+    over the orders."""
     names = constants_read(code)
-    orders = written_out_orders(code, eqs.mechanism.simulation, 2 * eqs.n)
-    n_series = max(code.n_series, 1)
     return dict(
-        n_series=n_series,
+        n_series=max(code.n_series, 1),
         declarations=block_lines(taylor_declarations(eqs, dialect) + list(code.declarations),
                                  "    "),
         constant_names=block_lines(
@@ -1078,8 +1040,6 @@ def coefficient_fields(eqs: Equations, code: SeriesCode, constants: list[str],
         constants=block_lines(constants, "    "), start=block_lines(code.start, "    "),
         loop=block_lines(sums_in_blocks(code.loop, dialect), "    "),
         orders=block_lines(order_loop(code, dialect), "    "),
-        order_functions="".join(order_function(order, dialect, n_series) for order in orders),
-        order_cases=block_lines([order_case(order, dialect) for order in orders], "    "),
     )
 
 
@@ -1087,7 +1047,7 @@ def order_loop(code: SeriesCode, dialect: Dialect) -> list[str]:
     """The loop over the orders (templates/taylor.c.tmpl's TAYLOR_LOOP), order 0 apart when
     the program is short (PEEL_MAX_LINES). A guard fails at order 0 only."""
     if dialect.lanes:
-        call = "lanes_coefficient_k({k}, work_stride, x, work, constants, status);"
+        call = "lanes_coefficient_k({k}, x, work, constants, status);"
         if len(code.loop) > PEEL_MAX_LINES:
             return [f"TAYLOR_LOOP(k, 0, order, {call.format(k='k')});"]
         return [call.format(k=0) + " /* order 0 apart: its branches fold away */",
@@ -1102,41 +1062,6 @@ def order_loop(code: SeriesCode, dialect: Dialect) -> list[str]:
             f"TAYLOR_LOOP(k, 1, order, (void){call.format(k='k')};);"]
 
 
-def order_function(order: int, dialect: Dialect, n_series: int) -> str:
-    """The function of one order written out: the coefficients' function inlined with that
-    order (noinline itself: inlined in the dispatcher, several made each order slower). In
-    lanes, the program's n_series work rows live in its own frame (order + 1 coefficients a
-    row) where they fit in LANES_FRAME_BYTES: gcc then knows they alias nothing else and are
-    gone at its return, so it keeps in registers the values read only within their order and
-    drops their stores (templates/batch.c.tmpl, LANES_WORK_ROW). One run's code keeps the
-    caller's array: there the frame made the double pendulum 5% slower."""
-    if dialect.lanes:
-        if n_series * (order + 1) * LANES_BYTES_MAX <= LANES_FRAME_BYTES:
-            work, stride = "frame_work", f"{order + 1}"
-            frame = (f"    lanes frame_work[TAYLOR_SERIES * {order + 1}] "
-                     "__attribute__((aligned(LANES_ALIGN)));\n    (void)work;\n")
-        else:
-            work, stride, frame = "work", "TAYLOR_STRIDE", ""
-        return (f"LANES_TARGET __attribute__((noinline))\n"
-                f"static void taylor_coefficients_lanes_order{order}(\n"
-                f"    const lanes *time, const lanes *y, const lanes *constants, lanes *x,\n"
-                f"    lanes *work, int *status)\n{{\n{frame}"
-                f"    lanes_coefficients_to(time, y, constants, {order}, {stride}, x, {work},"
-                f" status);\n}}\n\n")
-    return (f"TAYLOR_FMA_TARGET __attribute__((noinline))\n"
-            f"static int taylor_coefficients_order{order}(\n"
-            f"    double t, const double *y, const double *p, double *x, double *work)\n{{\n"
-            f"    return taylor_coefficients_to(t, y, p, {order}, x, work);\n}}\n\n")
-
-
-def order_case(order: int, dialect: Dialect) -> str:
-    """The dispatcher's case of an order written out."""
-    if dialect.lanes:
-        return (f"case {order}: taylor_coefficients_lanes_order{order}(time, y, constants, x, work,"
-                f" status); break;")
-    return f"case {order}: return taylor_coefficients_order{order}(t, y, p, x, work);"
-
-
 def series_printer(printer: SymbolTablePrinter) -> Callable[[sympy.Expr], str]:
     """C of the series' parameter-only values, small integer powers as products (as the
     other code's, optimize.rewrite)."""
@@ -1144,12 +1069,11 @@ def series_printer(printer: SymbolTablePrinter) -> Callable[[sympy.Expr], str]:
 
 
 class TaylorC(NamedTuple):
-    """nemc.Taylor's C: its source ("" when the build has none), why it cannot be built (None
-    when it can), and the orders written out in full (written_out_orders)."""
+    """nemc.Taylor's C: its source ("" when the build has none), and why it cannot be built
+    (None when it can)."""
 
     source: str
     unavailable: str | None = None
-    written_out: tuple[int, ...] = ()
 
 
 def taylor_section(eqs: Equations, printer: SymbolTablePrinter, fma: bool = False) -> TaylorC:
@@ -1171,8 +1095,7 @@ def taylor_section(eqs: Equations, printer: SymbolTablePrinter, fma: bool = Fals
         min_exponent=repr(TAYLOR_MIN_EXPONENT), margin=repr(TAYLOR_MARGIN),
         **step_cost_fields(step_costs(code, 2 * eqs.n)),
         **coefficient_fields(eqs, code, list(code.constants), SCALAR))
-    return TaylorC(source, None,
-                   tuple(written_out_orders(code, eqs.mechanism.simulation, 2 * eqs.n)))
+    return TaylorC(source, None)
 
 
 def scalar_constants(code: SeriesCode) -> str:
@@ -1289,7 +1212,6 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
         info["generated"].append("taylor")
         info["taylor_program"] = eqs.taylor_form
         info["taylor_cost_ratio"] = round(taylor_cost_ratio(eqs), 3)
-        info["taylor_written_out"] = list(taylor_c.written_out)
         info["fma"] = fma
     if lanes_c:
         info["generated"].append("lanes")

@@ -79,7 +79,7 @@ class Dialect:
 
 
 SCALAR = Dialect("double", "series_", "TAYLOR_ROW")
-LANES = Dialect("lanes", "lanes_", "LANES_WORK_ROW")  # rows of work_stride (batch.c.tmpl)
+LANES = Dialect("lanes", "lanes_", "LANES_WORK_ROW")  # rows of the lanes' work (batch.c.tmpl)
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,6 @@ from reference import random_mechanism_yaml
 from test_taylor import FUNCTIONS, OVERFLOW
 
 import nemc
-from nemc import emit
 from nemc.build import Source, fma_available, lane_count
 from nemc.pipeline import compile_source, read_source
 from nemc.runtime import EnsembleResult, ModelError
@@ -189,37 +188,13 @@ def test_pendulum_runs_equal_the_scalar_runs_bit_for_bit(pendulum: nemc.Model, k
         assert len(set(lanes.nfev.tolist())) > 1  # the lanes took different numbers of steps
 
 
-def test_orders_written_out_in_lanes_equal_the_scalar_runs(pendulum: nemc.Model) -> None:
-    """The book's scene (rtol 1e-6, atol 1e-9): rtol's order 11 written out in lanes and in the
-    one-run code (emit.written_out_orders; atol's 16 would pass the budget); the runs at it,
-    and at orders 14 and 16 (the loops)."""
-    assert pendulum.compiled_with("lanes").metadata["taylor_written_out"] == [11]
+def test_lanes_equal_the_scalar_runs_at_several_orders(pendulum: nemc.Model) -> None:
+    """The book's scene (rtol 1e-6, atol 1e-9) and tighter runs: orders 11, 14 and 16, every
+    one through the loop over the orders, in lanes as in the one-run code."""
     y0s = random_states(pendulum, 9, seed=8)
     for rtol, atol in ((1e-6, 1e-9), (1e-9, 1e-12), (1e-8, 1e-10)):
         lanes, one_by_one = both(pendulum, y0s, t_span=(0, 3), t_eval=np.linspace(0, 3, 7),
                                  rtol=rtol, atol=atol)
-        assert_same(lanes, one_by_one)
-        assert lanes.success.all()
-
-
-def test_orders_written_out_equal_the_scalar_runs_with_the_work_rows_in_either_place(
-        pendulum: nemc.Model, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    """A function of one order keeps its work rows in its own frame (emit.order_function),
-    unless they take more than emit.LANES_FRAME_BYTES: then in the caller's array, as the other
-    orders. Either way, the runs of the scalar code to the last bit."""
-    source = read_source(EXAMPLES / "double_pendulum.yaml")
-    framed = compile_source(source, None, taylor=True, lanes=lane_count())
-    c_text = (framed.package / f"{framed.model.name}.c").read_text()
-    assert "lanes frame_work[TAYLOR_SERIES * 12]" in c_text  # order 11 in its frame
-    monkeypatch.setattr(emit, "LANES_FRAME_BYTES", 0)
-    monkeypatch.setenv("NEMC_CACHE", str(tmp_path))  # a build of its own, not the cached one
-    caller = compile_source(source, None, taylor=True, lanes=lane_count())
-    c_text = (caller.package / f"{caller.model.name}.c").read_text()
-    assert "frame_work" not in c_text and "taylor_coefficients_lanes_order11(" in c_text
-    y0s = random_states(pendulum, 9, seed=9)
-    for model in (framed.model, caller.model):
-        lanes, one_by_one = both(model, y0s, t_span=(0, 3), t_eval=np.linspace(0, 3, 7),
-                                 rtol=1e-6, atol=1e-9)
         assert_same(lanes, one_by_one)
         assert lanes.success.all()
 

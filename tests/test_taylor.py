@@ -12,11 +12,9 @@ import pytest
 from reference import random_mechanism_yaml
 
 import nemc
-from nemc.emit import TAYLOR_MARGIN, TAYLOR_MIN_EXPONENT, StepCosts, taylor_rule, written_out_orders
-from nemc.model import Simulation
-from nemc.pipeline import Source, compile_source
+from nemc.emit import TAYLOR_MARGIN, TAYLOR_MIN_EXPONENT, StepCosts, taylor_rule
 from nemc.runtime import ModelError
-from nemc.taylor import LANES, SCALAR, SUMS_PER_BLOCK, SeriesCode, rows_read_back, sums_in_blocks
+from nemc.taylor import LANES, SCALAR, SUMS_PER_BLOCK, rows_read_back, sums_in_blocks
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"
@@ -183,61 +181,6 @@ def test_ensemble_equals_single_runs(pendulum) -> None:
         np.testing.assert_array_equal(many.y[k], one.y)
 
 
-def with_tolerances(text: str, rtol: float, atol: float) -> str:
-    """The mechanism's text with its scene's rtol and atol set."""
-    text = re.sub(r"\n  (rtol|atol): .*", "", text)
-    return text.replace("\nsimulation:\n", f"\nsimulation:\n  rtol: {rtol}\n  atol: {atol}\n", 1)
-
-
-@pytest.mark.parametrize("name", ["double_pendulum", "functions"])
-def test_orders_written_out_give_the_loops_bits(tmp_path: Path, name: str) -> None:
-    """The orders of the scene's rtol and atol run their coefficients written out in full
-    (emit.written_out_orders), every other order the loop over the orders and the sums. Both
-    must do the same operations in the same order: a build whose scene names other tolerances
-    runs the loop at these orders, and gives the same bits, steps and all, on a pendulum and on
-    every recurrence (functions of time and of the state)."""
-    text = PENDULUM.read_text() if name == "double_pendulum" else FUNCTIONS
-    written = compile_source(Source(f"{name}.yaml", with_tolerances(text, 1e-6, 1e-9).encode()),
-                             None, taylor=True)
-    looped = compile_source(Source(f"{name}.yaml", with_tolerances(text, 1e-3, 1e-4).encode()),
-                            None, taylor=True)
-    written_c = (written.package / f"{name}.c").read_text()
-    looped_c = (looped.package / f"{name}.c").read_text()
-    orders = written.model.metadata["taylor_written_out"]
-    assert orders and all(f"taylor_coefficients_order{p}(" in written_c for p in orders)
-    looped_orders = looped.model.metadata["taylor_written_out"]
-    assert looped_orders and not set(orders) & set(looped_orders)
-    assert f"taylor_coefficients_order{orders[0]}(" not in looped_c
-    assert f"order{looped_orders[0]}(" in looped_c
-    y0 = written.model.initial_state()
-    for rtol, atol in ((1e-6, 1e-9), (1e-3, 1e-4)):
-        runs = [compiled.model.simulate((0.0, 3.0), y0, method="nemc.Taylor", rtol=rtol,
-                                        atol=atol, t_eval="steps")
-                for compiled in (written, looped)]
-        assert all(run.success for run in runs)
-        assert runs[0].nfev == runs[1].nfev
-        np.testing.assert_array_equal(runs[0].t, runs[1].t)
-        np.testing.assert_array_equal(runs[0].y, runs[1].y)
-
-
-def series(lines: int, sums: float) -> SeriesCode:
-    """A program's coefficient code of this many lines and Cauchy sums per order."""
-    return SeriesCode(1, (), (), (), (), ("line;",) * lines, sums)
-
-
-def test_which_orders_are_written_out() -> None:
-    """The orders of the scene's rtol and atol (taylor_rule), while within WRITTEN_OUT_TERMS."""
-    pendulum = series(27, 13.0)  # the double pendulum's program; 4 states
-    scene = Simulation(rtol=1e-6, atol=1e-9)
-    assert written_out_orders(pendulum, scene, 4) == [11]  # atol's 16 would pass the budget
-    assert written_out_orders(pendulum, Simulation(), 4) == [11]  # the defaults
-    assert written_out_orders(pendulum, Simulation(rtol=1e-3, atol=1e-4), 4) == [7, 8]
-    assert written_out_orders(pendulum, Simulation(rtol=1e-6, atol=1e-6), 4) == [11]
-    assert written_out_orders(series(87, 44.0), scene, 6) == []  # 3-link chain: too large
-    assert written_out_orders(series(169, 88.5), scene, 8) == []  # 4-link chain
-    assert written_out_orders(series(653, 337.0), scene, 16) == []  # 8-link chain: none
-
-
 def jorba_zou_order(eps: float) -> int:
     """Jorba & Zou's order for tolerance eps (their rule, where A = 2)."""
     return int(np.ceil(-np.log(eps) / 2 + 1))
@@ -266,10 +209,9 @@ def test_the_step_rule_meets_jorba_and_zous_error_bound(seed: int) -> None:
 
 
 def test_the_c_rule_is_the_python_rule(pendulum) -> None:
-    """The build's taylor_rule (C, <model>_taylor_order) chooses what emit.taylor_rule does,
-    so a run at the scene's tolerances reaches the orders written out for it."""
+    """The build's taylor_rule (C, <model>_taylor_order) chooses what emit.taylor_rule does
+    with the build's costs."""
     costs = StepCosts(4 * 120.0, 27.0, 13.0)  # the double pendulum's program
-    assert pendulum.metadata["taylor_written_out"] == [taylor_rule(1e-6, costs)[0]]
     exponent = pendulum._ffi.new("double *")
     c_rule = getattr(pendulum._lib, pendulum.metadata["c_prefix"] + "taylor_order")
     for eps in [*np.logspace(-15, -1, 57), 1e-300, 0.0, 0.9]:
