@@ -26,8 +26,9 @@ AUTO_TAYLOR_MAX_COST_RATIO = 0.85  # and when its Cauchy sums per order over the
 #   (benchmarks/auto.py), nemc.Taylor is the fastest at 0.54 (a free body on a spring, 3
 #   coordinates), 0.62 (the double pendulum) and 0.74 (a 2-link chain), and 1.2-1.5x slower
 #   than nemc.DOP853 or nemc.Vern9 at 0.99 (a 3-link chain: at 1e-6 and 1e-9; since its loop
-#   over the orders inlines the Cauchy sums, 1.45x and 1.16x, and 1.06x faster at 1e-12, fb6d53a)
-#   and 1.10 (4 links)
+#   over the orders inlines the Cauchy sums, 1.45x and 1.16x, and 1.06x faster at 1e-12, fb6d53a;
+#   since its sums in blocks, 1.32x slower at 1e-6, even at 1e-9 and 1.21x faster at 1e-12,
+#   1944b1a: not taken, 1e-6 being the default rtol) and 1.10 (4 links)
 AUTO_VERN9_BELOW_RTOL = 1e-4  # nemc.Vern9 below (the same error as nemc.DOP853 in as much or
 #                               less time: 1.3x on the double pendulum), nemc.DOP853 above
 AUTO_STIFF_STEPS = 200  # nemc.Radau from the start when the decaying modes at y0 alone would
