@@ -438,8 +438,10 @@ CAUCHY_SUMS = {
     "exp": CauchySums(FULL, (("{1}", "{2}"),), (2,)),
     "log": CauchySums(FULL, (("(double)j * {1}", "{0}"),), (1,)),
 }
-# the Cauchy sums whose terms below k one loop over j adds (each its own accumulator): gcc keeps
-# them in registers (16 vector registers on AVX2, 32 with AVX-512)
+# the Cauchy sums whose terms below k one loop over j adds (each its own accumulator, kept in a
+# register: 16 vector registers without AVX-512). Measured: one run of a 3-link chain as fast
+# with 8, 3-10% slower with 16 (spilled); 200 8-link chains in lanes as fast with 24, 1.14x
+# slower with 6 (docs/decisions.md, "nemc.Taylor's values of one order as locals")
 SUMS_PER_BLOCK = 12
 
 
