@@ -2,7 +2,8 @@
 method): nemc.DOP853, nemc.Vern9 and nemc.Taylor (in SIMD lanes, at the lane count given, default
 the machine's), 1 thread, with simulate_many's default choice beside them.
 
-Run: `python benchmarks/ensemble_default.py [--rounds 3] [--lanes 4|8]` (about 2 minutes).
+Run: `python benchmarks/ensemble_default.py [--rounds 3] [--lanes 4|8] [--chains 4,8]` (about
+2 minutes; longer chains take longer to build).
 Prints a Markdown table and the load average; writes nothing. docs/decisions.md, "The
 ensembles' default method", quotes one run.
 
@@ -44,16 +45,17 @@ def with_lanes(name: str, text: str, width: int):
                           lanes=width).model
 
 
-def ensembles(width: int) -> list[tuple[str, object, np.ndarray, tuple[float, float]]]:
+def ensembles(width: int, links: tuple[int, ...] = (4, 8)
+              ) -> list[tuple[str, object, np.ndarray, tuple[float, float]]]:
     """(label, model with its lanes, initial states, span): the double pendulum's large swings,
-    and gentle 4- and 8-link chains (seeded)."""
+    and gentle chains of these many links (seeded)."""
     rng = np.random.default_rng(1)
     swings = np.zeros((2000, 4))
     swings[:, 0], swings[:, 2] = rng.uniform(-2, 2, 2000), rng.uniform(-2, 2, 2000)
     pendulum = (ROOT / "examples" / "double_pendulum.yaml").read_text()
     cases = [("2,000 double pendulums, ±2 rad, [0, 10]",
               with_lanes("double_pendulum", pendulum, width), swings, (0.0, 10.0))]
-    for n in (4, 8):
+    for n in links:
         chain = with_lanes(f"chain{n}", chain_yaml(n), width)
         starts = np.tile(chain.initial_state(), (400, 1))
         starts[:, 0] += rng.uniform(-0.5, 0.5, 400)
@@ -83,12 +85,14 @@ def main() -> int:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--lanes", type=int, choices=(4, 8), default=None,
                         help="lanes per batch (default: this machine's)")
+    parser.add_argument("--chains", default="4,8", help="the chains' links, comma-separated")
     args = parser.parse_args()
+    links = tuple(int(n) for n in args.chains.split(","))
     width = args.lanes or lane_count()
     print(f"load average at start: {os.getloadavg()}; {width} lanes per batch")
     print("| ensemble | median error | " + " | ".join(METHODS) + " | auto (lanes at hand) |")
     print("| --- | --- |" + " --- |" * (len(METHODS) + 1))
-    for label, model, y0s, span in ensembles(width):
+    for label, model, y0s, span in ensembles(width, links):
         times = np.linspace(*span, 51)
         reference = model.simulate_many(y0s, t_span=span, t_eval=times, method="nemc.Taylor",
                                         rtol=REFERENCE_RTOL, atol=REFERENCE_ATOL,

@@ -42,11 +42,13 @@ AUTO_LANES_MIN_RUNS = 100  # simulate_many: nemc.Taylor in SIMD lanes (a build o
 #                            this many runs, or when the build has them
 # simulate_many's default for AUTO_LANES_MIN_RUNS runs or more, when a build with nemc.Taylor's
 # lanes is at hand: nemc.Taylor up to this many coordinates, by lanes per batch. At equal error
-# (benchmarks/ensemble_default.py, 400-run ensembles) 8 lanes are 1.45-1.56x the fastest other
-# method at 4 coordinates and 0.97-1.2x at 8; 4 lanes 0.99-1.15x at 4 and 0.67-0.78x at 8. Never
+# 1e-3, 1e-5 and 1e-7 (benchmarks/ensemble_default.py, 400-run ensembles of chains, Intel Xeon,
+# since nemc.Taylor's sums in blocks) 8 lanes are 1.5-2.4x the fastest other method at 8, 12,
+# 16, 24 and 32 links (0.97-1.2x at 8 before), 4 lanes 1.2-2.2x at 4, 8 and 16 links (0.67-0.78x
+# at 8 before; measured on the same AVX-512 machine: the AVX2 code): the largest measured. Never
 # a reason to build the lanes (an 8-link chain's: 8 s): the gain is a fraction of a second per
 # ensemble.
-AUTO_LANES_TAYLOR_MAX_COORDINATES = {4: 4, 8: 8}
+AUTO_LANES_TAYLOR_MAX_COORDINATES = {4: 16, 8: 32}
 AUTO_SPECTRUM_MAX_STATES = 40  # the start's eigenvalues are computed up to this many states (in
 #                                C, on the stack: templates/spectrum.c.tmpl)
 EXPLICIT_STABILITY = 6.0  # h |lambda| nemc.DOP853 stays stable to on a decaying mode (-6.1)
