@@ -49,7 +49,6 @@ from .taylor import (
     SeriesCode,
     TaylorUnsupported,
     series_code,
-    sums_in_blocks,
 )
 from .units import unit_metadata
 
@@ -970,7 +969,7 @@ class StepCosts(NamedTuple):
 
 
 def step_costs(code: SeriesCode, n_state: int) -> StepCosts:
-    return StepCosts(float(STEP_TERMS_PER_STATE * n_state), float(len(code.loop)),
+    return StepCosts(float(STEP_TERMS_PER_STATE * n_state), float(code.program_lines),
                      float(code.cost))
 
 
@@ -1038,7 +1037,7 @@ def coefficient_fields(eqs: Equations, code: SeriesCode, constants: list[str],
             [f"const {dialect.value_type} {name} = constants[{j}];"
              for j, name in enumerate(names)], "    "),
         constants=block_lines(constants, "    "), start=block_lines(code.start, "    "),
-        loop=block_lines(sums_in_blocks(code.loop, dialect), "    "),
+        loop=block_lines(code.loop, "    "),
         orders=block_lines(order_loop(code, dialect), "    "),
     )
 
@@ -1048,12 +1047,12 @@ def order_loop(code: SeriesCode, dialect: Dialect) -> list[str]:
     the program is short (PEEL_MAX_LINES). A guard fails at order 0 only."""
     if dialect.lanes:
         call = "lanes_coefficient_k({k}, x, work, constants, status);"
-        if len(code.loop) > PEEL_MAX_LINES:
+        if code.program_lines > PEEL_MAX_LINES:
             return [f"TAYLOR_LOOP(k, 0, order, {call.format(k='k')});"]
         return [call.format(k=0) + " /* order 0 apart: its branches fold away */",
                 f"TAYLOR_LOOP(k, 1, order, {call.format(k='k')});"]
     call = "taylor_coefficient_k({k}, x, work, constants)"
-    if len(code.loop) > PEEL_MAX_LINES:
+    if code.program_lines > PEEL_MAX_LINES:
         return [f"TAYLOR_LOOP(k, 0, order, const int status = {call.format(k='k')};",
                 "                          if (status)",
                 "                              return status;);"]

@@ -57,8 +57,9 @@ class Dialect:
         """The C macro of a Cauchy sum's multiply-add (fused where the build has FMA)."""
         return "LANES_MULADD" if self.lanes else "TAYLOR_MULADD"
 
-    def helper(self, name: str) -> str:
-        return self.prefix + name.removeprefix("series_")
+    def helper(self, kind: str) -> str:
+        """The C name of a recurrence ("product", "sincos_end"...) in this dialect."""
+        return self.prefix + kind
 
     def broadcast(self, value: str) -> str:
         """A scalar's C as a coefficient (lanes: the same value in every lane)."""
@@ -83,6 +84,33 @@ LANES = Dialect("lanes", "lanes_", "LANES_WORK_ROW")  # rows of the lanes' work 
 
 
 @dataclass(frozen=True)
+class Recurrence:
+    """A line of the loop over the orders that calls a Taylor recurrence of
+    templates/taylor.c.tmpl (series_<kind>, lanes_<kind> in batch.c.tmpl): coefficient k of
+    `result` (None: the recurrence writes its rows itself, as sin-cos) from `operands`, rows read
+    whole (their coefficients below k), then `scalars`, arguments that are no row."""
+
+    kind: str
+    result: str | None
+    operands: tuple[str, ...]
+    scalars: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Assignment:
+    """A line of the loop over the orders that sets coefficient k of `target` to `value`, C
+    that reads coefficient k of rows as name[k]."""
+
+    target: str
+    value: str
+
+
+# a line of the loop over the orders: a recurrence, an assignment, or C as it is (a guard, the
+# state's next coefficients)
+LoopItem = Recurrence | Assignment | str
+
+
+@dataclass(frozen=True)
 class SeriesCode:
     """The C of the Taylor coefficients: declarations, scalar constants, the loop body."""
 
@@ -91,7 +119,8 @@ class SeriesCode:
     constants: tuple[str, ...]  # before the loop: parameter-only values, constant guards
     constant_names: tuple[str, ...]  # the names those lines define (scalars, in order)
     start: tuple[str, ...]  # before the loop: the time series
-    loop: tuple[str, ...]  # inside `for (k = 0; k < order; ++k)`
+    loop: tuple[str, ...]  # inside `for (k = 0; k < order; ++k)`, its Cauchy sums in blocks
+    program_lines: int  # the program's lines at order k (recurrences, assignments, guards)
     cost: float  # Cauchy sums per order (SERIES_WEIGHTS): what the program costs per order
 
 
@@ -105,13 +134,12 @@ class SeriesWriter:
         self.series: dict[sympy.Expr, str] = dict(state)  # expression -> its row's name
         self.varying: set[sympy.Symbol] = {*state, time}  # symbols that change with time
         self.time = time
-        self.declarations: list[str] = []
+        self.rows: list[str] = []  # the work array's rows, by name, in order
         self.constants: list[str] = []
         self.constant_names: list[str] = []
-        self.loop: list[str] = []
+        self.loop: list[LoopItem] = []
         self.uses_time = False
         self.cost = 0.0  # Cauchy sums per order of the recurrences written (SERIES_WEIGHTS)
-        self._rows = 0
         self._scalars: dict[sympy.Expr, str] = {}  # parameter-only factor -> its constant
 
     def scalar_value(self, expr: sympy.Expr) -> str:
@@ -133,22 +161,20 @@ class SeriesWriter:
         """C for coefficient k of a parameter-only value: the value at k = 0, else 0."""
         return f"(k == 0 ? {self.dialect.broadcast(value)} : {self.dialect.broadcast('0.0')})"
 
-    def recurrence(self, helper: str, line: str) -> None:
-        """A line of the loop that calls a Taylor recurrence of templates/taylor.c.tmpl (in
-        the dialect's name: `line` names it {helper})."""
-        self.loop.append(line.replace("{helper}", self.dialect.helper(helper)))
-        self.cost += SERIES_WEIGHTS[helper]
+    def recurrence(self, kind: str, result: str | None, *operands: str,
+                   scalars: tuple[str, ...] = ()) -> None:
+        """A line of the loop that calls a Taylor recurrence (Recurrence)."""
+        self.loop.append(Recurrence(kind, result, operands, scalars))
+        self.cost += SERIES_WEIGHTS[kind]
 
     # -- rows -------------------------------------------------------------------------------
 
     def new_row(self, name: str) -> str:
-        self.declarations.append(
-            f"{self.dialect.value_type} *{name} = {self.dialect.work_row}(work, {self._rows});")
-        self._rows += 1
+        self.rows.append(name)
         return name
 
     def temporary(self) -> str:
-        return self.new_row(f"s{self._rows}")
+        return self.new_row(f"s{len(self.rows)}")
 
     def row_of(self, expr: sympy.Expr) -> str:
         """The name of a row holding expr's series, computing it into a temporary if needed."""
@@ -162,7 +188,7 @@ class SeriesWriter:
         name = self.series.get(expr)  # a recurrence may have named it meanwhile
         if name is None:
             name = self.temporary()
-            self.loop.append(f"{name}[k] = {coefficient};")
+            self.loop.append(Assignment(name, coefficient))
             self.series[expr] = name
         return name
 
@@ -187,9 +213,9 @@ class SeriesWriter:
         if isinstance(expr, (sympy.sinh, sympy.cosh)):
             return f"{self.hyperbolic(expr)}[k]"
         if isinstance(expr, sympy.exp):
-            return f"{self.unary('series_exp', expr)}[k]"
+            return f"{self.unary('exp', expr)}[k]"
         if isinstance(expr, sympy.log):
-            return f"{self.unary('series_log', expr)}[k]"
+            return f"{self.unary('log', expr)}[k]"
         raise TaylorUnsupported(f"{type(expr).__name__.lower()} of a time-varying value")
 
     def add(self, args: Sequence[sympy.Expr]) -> str:
@@ -231,9 +257,9 @@ class SeriesWriter:
             other = self.row_of(factors[count - 1])
             name = self.temporary()
             if other == row:
-                self.recurrence("series_square", f"{name}[k] = {{helper}}({row}, k);")
+                self.recurrence("square", name, row)
             else:
-                self.recurrence("series_product", f"{name}[k] = {{helper}}({row}, {other}, k);")
+                self.recurrence("product", name, row, other)
             self.series[partial] = row = name
         return row
 
@@ -246,10 +272,9 @@ class SeriesWriter:
         bottom = self.cauchy(denominator)
         name = self.temporary()
         if top is None:
-            self.recurrence("series_reciprocal", f"{name}[k] = {{helper}}({bottom}, {name}, k);")
+            self.recurrence("reciprocal", name, bottom, name)
         else:
-            self.recurrence("series_quotient",
-                            f"{name}[k] = {{helper}}({top}, {bottom}, {name}, k);")
+            self.recurrence("quotient", name, top, bottom, name)
         self.series[sympy.Mul(*numerator) / sympy.Mul(*denominator)] = name
         return name
 
@@ -268,40 +293,39 @@ class SeriesWriter:
         row = self.row_of(base)
         name = self.temporary()
         alpha = self.dialect.argument(self.dialect.broadcast(self.scalar_value(exponent)))
-        self.recurrence("series_power", f"{name}[k] = {{helper}}({row}, {name}, {alpha}, k);")
+        self.recurrence("power", name, row, name, scalars=(alpha,))
         self.series[expr] = name
         return name
 
-    def paired(self, expr: sympy.Expr, kinds: tuple[type, type], helper: str) -> str:
+    def paired(self, expr: sympy.Expr, functions: tuple[type, type], kind: str) -> str:
         """sin and cos (or sinh and cosh) of one argument come together, from one recurrence."""
         argument = expr.args[0]
-        first, second = (kind(argument) for kind in kinds)
+        first, second = (function(argument) for function in functions)
         if expr not in self.series:
             row = self.row_of(argument)
             derivative, a, b = self.temporary(), self.temporary(), self.temporary()
-            self.recurrence(helper, f"{{helper}}({row}, {derivative}, {a}, {b}, k);")
+            self.recurrence(kind, None, row, derivative, a, b)
             self.series[first], self.series[second] = a, b
         return self.series[expr]
 
     def trigonometric(self, expr: sympy.Expr) -> str:
-        return self.paired(expr, (sympy.sin, sympy.cos), "series_sincos")
+        return self.paired(expr, (sympy.sin, sympy.cos), "sincos")
 
     def hyperbolic(self, expr: sympy.Expr) -> str:
-        return self.paired(expr, (sympy.sinh, sympy.cosh), "series_sinhcosh")
+        return self.paired(expr, (sympy.sinh, sympy.cosh), "sinhcosh")
 
-    def unary(self, helper: str, expr: sympy.Expr) -> str:
+    def unary(self, kind: str, expr: sympy.Expr) -> str:
         if expr not in self.series:
             row = self.row_of(expr.args[0])
-            derivative = [self.temporary()] if helper in DERIVATIVE_ROW else []
+            derivative = [self.temporary()] if kind in DERIVATIVE_ROW else []
             name = self.temporary()
-            self.recurrence(helper,
-                            f"{name}[k] = {{helper}}({', '.join([row, *derivative, name])}, k);")
+            self.recurrence(kind, name, row, *derivative, name)
             self.series[expr] = name
         return self.series[expr]
 
 
 # recurrences whose C function keeps the row j a[j] of its argument (templates/taylor.c.tmpl)
-DERIVATIVE_ROW = {"series_exp"}
+DERIVATIVE_ROW = {"exp"}
 
 
 SMOOTH_FUNCTIONS = (sympy.sin, sympy.cos, sympy.sinh, sympy.cosh, sympy.exp, sympy.log)
@@ -347,7 +371,7 @@ def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
             writer.series[name] = same.group(1)
         else:
             writer.series[name] = writer.new_row(name.name)
-            writer.loop.append(f"{name.name}[k] = {value};")
+            writer.loop.append(Assignment(name.name, value))
         writer.varying.add(name)
     for q, dq, result in zip(coordinates, speeds, program.results):
         q_row, dq_row = rows[q], rows[dq]
@@ -355,64 +379,68 @@ def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
                  else writer.coefficient(result))
         writer.loop.append(f"{q_row}[k + 1] = {dq_row}[k] * (1.0 / (k + 1));")
         writer.loop.append(f"{dq_row}[k + 1] = {value} * (1.0 / (k + 1));")
-    writer.declarations, writer.loop = rows_read_back(writer.declarations, writer.loop,
-                                                      dialect)
-    writer._rows = len(writer.declarations)
+    kept = rows_read_back(writer.rows, writer.loop)
+    local = frozenset(writer.rows) - set(kept)
     # the time's series, filled before the loop over the orders (its row is declared for the
     # loop's body too); lines are relative to the block they sit in: "    " marks one more level
     start: tuple[str, ...] = ()
     if writer.uses_time:
-        declaration = f"{dialect.value_type} *tt = {dialect.work_row}(work, {writer._rows});"
-        writer.declarations.append(declaration)
-        writer._rows += 1
-        start = ("{", "    " + declaration, "    tt[0] = t;",
+        kept.append("tt")
+        start = ("{", "    " + row_declaration("tt", len(kept) - 1, dialect), "    tt[0] = t;",
                  "    for (int j = 1; j <= order; ++j)",
                  f"        tt[j] = {dialect.broadcast('j == 1 ? 1.0 : 0.0')};", "}")
-    return SeriesCode(writer._rows, tuple(writer.declarations), tuple(writer.constants),
-                      tuple(writer.constant_names), start, tuple(writer.loop), writer.cost)
+    return SeriesCode(len(kept), tuple(row_declaration(name, j, dialect)
+                                       for j, name in enumerate(kept)),
+                      tuple(writer.constants), tuple(writer.constant_names), start,
+                      tuple(sums_in_blocks(writer.loop, local, dialect)), len(writer.loop),
+                      writer.cost)
 
 
-ROW_DECLARATION = re.compile(r"(?P<type>\w+) \*(?P<name>\w+) = (?P<macro>\w+)\(work, \d+\);")
-NAME_USE = re.compile(r"\b(?P<name>[A-Za-z_]\w*)(?P<at_k>\[k\])?")  # with [k] after it or not
-AT_K = re.compile(r"\b(?P<name>[A-Za-z_]\w*)\[k\]")
-DEFINITION = re.compile(r"(?P<name>\w+)\[k\] = ")  # a loop line that writes a coefficient k
+def row_declaration(name: str, j: int, dialect: Dialect) -> str:
+    """The C that names row j of the work array."""
+    return f"{dialect.value_type} *{name} = {dialect.work_row}(work, {j});"
 
 
-def rows_read_back(declarations: Sequence[str], loop: Sequence[str],
-                   dialect: Dialect) -> tuple[list[str], list[str]]:
-    """The work rows the loop over the orders reads back, numbered again from 0, and the loop
-    with every other value a local of its order: a value whose earlier coefficients no
-    recurrence reads (a product only added to others, a sum only scaled) needs coefficient k
-    alone, at order k. Kept in a row, each order wrote it into a cache line of its own that it
-    had not touched since the last expansion; a local stays in a register or the stack frame.
-    Half the rows of an 8-link chain's articulated-body program are such values. The same
+def rows_read_back(rows: Sequence[str], loop: Sequence[LoopItem]) -> list[str]:
+    """The work rows the loop over the orders reads back: the recurrences' operands, whose
+    coefficients below k they read. Every other value is a local of its order (its
+    Assignment or Recurrence declares it): a value whose earlier coefficients no recurrence
+    reads (a product only added to others, a sum only scaled) needs coefficient k alone, at
+    order k. Kept in a row, each order wrote it into a cache line of its own that it had not
+    touched since the last expansion; a local stays in a register or the stack frame. Half
+    the rows of an 8-link chain's articulated-body program are such values. The same
     operations in the same order: the same bits."""
-    read_back = {use["name"] for line in loop for use in NAME_USE.finditer(line)
-                 if not use["at_k"]}
-    names = [ROW_DECLARATION.fullmatch(line)["name"]  # type: ignore[index]
-             for line in declarations]
-    local = set(names) - read_back
-
-    def at_k(use: re.Match[str]) -> str:
-        return use["name"] if use["name"] in local else use[0]
-
-    def written(line: str) -> str:
-        """The line with the locals' [k] dropped, a local's definition declaring it."""
-        target = DEFINITION.match(line)
-        if target and target["name"] in local:
-            line = f"const {dialect.value_type} {target['name']} = {line[target.end():]}"
-        return AT_K.sub(at_k, line)
-
-    loop = [written(line) for line in loop]
-    rows = [name for name in names if name in read_back]
-    return ([f"{dialect.value_type} *{name} = {dialect.work_row}(work, {j});"
-             for j, name in enumerate(rows)], list(loop))
+    read = {name for item in loop if isinstance(item, Recurrence) for name in item.operands}
+    return [name for name in rows if name in read]
 
 
-# A recurrence's line of the loop as SeriesWriter writes it (a row's, or a local's after
-# rows_read_back; sin and cos write their rows themselves): its operands are names
-RECURRENCE_LINE = re.compile(r"(?P<head>(const \w+ )?(?P<name>\w+)(\[k\])? = )?(?P<helper>\w+)_"
-                             r"(?P<kind>[a-z]+)\((?P<operands>\w+(, \w+)*), k\);")
+AT_K = re.compile(r"\b(?P<name>[A-Za-z_]\w*)\[k\]")  # coefficient k of a row, in C
+
+
+def at_order_k(text: str, local: frozenset[str]) -> str:
+    """C reading coefficient k of rows (name[k]) with the locals read as themselves."""
+    return AT_K.sub(lambda use: use["name"] if use["name"] in local else use[0], text)
+
+
+def defined(target: str, value: str, local: frozenset[str], dialect: Dialect) -> str:
+    """The line setting coefficient k of a row, or declaring a local."""
+    if target in local:
+        return f"const {dialect.value_type} {target} = {value};"
+    return f"{target}[k] = {value};"
+
+
+def written(item: LoopItem, local: frozenset[str], dialect: Dialect,
+            olds: Sequence[str] = ()) -> str:
+    """A line of the loop over the orders as C. olds: the accumulators of a recurrence's sums
+    below k (sums_in_blocks), which its *_end helper finishes."""
+    if isinstance(item, str):
+        return at_order_k(item, local)
+    if isinstance(item, Assignment):
+        return defined(item.target, at_order_k(item.value, local), local, dialect)
+    kind = f"{item.kind}_end" if olds else item.kind
+    arguments = [*item.operands, *item.scalars, *(dialect.argument(old) for old in olds), "k"]
+    call = f"{dialect.helper(kind)}({', '.join(arguments)})"
+    return f"{call};" if item.result is None else defined(item.result, call, local, dialect)
 
 
 @dataclass(frozen=True)
@@ -422,12 +450,12 @@ class CauchySums:
 
     last: str
     terms: tuple[tuple[str, str], ...]
-    results: tuple[int, ...]  # the operand naming each sum (old_<name>); -1: the line's result
+    results: tuple[int, ...]  # the operand naming each sum (old_<name>); -1: the result
 
 
 FULL, HALF = "k", "(k + 1) / 2"
-# the recurrences summed in blocks: each one's *_end helper finishes it (series_power, whose
-# exponent is not a name, keeps its loop)
+# the recurrences summed in blocks, by kind: each one's *_end helper finishes it (a power, whose
+# exponent is a scalar argument, keeps its loop)
 CAUCHY_SUMS = {
     "product": CauchySums(FULL, (("{0}", "{1}"),), (-1,)),
     "square": CauchySums(HALF, (("{0}", "{0}"),), (-1,)),
@@ -453,11 +481,11 @@ class Sum:
     term: str
 
 
-def line_sums(match: re.Match[str], dialect: Dialect) -> list[Sum]:
-    """The sums of a recurrence's line, each into old_<the row or local it names>."""
-    spec = CAUCHY_SUMS[match["kind"]]
-    operands = match["operands"].split(", ")
-    names = [operands[i] if i >= 0 else match["name"] for i in spec.results]
+def recurrence_sums(recurrence: Recurrence, dialect: Dialect) -> list[Sum]:
+    """The sums of a recurrence, each into old_<the row or local it names>."""
+    spec = CAUCHY_SUMS[recurrence.kind]
+    operands = recurrence.operands
+    names = [operands[i] if i >= 0 else recurrence.result for i in spec.results]
     sums = []
     for name, (a, b) in zip(names, spec.terms):
         old = f"old_{name}"
@@ -466,35 +494,31 @@ def line_sums(match: re.Match[str], dialect: Dialect) -> list[Sum]:
     return sums
 
 
-def sums_in_blocks(loop: Sequence[str], dialect: Dialect) -> list[str]:
-    """The loop over the orders with its Cauchy sums in blocks: the terms of coefficients below
-    k of SUMS_PER_BLOCK sums, one loop over j adding a term to each, before the first of them,
-    and each recurrence's line then finishing its sums with the terms of coefficient k
+def sums_in_blocks(loop: Sequence[LoopItem], local: frozenset[str],
+                   dialect: Dialect) -> list[str]:
+    """The loop over the orders as C (local: the values that are locals of their order,
+    rows_read_back), its Cauchy sums in blocks: the terms of coefficients below k of
+    SUMS_PER_BLOCK sums, one loop over j adding a term to each, before the first of them, and
+    each recurrence's line then finishing its sums with the terms of coefficient k
     (series_product_end...). Summed one after the other, every sum was a loop of its own whose
     length changes with k: its exit mispredicted once an order, and its multiply-adds were one
     chain; in a block, 12 chains run side by side, one exit a block. Every sum adds the same
     terms in the same order, from the same 0.0: the same bits."""
-    found = [(index, match) for index, line in enumerate(loop)
-             if (match := RECURRENCE_LINE.fullmatch(line)) and match["kind"] in CAUCHY_SUMS]
+    sums = {index: recurrence_sums(item, dialect) for index, item in enumerate(loop)
+            if isinstance(item, Recurrence) and item.kind in CAUCHY_SUMS}
     blocks: dict[int, list[str]] = {}
     for last in (FULL, HALF):
-        sums = [(index, total) for index, match in found
-                if CAUCHY_SUMS[match["kind"]].last == last
-                for total in line_sums(match, dialect)]
-        for start in range(0, len(sums), SUMS_PER_BLOCK):
-            block = [total for _, total in sums[start:start + SUMS_PER_BLOCK]]
-            blocks.setdefault(sums[start][0], []).extend(block_of_sums(block, last, dialect))
-    ends = {index: match for index, match in found}
-    written: list[str] = []
-    for index, line in enumerate(loop):
-        written += blocks.get(index, [])
-        match = ends.get(index)
-        if match:
-            olds = ", ".join(dialect.argument(total.old) for total in line_sums(match, dialect))
-            line = (f"{match['head'] or ''}{match['helper']}_{match['kind']}_end("
-                    f"{match['operands']}, {olds}, k);")
-        written.append(line)
-    return written
+        in_turn = [(index, total) for index, totals in sums.items()
+                   if CAUCHY_SUMS[loop[index].kind].last == last  # type: ignore[union-attr]
+                   for total in totals]
+        for start in range(0, len(in_turn), SUMS_PER_BLOCK):
+            block = [total for _, total in in_turn[start:start + SUMS_PER_BLOCK]]
+            blocks.setdefault(in_turn[start][0], []).extend(block_of_sums(block, last, dialect))
+    lines: list[str] = []
+    for index, item in enumerate(loop):
+        lines += blocks.get(index, [])
+        lines.append(written(item, local, dialect, [total.old for total in sums.get(index, [])]))
+    return lines
 
 
 def block_of_sums(block: Sequence[Sum], last: str, dialect: Dialect) -> list[str]:
@@ -513,9 +537,8 @@ def block_of_sums(block: Sequence[Sum], last: str, dialect: Dialect) -> list[str
 
 # Cauchy sums per order of each recurrence: what a program costs nemc.Taylor (sums and constant
 # factors cost next to nothing)
-SERIES_WEIGHTS = {"series_product": 1, "series_square": 0.5, "series_quotient": 1,
-                  "series_reciprocal": 1, "series_sincos": 2, "series_sinhcosh": 2,
-                  "series_exp": 1, "series_log": 1, "series_power": 1}
+SERIES_WEIGHTS = {"product": 1, "square": 0.5, "quotient": 1, "reciprocal": 1, "sincos": 2,
+                  "sinhcosh": 2, "exp": 1, "log": 1, "power": 1}
 
 
 def series_cost(program: Program, coordinates: Sequence[sympy.Symbol],

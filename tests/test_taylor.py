@@ -14,7 +14,16 @@ from reference import random_mechanism_yaml
 import nemc
 from nemc.emit import TAYLOR_MARGIN, TAYLOR_MIN_EXPONENT, StepCosts, taylor_rule
 from nemc.runtime import ModelError
-from nemc.taylor import LANES, SCALAR, SUMS_PER_BLOCK, rows_read_back, sums_in_blocks
+from nemc.taylor import (
+    LANES,
+    SCALAR,
+    SUMS_PER_BLOCK,
+    Assignment,
+    Recurrence,
+    rows_read_back,
+    sums_in_blocks,
+    written,
+)
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"
@@ -237,45 +246,45 @@ def test_a_series_in_t_to_the_fourth_takes_finite_steps() -> None:
 
 
 def test_values_read_back_keep_rows_the_others_are_locals() -> None:
-    """A value whose earlier coefficients a recurrence reads keeps a row of the work array
-    (numbered again from 0); one needed only at coefficient k becomes a local of the loop's
-    body, defined where its row's coefficient k was written and read where it was read."""
-    declarations = ["double *s0 = TAYLOR_ROW(work, 0);", "double *w1 = TAYLOR_ROW(work, 1);",
-                    "double *s2 = TAYLOR_ROW(work, 2);", "double *s3 = TAYLOR_ROW(work, 3);"]
-    loop = ["s0[k] = series_product(xq0, xdq0, k);",
-            "w1[k] = (s0[k] + xq0[k]);",
-            "s2[k] = series_product(w1, xq0, k);",
-            "s3[k] = series_reciprocal(w1, s3, k);",
+    """A value whose earlier coefficients a recurrence reads keeps a row of the work array;
+    one needed only at coefficient k becomes a local of the loop's body, defined where its
+    row's coefficient k was written and read where it was read."""
+    loop = [Recurrence("product", "s0", ("xq0", "xdq0")),
+            Assignment("w1", "(s0[k] + xq0[k])"),
+            Recurrence("product", "s2", ("w1", "xq0")),
+            Recurrence("reciprocal", "s3", ("w1", "s3")),
             "if (k == 0 && !(s2[k] > 0.0))",
             "    return 1;",
             "xdq0[k + 1] = (s2[k] + s0[k] * s3[k]) * (1.0 / (k + 1));"]
-    rows, body = rows_read_back(declarations, loop, SCALAR)
-    assert rows == ["double *w1 = TAYLOR_ROW(work, 0);", "double *s3 = TAYLOR_ROW(work, 1);"]
-    assert body == ["const double s0 = series_product(xq0, xdq0, k);",
-                    "w1[k] = (s0 + xq0[k]);",
-                    "const double s2 = series_product(w1, xq0, k);",
-                    "s3[k] = series_reciprocal(w1, s3, k);",
-                    "if (k == 0 && !(s2 > 0.0))",
-                    "    return 1;",
-                    "xdq0[k + 1] = (s2 + s0 * s3[k]) * (1.0 / (k + 1));"]
-    lanes_rows, lanes_body = rows_read_back(
-        [line.replace("double", "lanes").replace("TAYLOR_ROW", "LANES_WORK_ROW")
-         for line in declarations], loop[:2], LANES)
-    assert lanes_rows == []  # nothing reads a row back
-    assert lanes_body == ["const lanes s0 = series_product(xq0, xdq0, k);",
-                          "const lanes w1 = (s0 + xq0[k]);"]
+    rows = ["s0", "w1", "s2", "s3"]
+    assert rows_read_back(rows, loop) == ["w1", "s3"]
+    local = frozenset({"s0", "s2"})
+    assert [written(item, local, SCALAR) for item in loop] == [
+        "const double s0 = series_product(xq0, xdq0, k);",
+        "w1[k] = (s0 + xq0[k]);",
+        "const double s2 = series_product(w1, xq0, k);",
+        "s3[k] = series_reciprocal(w1, s3, k);",
+        "if (k == 0 && !(s2 > 0.0))",
+        "    return 1;",
+        "xdq0[k + 1] = (s2 + s0 * s3[k]) * (1.0 / (k + 1));"]
+    assert rows_read_back(rows, loop[:2]) == []  # nothing reads a row back
+    assert [written(item, frozenset(rows), LANES) for item in loop[:2]] == [
+        "const lanes s0 = lanes_product(xq0, xdq0, k);", "const lanes w1 = (s0 + xq0[k]);"]
 
 
 def test_products_and_squares_sum_their_older_terms_in_blocks() -> None:
     """Each product's and square's terms below k are summed in a block's loop over j, before
     its line, which then adds its coefficient-k terms (series_*_end); squares (half the terms)
     in blocks of their own, at most SUMS_PER_BLOCK sums a block, every other line unchanged."""
-    products = [f"s{i}[k] = series_product(w{i}, xq0, k);" for i in range(SUMS_PER_BLOCK + 1)]
-    loop = ["w0[k] = (xq0[k] + xdq0[k]);", products[0], "const double s99 = series_square(w0, k);",
-            *products[1:], "xdq0[k + 1] = s99 * (1.0 / (k + 1));"]
-    blocked = sums_in_blocks(loop, SCALAR)
+    products = [Recurrence("product", f"s{i}", (f"w{i}", "xq0"))
+                for i in range(SUMS_PER_BLOCK + 1)]
+    loop = [Assignment("w0", "(xq0[k] + xdq0[k])"), products[0],
+            Recurrence("square", "s99", ("w0",)), *products[1:],
+            "xdq0[k + 1] = s99[k] * (1.0 / (k + 1));"]
+    blocked = sums_in_blocks(loop, frozenset({"s99"}), SCALAR)
     text = "\n".join(blocked)
-    assert blocked[0] == loop[0] and blocked[-1] == loop[-1]
+    assert blocked[0] == "w0[k] = (xq0[k] + xdq0[k]);"
+    assert blocked[-1] == "xdq0[k + 1] = s99 * (1.0 / (k + 1));"
     assert "series_product(" not in text and "series_square(" not in text
     assert text.count("TAYLOR_LOOP(j, 1, k, ") == 2  # 12 products, then the 13th
     assert ("TAYLOR_LOOP(j, 1, (k + 1) / 2, old_s99 = TAYLOR_MULADD(w0[j], w0[k - j], old_s99););"
@@ -292,10 +301,13 @@ def test_every_recurrence_but_the_power_finishes_a_blocked_sum() -> None:
     """Quotients, reciprocals, sin-cos pairs, exp and log sum their older terms in the blocks
     too (each with the terms of templates/taylor.c.tmpl's recurrence); a power, whose exponent
     is no name, keeps its own loop."""
-    loop = ["series_sincos(w1, s3, s4, s5, k);", "s6[k] = series_quotient(w1, s5, s6, k);",
-            "s7[k] = series_log(w1, s7, k);", "s8[k] = series_power(w1, s8, c3, k);",
-            "s9[k] = series_exp(w1, s10, s9, k);", "s11[k] = series_reciprocal(w1, s11, k);"]
-    text = "\n".join(sums_in_blocks(loop, SCALAR))
+    loop = [Recurrence("sincos", None, ("w1", "s3", "s4", "s5")),
+            Recurrence("quotient", "s6", ("w1", "s5", "s6")),
+            Recurrence("log", "s7", ("w1", "s7")),
+            Recurrence("power", "s8", ("w1", "s8"), ("c3",)),
+            Recurrence("exp", "s9", ("w1", "s10", "s9")),
+            Recurrence("reciprocal", "s11", ("w1", "s11"))]
+    text = "\n".join(sums_in_blocks(loop, frozenset(), SCALAR))
     for term in ("old_s4 = TAYLOR_MULADD(s3[j], s5[k - j], old_s4);",  # j a[j] cos[k-j]
                  "old_s5 = TAYLOR_MULADD(s3[j], s4[k - j], old_s5);",  # j a[j] sin[k-j]
                  "old_s6 = TAYLOR_MULADD(s5[j], s6[k - j], old_s6);",  # b[j] q[k-j]
