@@ -34,8 +34,9 @@ figures: $(STAMP)
 	  $(BIN)/nemc simulate examples/$$name.yaml --plot docs/figures/$$name.png > /dev/null && \
 	  $(BIN)/nemc animate examples/$$name.yaml --out docs/figures/$$name.gif || exit 1; done
 
+# Two workers (pytest-xdist), each taking whole test files (their module fixtures build once).
 test: $(STAMP) other-python
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 # The tests marked slow (over 20 s each), left out of `make test`; CI runs them too.
 test-slow: $(STAMP)
