@@ -1357,23 +1357,18 @@ class Model(LoopsMixin):
         event_counts = np.zeros(k, dtype=np.int_)
         p_stride = ps.shape[1] if ps.shape[0] > 1 else 0
 
-        def chunk(rows: slice) -> None:
-            f = self._ffi.from_buffer
-            integrate_many(
-                method_id, run, rows.stop - rows.start, f("double[]", y0s[rows]),
-                f("double[]", ps[rows] if p_stride else ps), p_stride, f("double[]", y[rows]),
-                f("int[]", statuses[rows]), f("long[]", counts[rows]),
-                f("double[]", event_t[rows]), f("int[]", event_which[rows]),
-                f("long[]", event_counts[rows]),
-            )
-
-        workers = max(1, min(threads or os.cpu_count() or 1, k))
+        f = self._ffi.from_buffer
+        arguments = (method_id, run, k, f("double[]", y0s), f("double[]", ps), p_stride,
+                     f("double[]", y), f("int[]", statuses), f("long[]", counts),
+                     f("double[]", event_t), f("int[]", event_which), f("long[]", event_counts))
+        run.next_run = next_run = self._ffi.new("long *")  # the runs' counter the threads share
+        lanes_each = self.metadata.get("lane_count", 1) if in_lanes else 1
+        workers = max(1, min(threads or os.cpu_count() or 1, -(-k // lanes_each)))
         with runs.interrupt_flag(self._ffi.new(self._int_pointer)) as flag:
             run.interrupt = flag
-            lanes_each = self.metadata.get("lane_count", 1) if in_lanes else 1
-            run_chunks(chunk, ensemble_chunks(k, workers, lanes_each), workers,
-                       runs.Progress(f"{self.name}: runs", k) if progress is not False else None,
-                       progress)
+            run_threads(lambda: integrate_many(*arguments), workers, lambda: next_run[0], k,
+                        runs.Progress(f"{self.name}: runs", k) if progress is not False else None,
+                        progress)
         if self.has_loops:
             y = self._projected_runs(keep[0], y, ps)
         return EnsembleResult(
@@ -1506,31 +1501,27 @@ class EnsembleResult:
         return [times[which == k] for times, which in zip(self.event_t, self.event_which)]
 
 
-def ensemble_chunks(k: int, workers: int, lanes: int = 1) -> list[slice]:
-    """The runs split for the threads: a few slices per thread, so that progress shows and an
-    idle thread takes the next (results do not depend on the split); with runs in lanes, slices
-    of at least `lanes` runs where there are enough."""
-    count = max(1, min(-(-k // lanes), workers * 8))
-    bounds = np.linspace(0, k, count + 1).astype(int)
-    return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
-
-
-def run_chunks(work: Callable[[slice], None], chunks: list[slice], workers: int,
-               progress: runs.Progress | None, show: bool | None) -> None:
-    """WORK on every chunk over the threads (cffi releases the GIL during the C calls)."""
-    from concurrent.futures import ThreadPoolExecutor, as_completed
+def run_threads(work: Callable[[], None], workers: int, taken: Callable[[], int], total: int,
+                progress: runs.Progress | None, show: bool | None) -> None:
+    """WORK on WORKERS threads at once: each call takes the ensemble's runs one by one from the
+    counter they share (nemc_run's next_run) until none is left, so that no thread idles while
+    runs remain, and none of them ends a slice of runs with its SIMD lanes part-empty (cffi
+    releases the GIL during the C calls). taken: the counter's value (the runs begun: the
+    progress shown); results do not depend on which thread runs which run."""
+    from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 
     if progress is not None and show:
         progress.delay = 0.0
-    done = 0
     with ThreadPoolExecutor(workers) as pool:
-        futures = {pool.submit(work, rows): rows for rows in chunks}
+        futures = [pool.submit(work) for _ in range(workers)]
         try:
-            for future in as_completed(futures):
-                future.result()
-                done += futures[future].stop - futures[future].start
+            pending = futures
+            while pending:
+                finished, pending = wait(pending, timeout=0.1, return_when=FIRST_EXCEPTION)
+                for future in finished:
+                    future.result()  # a worker's error, raised here
                 if progress is not None:
-                    progress.update(done)
+                    progress.update(min(taken(), total))
         finally:
             if progress is not None:
                 progress.close()

@@ -329,3 +329,40 @@ def test_progress_shows_only_on_a_terminal() -> None:
     progress.close()
     assert terminal.text.endswith("\r\x1b[K")
     assert Progress("runs", delay=0.0).enabled is sys.stderr.isatty()
+
+
+def test_threads_take_runs_from_one_counter_and_show_it_as_progress() -> None:
+    """run_threads starts the work on every thread at once; the progress shown is the shared
+    counter's runs begun, never past the total (each thread's last take overshoots it, as the
+    C's nemc_next_run does), and a thread's error is raised."""
+    import threading
+
+    from nemc.runs import Progress
+    from nemc.runtime import run_threads
+
+    total, counter, lock = 40, [0], threading.Lock()
+    threads_seen: set[int] = set()
+
+    def work() -> None:
+        threads_seen.add(threading.get_ident())
+        while True:
+            with lock:
+                counter[0] += 1
+                if counter[0] > total:
+                    return
+            time.sleep(0.01)
+
+    terminal = Terminal()
+    progress = Progress("runs", total, delay=0.0, stream=terminal)
+    run_threads(work, 3, lambda: counter[0], total, progress, True)
+    assert len(threads_seen) == 3 and counter[0] == total + 3
+    shown = [int(line.split()[1].split("/")[0]) for line in terminal.text.split("\r\x1b[K")
+             if line.startswith("runs ")]
+    assert shown and all(0 <= count <= total for count in shown)
+    assert shown == sorted(shown)
+
+    def failing() -> None:
+        raise ValueError("a run's arrays")
+
+    with pytest.raises(ValueError, match="a run's arrays"):
+        run_threads(failing, 2, lambda: 0, total, None, None)
