@@ -348,7 +348,7 @@ def taylor_cost_ratio(eqs: Equations) -> float:
     (c_cost.estimated_ns): a step of nemc.Taylor costs about the first times p^2, one of
     nemc.Vern9 about 16 times the second, and their steps' ratio changes little from one
     smooth mechanism to the next, so this ratio decides which a single run takes
-    (methods.AUTO_TAYLOR_MAX_COST_RATIO). Called with Taylor's program built."""
+    (methods.auto_takes_taylor). Called with Taylor's program built."""
     assert eqs.taylor_sums is not None
     return eqs.taylor_sums / max(estimated_ns(eqs.dynamics), 1.0)
 

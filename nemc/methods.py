@@ -29,6 +29,12 @@ AUTO_TAYLOR_MAX_COST_RATIO = 0.85  # and when its Cauchy sums per order over the
 #   over the orders inlines the Cauchy sums, 1.45x and 1.16x, and 1.06x faster at 1e-12, fb6d53a;
 #   since its sums in blocks, 1.32x slower at 1e-6, even at 1e-9 and 1.21x faster at 1e-12,
 #   1944b1a: not taken, 1e-6 being the default rtol) and 1.10 (4 links)
+AUTO_TAYLOR_TIGHT_RTOL = 1e-8  # from this rtol down, nemc.Taylor up to a cost ratio of
+AUTO_TAYLOR_TIGHT_MAX_COST_RATIO = 1.0  # this: its order grows as the tolerance shrinks where
+#   a Runge-Kutta method's steps shrink instead. Measured (benchmarks/auto.py --quick, Intel
+#   Xeon, 0fb3eb0): on the 3-link chain (0.99) nemc.Taylor is 1.7x slower than the fastest at
+#   the final error 1e-6, 1.07x faster at 1e-9 and 1.5x faster at 1e-12 (nemc.Vern9's rtol for
+#   an error of 1e-8, their break-even, is about 5e-9); on the 4-link chain (1.10) even at 1e-12
 AUTO_VERN9_BELOW_RTOL = 1e-4  # nemc.Vern9 below (the same error as nemc.DOP853 in as much or
 #                               less time: 1.3x on the double pendulum), nemc.DOP853 above
 AUTO_STIFF_STEPS = 200  # nemc.Radau from the start when the decaying modes at y0 alone would
@@ -57,14 +63,20 @@ EXPLICIT_STABILITY = 6.0  # h |lambda| nemc.DOP853 stays stable to on a decaying
 def auto_builds_taylor(method: str | None, coordinates: int) -> bool:
     """Whether a build whose scene names METHOD (None: none) derives nemc.Taylor's program for
     "auto" to choose: small mechanisms, where it may be the fastest and costs little to build
-    (it is kept only where auto_takes_taylor)."""
+    (it is kept only where auto_keeps_taylor)."""
     return method in (None, AUTO) and coordinates <= AUTO_TAYLOR_MAX_COORDINATES
 
 
-def auto_takes_taylor(cost_ratio: float) -> bool:
-    """Whether "auto" gives a single run to nemc.Taylor, by its program's cost ratio
+def auto_takes_taylor(cost_ratio: float, rtol: float) -> bool:
+    """Whether "auto" gives a single run at rtol to nemc.Taylor, by its program's cost ratio
     (derive.taylor_cost_ratio)."""
-    return cost_ratio <= AUTO_TAYLOR_MAX_COST_RATIO
+    tight = rtol <= AUTO_TAYLOR_TIGHT_RTOL
+    return cost_ratio <= (AUTO_TAYLOR_TIGHT_MAX_COST_RATIO if tight else AUTO_TAYLOR_MAX_COST_RATIO)
+
+
+def auto_keeps_taylor(cost_ratio: float) -> bool:
+    """Whether a build for "auto" keeps nemc.Taylor's code: auto takes it at some rtol."""
+    return auto_takes_taylor(cost_ratio, 0.0)
 
 
 def auto_method(coordinates: int, rtol: float, has_taylor: bool, stiff_steps: float,

@@ -143,7 +143,7 @@ def generate_and_build(
     from .build import build
     from .derive import derive, taylor_cost_ratio, with_jacobian, with_mass_matrix, with_taylor
     from .emit import emit
-    from .methods import IMPLICIT_METHODS, auto_builds_taylor, auto_takes_taylor
+    from .methods import IMPLICIT_METHODS, auto_builds_taylor, auto_keeps_taylor
     from .optimize import optimize_equations
     from .validate import validate_text
 
@@ -165,7 +165,7 @@ def generate_and_build(
                 equations = with_taylor(equations)
             elif taylor is None and auto_builds_taylor(method, equations.n):
                 for_auto = with_taylor(equations)  # kept where auto would take it (or refused)
-                if for_auto.taylor is None or auto_takes_taylor(taylor_cost_ratio(for_auto)):
+                if for_auto.taylor is None or auto_keeps_taylor(taylor_cost_ratio(for_auto)):
                     equations = for_auto
         with timed(timings, "optimize", progress):
             block = optimize_equations(equations)

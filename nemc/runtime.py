@@ -829,14 +829,15 @@ class Model(LoopsMixin):
         taylor_max = max(AUTO_TAYLOR_MAX_COORDINATES,
                          AUTO_LANES_TAYLOR_MAX_COORDINATES.get(lanes, 0))
         return auto_method(len(self.coordinate_names), rtol,
-                           bool(lanes) or (self._taylor_at_hand(runs) and self._taylor_cheap()),
+                           bool(lanes) or (self._taylor_at_hand(runs)
+                                           and self._taylor_cheap(rtol)),
                            self._start_stiffness(span, y0, p), taylor_max)
 
-    def _taylor_cheap(self) -> bool:
+    def _taylor_cheap(self, rtol: float) -> bool:
         """Whether the build's nemc.Taylor program is cheap enough against its right-hand side
-        for "auto" to give it a run (methods.auto_takes_taylor; a build without Taylor's code,
-        built later for an ensemble, counts as cheap, as before)."""
-        return auto_takes_taylor(self.metadata.get("taylor_cost_ratio", 0.0))
+        for "auto" to give it a run at rtol (methods.auto_takes_taylor; a build without Taylor's
+        code, built later for an ensemble, counts as cheap, as before)."""
+        return auto_takes_taylor(self.metadata.get("taylor_cost_ratio", 0.0), rtol)
 
     def _lanes_at_hand(self) -> int:
         """The lanes per batch of a build at hand with nemc.Taylor's lanes (this one, or the
