@@ -356,6 +356,30 @@ def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
                 dialect: Dialect = SCALAR) -> SeriesCode:
     """The Taylor-coefficient code of the accelerations' program (one result per coordinate);
     rows: the name of each coordinate's and speed's row. Raises TaylorUnsupported."""
+    writer = written_program(program, coordinates, speeds, rows, time, scalar, dialect)
+    kept = rows_read_back(writer.rows, writer.loop)
+    local = frozenset(writer.rows) - set(kept)
+    # the time's series, filled before the loop over the orders (its row is declared for the
+    # loop's body too); lines are relative to the block they sit in: "    " marks one more level
+    start: tuple[str, ...] = ()
+    if writer.uses_time:
+        kept.append("tt")
+        start = ("{", "    " + row_declaration("tt", len(kept) - 1, dialect), "    tt[0] = t;",
+                 "    for (int j = 1; j <= order; ++j)",
+                 f"        tt[j] = {dialect.broadcast('j == 1 ? 1.0 : 0.0')};", "}")
+    return SeriesCode(len(kept), tuple(row_declaration(name, j, dialect)
+                                       for j, name in enumerate(kept)),
+                      tuple(writer.constants), tuple(writer.constant_names), start,
+                      tuple(sums_in_blocks(writer.loop, local, dialect)), len(writer.loop),
+                      writer.cost)
+
+
+def written_program(program: Program, coordinates: Sequence[sympy.Symbol],
+                    speeds: Sequence[sympy.Symbol], rows: Mapping[sympy.Symbol, str],
+                    time: sympy.Symbol, scalar: Callable[[sympy.Expr], str],
+                    dialect: Dialect = SCALAR) -> SeriesWriter:
+    """The program's coefficient k, recorded by a SeriesWriter (its loop as values, its rows,
+    constants and cost), with the state's next coefficients after it."""
     writer = SeriesWriter(scalar, dict(rows), time, dialect)
     for step in program.steps:
         if isinstance(step, Guard):
@@ -379,21 +403,7 @@ def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
                  else writer.coefficient(result))
         writer.loop.append(f"{q_row}[k + 1] = {dq_row}[k] * (1.0 / (k + 1));")
         writer.loop.append(f"{dq_row}[k + 1] = {value} * (1.0 / (k + 1));")
-    kept = rows_read_back(writer.rows, writer.loop)
-    local = frozenset(writer.rows) - set(kept)
-    # the time's series, filled before the loop over the orders (its row is declared for the
-    # loop's body too); lines are relative to the block they sit in: "    " marks one more level
-    start: tuple[str, ...] = ()
-    if writer.uses_time:
-        kept.append("tt")
-        start = ("{", "    " + row_declaration("tt", len(kept) - 1, dialect), "    tt[0] = t;",
-                 "    for (int j = 1; j <= order; ++j)",
-                 f"        tt[j] = {dialect.broadcast('j == 1 ? 1.0 : 0.0')};", "}")
-    return SeriesCode(len(kept), tuple(row_declaration(name, j, dialect)
-                                       for j, name in enumerate(kept)),
-                      tuple(writer.constants), tuple(writer.constant_names), start,
-                      tuple(sums_in_blocks(writer.loop, local, dialect)), len(writer.loop),
-                      writer.cost)
+    return writer
 
 
 def row_declaration(name: str, j: int, dialect: Dialect) -> str:
@@ -546,10 +556,9 @@ def series_cost(program: Program, coordinates: Sequence[sympy.Symbol],
     """The Cauchy sums per order of the program's coefficients (inf: unsupported)."""
     rows = {s: f"x{i}" for i, s in enumerate((*coordinates, *speeds))}
     try:
-        code = series_code(program, coordinates, speeds, rows, time, str)
+        return written_program(program, coordinates, speeds, rows, time, str).cost
     except TaylorUnsupported:
         return float("inf")
-    return code.cost
 
 
 def guard(writer: SeriesWriter, step: Guard) -> None:
