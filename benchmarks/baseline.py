@@ -1,7 +1,7 @@
 """The sympy lambdify baselines, built in a fresh process under a time budget.
 
 `python benchmarks/baseline.py MECHANISM.yaml FOLDER` derives M(q) and f(t, q, dq) (nemc's own
-`nemc.derive.derive` when it still exposes them, else the independent Lagrangian derivation of
+`nemc.derive.equations.derive` when it still exposes them, else the independent Lagrangian derivation of
 tests/reference.py), folds the parameters to their defaults and writes, one file per variant as
 soon as it is done, the Python source that `sympy.lambdify` generated:
 
@@ -45,17 +45,17 @@ def equations(path: Path):
     """(args, M, f, source) with parameters folded: nemc's derivation, else the reference."""
     import sympy
 
-    from nemc.model import TIME, rate_symbol, symbol
-    from nemc.validate import load_mechanism
+    from nemc.front.mechanism import TIME, rate_symbol, symbol
+    from nemc.front.validate import load_mechanism
 
     mech = load_mechanism(path)
     try:
-        from nemc.derive import derive
+        from nemc.derive.equations import derive
 
         eqs = derive(mech)
         fold = {s: sympy.Float(v) for s, v in zip(eqs.parameters, eqs.parameter_defaults)}
         mass, forcing = eqs.mass_matrix.xreplace(fold), eqs.forcing.xreplace(fold)
-        source = "nemc.derive (the M and f nemc emits)"
+        source = "nemc.derive.equations (the M and f nemc emits)"
     except AttributeError:  # a derivation without an explicit M and f
         sys.path.insert(0, str(ROOT / "tests"))
         import reference

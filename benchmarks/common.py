@@ -215,9 +215,9 @@ def random_states(n_state: int, count: int, seed: int = 1, bound: float = 1.5) -
 
 
 def native_methods(explicit_only: bool = False) -> tuple[str, ...]:
-    """nemc's own integrators (C loops), as nemc.runtime lists them (a new one is picked up);
+    """nemc's own integrators (C loops), as nemc.runtime.model lists them (a new one is picked up);
     explicit_only: without those that take the Jacobian (nemc.Radau)."""
-    from nemc import runtime
+    from nemc.runtime import model as runtime
 
     methods = tuple(getattr(runtime, "NATIVE_METHODS", ()))
     implicit = set(getattr(runtime, "IMPLICIT_METHODS", ())) if explicit_only else set()

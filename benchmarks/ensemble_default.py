@@ -30,7 +30,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import ROOT, chain_yaml, run_errors  # noqa: E402
 
-from nemc.build import Source, lane_count  # noqa: E402
+from nemc.build.builder import Source, lane_count  # noqa: E402
 from nemc.pipeline import compile_source  # noqa: E402
 
 METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Taylor")

@@ -35,7 +35,7 @@ import common  # noqa: E402 (the benchmarks folder is not a package)
 from common import ROOT, fmt_time  # noqa: E402
 
 import nemc  # noqa: E402
-from nemc.runs import interrupts_raise  # noqa: E402
+from nemc.runtime.runs import interrupts_raise  # noqa: E402
 
 BOOK = ROOT / "examples" / "double_pendulum.yaml"
 SPAN = (0.0, 20.0)

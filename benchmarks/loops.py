@@ -85,8 +85,8 @@ def baseline_functions(path: Path) -> tuple[Callable, Callable, dict[str, float]
     import sympy as sp
     from loop_reference import LoopReference
 
-    from nemc.model import TIME
-    from nemc.validate import load_mechanism
+    from nemc.front.mechanism import TIME
+    from nemc.front.validate import load_mechanism
 
     start = time.perf_counter()
     ref = LoopReference(load_mechanism(path))
@@ -148,7 +148,7 @@ def reference_solution(path: Path, y0: np.ndarray, steps: int) -> dict[str, Any]
     from loop_reference import LoopReference, extended_precision_run
     from scipy.integrate import solve_ivp
 
-    from nemc.validate import load_mechanism
+    from nemc.front.validate import load_mechanism
 
     ref = LoopReference(load_mechanism(path))
     start = time.perf_counter()
@@ -193,7 +193,7 @@ def disagreement(model, path: Path) -> float:
     build that ignores its constraints disagrees by O(1))."""
     from loop_reference import LoopReference
 
-    from nemc.validate import load_mechanism
+    from nemc.front.validate import load_mechanism
 
     ref = LoopReference(load_mechanism(path))
     states = loop_states(path, 5)
@@ -234,7 +234,7 @@ def nemc_contenders(path: Path, y0: np.ndarray) -> tuple[dict[str, Solver], list
     """nemc's contenders that run on a closed loop, and a note for each that cannot (nemc.Taylor
     has no recurrence for the projection) or for all (the model does not compile)."""
     try:
-        from nemc import methods
+        from nemc import vocabulary as methods
 
         model = checked_model(path)
     except Exception as error:  # noqa: BLE001 (recorded, never hidden)
@@ -261,7 +261,7 @@ def nemc_contenders(path: Path, y0: np.ndarray) -> tuple[dict[str, Solver], list
 def equal_error(config: Config, folder: Path, result: dict[str, Any]) -> None:
     from loop_reference import LoopReference
 
-    from nemc.validate import load_mechanism
+    from nemc.front.validate import load_mechanism
 
     path = without_scene_method(FOURBAR, folder)
     y0 = LoopReference(load_mechanism(path)).initial_state()
@@ -333,7 +333,7 @@ def loop_states(path: Path, count: int) -> np.ndarray:
     """(n_state, count) states on the loop: random moves of the scene's state, projected."""
     from loop_reference import LoopReference
 
-    from nemc.validate import load_mechanism
+    from nemc.front.validate import load_mechanism
 
     ref = LoopReference(load_mechanism(path))
     y0 = ref.initial_state()

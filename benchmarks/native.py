@@ -15,7 +15,7 @@ Run: `python benchmarks/native.py [--quick | --smoke] [--sizes 4,8,16] [--out DI
      scipy's best method at these errors (benchmarks/run.py's work-precision: RK45 needs many
      more steps, the implicit methods far more time);
    - solve_ivp DOP853 + nemc's C RHS (`Model.simulate(method="DOP853")`);
-   - every native explicit method of nemc (`nemc.runtime.NATIVE_METHODS` without the implicit
+   - every native explicit method of nemc (`nemc.runtime.model.NATIVE_METHODS` without the implicit
      ones: nemc.DOP853, nemc.Vern9, and any added later);
    - heyoka's Taylor integrator (benchmarks/peers.py, in a worker process of its own, when
      installed), tol from the same ladder (each tol JIT-compiled once, untimed); on the double

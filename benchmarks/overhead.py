@@ -37,7 +37,7 @@ import numpy as np  # noqa: E402
 from common import ROOT, interleaved, native_methods, random_states, spread  # noqa: E402
 
 import nemc  # noqa: E402
-from nemc.build import DRIVERS_CFLAGS, compiler  # noqa: E402
+from nemc.build.builder import DRIVERS_CFLAGS, compiler  # noqa: E402
 
 STATES = 1000
 ALONG = "C right-hand side at the run's states (rhs_many along [0, 200], per state)"

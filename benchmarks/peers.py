@@ -69,9 +69,9 @@ def mechanics_model(path: Path) -> MechanicsModel:
     import sympy as sp
     from sympy.physics import mechanics as me
 
-    from nemc.loads import JointSpring
-    from nemc.model import GROUND, symbol
-    from nemc.validate import load_mechanism
+    from nemc.front.mechanism import GROUND, symbol
+    from nemc.front.validate import load_mechanism
+    from nemc.kinds.loads import JointSpring
 
     sys.path.insert(0, str(common.ROOT / "tests"))
     from reference import resolve_parameters  # the numeric parameter values

@@ -65,10 +65,10 @@ def systems(config: Config, folder: Path) -> list[tuple[str, Path]]:
 
 def built(eqs: Any, program: Any, tag: str) -> Any:
     """A model whose right-hand side runs PROGRAM."""
-    from nemc.build import build
-    from nemc.emit import emit
-    from nemc.load import load_package
-    from nemc.optimize import optimize_equations
+    from nemc.build.builder import build
+    from nemc.emit.optimize import optimize_equations
+    from nemc.emit.source import emit
+    from nemc.runtime.load import load_package
 
     variant = dataclasses.replace(eqs, dynamics=program)
     code = emit(variant, optimize_equations(variant))
@@ -76,9 +76,9 @@ def built(eqs: Any, program: Any, tag: str) -> Any:
 
 
 def measure_system(path: Path, config: Config) -> dict[str, Any]:
-    from nemc.c_cost import estimated_ns
-    from nemc.derive import ARTICULATED, derive
-    from nemc.validate import validate_text
+    from nemc.derive.c_cost import estimated_ns
+    from nemc.derive.equations import ARTICULATED, derive
+    from nemc.front.validate import validate_text
 
     eqs = derive(validate_text(path.read_bytes(), str(path)))
     forms = dict(eqs.forms)

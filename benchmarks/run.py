@@ -45,7 +45,7 @@ from common import (  # noqa: E402
     timed,
 )
 
-from nemc.runs import interrupts_raise  # noqa: E402
+from nemc.runtime.runs import interrupts_raise  # noqa: E402
 
 DOUBLE_PENDULUM = ROOT / "examples" / "double_pendulum.yaml"
 BOOK_SYSTEMS = {

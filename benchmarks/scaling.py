@@ -81,7 +81,7 @@ def rhs_costs(package: Path, config: Config) -> dict[str, Any]:
     The C loop gets `many_states` (about 1000) states as C-contiguous rows, passed as the
     transposed view rhs_many takes, so no copy is made per call and the data stays in cache, as
     in an integrator: the figure is the generated C's cost per state."""
-    from nemc.load import load_package
+    from nemc.runtime.load import load_package
 
     model = load_package(package)
     states = common.random_states(model.n_state, config.many_states, bound=1.0)

@@ -63,7 +63,7 @@ def contenders() -> dict[str, tuple[list[str], list[str]]]:
     """name -> (command, the names of the (wall, CPU) pairs it prints; [] for the process's
     own)."""
     python = sys.executable
-    simulate = [python, "-m", "nemc.cli", "simulate", str(EXAMPLE)]
+    simulate = [python, "-m", "nemc.tools.cli", "simulate", str(EXAMPLE)]
     return {
         "python -c pass (process)": ([python, "-c", "pass"], []),
         "import numpy (in process)": ([python, "-c", IMPORT_NUMPY], ["import numpy"]),

@@ -23,8 +23,8 @@ import sympy
 from scipy.integrate import solve_ivp
 
 import nemc
-from nemc.derive import derive
-from nemc.validate import load_mechanism
+from nemc.derive.equations import derive
+from nemc.front.validate import load_mechanism
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
@@ -46,7 +46,7 @@ def lambdify_rhs(path: Path, params: dict[str, float]):
     values = dict(zip(eqs.parameters, eqs.parameter_defaults))
     values.update({sympy.Symbol(k, real=True): v for k, v in params.items()})
     mass, forcing = eqs.mass_matrix.xreplace(values), eqs.forcing.xreplace(values)
-    args = [nemc.model.TIME, *eqs.coordinates, *eqs.speeds]
+    args = [nemc.front.mechanism.TIME, *eqs.coordinates, *eqs.speeds]
     f_mass = sympy.lambdify(args, mass, cse=True)
     f_forcing = sympy.lambdify(args, forcing, cse=True)
     n = eqs.n

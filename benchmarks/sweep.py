@@ -50,7 +50,7 @@ def initial_states(count: int) -> np.ndarray:
 def contenders(model: Any, y0s: np.ndarray, clients: dict[str, Any], scratch: Path,
                chunk: int, busy: dict[str, list[float]]) -> dict[str, Callable[[], Any]]:
     """The contenders; a cluster's sweeps add their chunks' seconds on the workers to BUSY."""
-    from nemc.sweeps import sweep
+    from nemc.tools.sweeps import sweep
 
     def on_cluster(name: str, client: Any) -> Callable[[], Any]:
         def call() -> Any:
@@ -106,7 +106,7 @@ def measure(mode: str) -> dict[str, Any]:
     from distributed import Client, LocalCluster
 
     import nemc
-    from nemc.sweeps import default_chunk_runs
+    from nemc.tools.sweeps import default_chunk_runs
 
     runs, count = SIZES[mode]
     model = nemc.compile(EXAMPLE, taylor=True)

@@ -29,7 +29,7 @@ def run_grid(n: int, data: Path, address: str | None) -> object:
     """n x n runs (q1 slowest) over [-pi, pi]^2, final states at t = 10, as `nemc sweep
     --grid q1=-pi:pi:n --grid q2=-pi:pi:n --t-end 10 --times 1 --method nemc.Taylor`."""
     import nemc
-    from nemc.sweeps import dask_client, sweep
+    from nemc.tools.sweeps import dask_client, sweep
 
     model = nemc.compile(MECHANISM, taylor=True)
     axis = np.linspace(-math.pi, math.pi, n)
@@ -99,7 +99,7 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "generated" / "chaos_map.png")
     args = parser.parse_args()
     if args.source is not None:
-        from nemc.sweep_store import read_output
+        from nemc.tools.sweep_store import read_output
 
         dataset = read_output(args.source)
     else:

@@ -13,11 +13,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.1.0"
+from .vocabulary import NEMC_VERSION as __version__
 
 if TYPE_CHECKING:
-    from .runtime import Model
-    from .sweeps import SweepResult
+    from .runtime.model import Model
+    from .tools.sweeps import SweepResult
 
 
 def compile(  # noqa: A001
@@ -31,7 +31,7 @@ def compile(  # noqa: A001
     method is implicit; otherwise it is built on the model's first call that needs it.
     nemc.Taylor's code likewise: `taylor` True, or the scene's method nemc.Taylor, or the first
     simulate(method="nemc.Taylor")."""
-    from .build import Source
+    from .build.builder import Source
     from .pipeline import compile_mechanism, compile_source
 
     if (path is None) == (text is None):
@@ -48,7 +48,7 @@ def sweep(model: Model, y0s: Any = None, **options: Any) -> SweepResult:
     """Run MODEL over many initial states and parameter sets, on this machine's cores or a Dask
     cluster (client=...), into one xarray dataset (out=None, or a .zarr, .nc or .npz file).
     The options and the result: nemc.sweeps.sweep. Needs the extra nemc[sweep]."""
-    from .sweeps import sweep as run_sweep
+    from .tools.sweeps import sweep as run_sweep
 
     return run_sweep(model, y0s, **options)
 

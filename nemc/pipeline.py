@@ -15,13 +15,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .build import Source, build_key, cached_package, fma_available, is_intact, lane_count
-from .load import load_package
-from .runs import Progress
-from .runtime import Model
+from .build.builder import Source, build_key, cached_package, fma_available, is_intact, lane_count
+from .runtime.load import load_package
+from .runtime.model import Model
+from .runtime.runs import Progress
 
 if TYPE_CHECKING:  # a cache hit imports no sympy
-    from .model import Mechanism
+    from .front.mechanism import Mechanism
 
 
 @dataclass(frozen=True)
@@ -60,7 +60,7 @@ def timed(timings: dict[str, float], stage: str, progress: Progress | None = Non
 
 def read_source(path: str | Path) -> Source:
     from .errors import InputError, Problem
-    from .reading import read_file
+    from .front.reading import read_file
 
     try:
         return Source(str(path), read_file(path))
@@ -139,13 +139,19 @@ def generate_and_build(
     energy: bool = False, taylor: bool | None = None, chunk_steps: int | None = None,
     lanes: int = 0, mass_matrix: bool = False,
 ) -> Path:
-    from .assembly import check_assembly
-    from .build import build
-    from .derive import derive, taylor_cost_ratio, with_jacobian, with_mass_matrix, with_taylor
-    from .emit import emit
-    from .methods import IMPLICIT_METHODS, auto_builds_taylor, auto_keeps_taylor
-    from .optimize import optimize_equations
-    from .validate import validate_text
+    from .build.builder import build
+    from .derive.assembly import check_assembly
+    from .derive.equations import (
+        derive,
+        taylor_cost_ratio,
+        with_jacobian,
+        with_mass_matrix,
+        with_taylor,
+    )
+    from .emit.optimize import optimize_equations
+    from .emit.source import emit
+    from .front.validate import validate_text
+    from .vocabulary import IMPLICIT_METHODS, auto_builds_taylor, auto_keeps_taylor
 
     progress = Progress(f"nemc: building {source.path}", delay=0.0)
     try:
@@ -180,7 +186,7 @@ def generate_and_build(
 @contextmanager
 def number_range(source: Source) -> Iterator[None]:
     """A number no double holds, made by folding the file's constants, is bad input (exit 2)."""
-    from .c_text import NumberOutOfRange
+    from .emit.c_text import NumberOutOfRange
     from .errors import InputError, Problem
 
     try:

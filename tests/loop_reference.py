@@ -2,7 +2,7 @@
 multipliers.
 
 Written from the format spec alone; it shares nothing with nemc's derivation but the validated
-model (``nemc.validate.load_mechanism``). The tree's M(q) and f(t, q, u) come from the Lagrangian
+model (``nemc.front.validate.load_mechanism``). The tree's M(q) and f(t, q, u) come from the Lagrangian
 derivation of tests/reference.py (``ReferenceModel``, over every tree coordinate: a driven one
 is an ordinary coordinate there). On top of it, written here:
 
@@ -40,9 +40,9 @@ import sympy as sp
 import yaml
 from reference import Frame, ReferenceModel, body_frames, resolve_parameters
 
-from nemc.constraints import Constraint
-from nemc.loads import Force, JointSpring, Spring, Torque
-from nemc.model import GROUND, TIME, Mechanism, PointRef, symbol
+from nemc.front.mechanism import GROUND, TIME, Mechanism, PointRef, symbol
+from nemc.kinds.constraints import Constraint
+from nemc.kinds.loads import Force, JointSpring, Spring, Torque
 
 Values = Mapping[str, object]  # name -> number, or an expression (text or sympy) of parameters
 

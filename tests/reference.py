@@ -1,7 +1,7 @@
 """An independent reference for the dynamics tests: Lagrange's equations with sympy.
 
 Written from the format spec alone; it shares nothing with nemc's derivation but the validated
-model (``nemc.model``). Each body's angle and origin come from walking the joint tree; the
+model (``nemc.front.mechanism``). Each body's angle and origin come from walking the joint tree; the
 kinetic energy T, the potential energy V (gravity, springs, joint springs) and the generalized
 forces Q (torques, forces, dampers, by virtual power) give
 
@@ -22,9 +22,7 @@ import numpy as np
 import sympy as sp
 import yaml
 
-from nemc.joints import Joint
-from nemc.loads import Force, JointSpring, Spring, Torque
-from nemc.model import (
+from nemc.front.mechanism import (
     GROUND,
     TIME,
     Mechanism,
@@ -33,6 +31,8 @@ from nemc.model import (
     rate_symbol,
     symbol,
 )
+from nemc.kinds.joints import Joint
+from nemc.kinds.loads import Force, JointSpring, Spring, Torque
 
 # The spec says a joint spring acts on "the relative angle" of a revolute joint without saying
 # whether the joint's `offset` is part of it. nemc (kinematics.joint_relative) measures it from

@@ -9,9 +9,9 @@ import sympy
 from reference import program_results, relative_chain_yaml
 
 import nemc
-from nemc.angle_sums import split_angle_sums
-from nemc.derive import ADDITION_FORMULAS, ARTICULATED, LINEARIZED, derive
-from nemc.validate import validate_text
+from nemc.derive.angle_sums import split_angle_sums
+from nemc.derive.equations import ADDITION_FORMULAS, ARTICULATED, LINEARIZED, derive
+from nemc.front.validate import validate_text
 
 a, b, c, x = sympy.symbols("a b c x", real=True)
 

@@ -12,12 +12,12 @@ import sympy
 from reference import program_results, relative_chain_yaml
 
 import nemc
-from nemc.angles import angle_calls
-from nemc.derive import ARTICULATED, derive
-from nemc.emit import emit
-from nemc.optimize import optimize_equations
-from nemc.program import Guard, Program
-from nemc.validate import validate_text
+from nemc.derive.equations import ARTICULATED, derive
+from nemc.derive.program import Guard, Program
+from nemc.emit.angles import angle_calls
+from nemc.emit.optimize import optimize_equations
+from nemc.emit.source import emit
+from nemc.front.validate import validate_text
 
 q1, q2, p, w0, w1, w2 = sympy.symbols("q1 q2 p w0 w1 w2", real=True)
 

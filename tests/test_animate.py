@@ -12,8 +12,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import to_rgb
 
 import nemc
-from nemc.animate import BODY_COLOURS, frame_times, render_frame, zigzag
-from nemc.cli import main
+from nemc.tools.animate import BODY_COLOURS, frame_times, render_frame, zigzag
+from nemc.tools.cli import main
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 LINK1, LINK2 = (np.array(to_rgb(c)) * 255 for c in BODY_COLOURS[:2])
@@ -102,7 +102,7 @@ def test_animate_writes_a_real_time_gif_whose_frames_show_the_run(tmp_path: Path
     independent run's state at that time puts it (pixel three quarters along the link)."""
     from PIL import Image
 
-    from nemc.animate import laid_out, scene_of_result
+    from nemc.tools.animate import laid_out, scene_of_result
 
     out = tmp_path / "arm.gif"
     assert main(["animate", str(EXAMPLES / "robot_arm.yaml"), "--out", str(out),

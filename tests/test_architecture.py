@@ -1,8 +1,9 @@
-"""The code's shape, as docs/architecture.md describes it: a joint or load kind lives in one
-module of its registry and nothing else tests a kind by its name; the C interface is the model's
-header and nemc_run.h (what every model shares), whose declarations are the cffi cdef; the
-printer names arrays only through its layout macros; the build key covers the modules that make
-builds and nothing else."""
+"""The code's shape, as docs/architecture.md describes it: the package's folders are the
+pipeline's stages, and no module imports a later stage's or takes part in an import circle; a
+joint, load or constraint kind lives in one module of its registry and nothing else tests a kind
+by its name; the C interface is the model's header and nemc_run.h (what every model shares),
+whose declarations are the cffi cdef; the printer names arrays only through its layout macros;
+the build key covers the modules that make builds and nothing else."""
 
 from __future__ import annotations
 
@@ -16,26 +17,136 @@ import pytest
 import sympy
 
 import nemc
-from nemc import build
-from nemc.constraints import CONSTRAINT_KINDS, Constraint
-from nemc.derive import derive, with_diagnostics, with_taylor
-from nemc.emit import emit, symbol_table
-from nemc.joints import JOINT_KINDS, Joint, Revolute, joint_kind
-from nemc.loads import LOAD_KINDS, Load
-from nemc.optimize import optimize_equations
-from nemc.validate import validate_text
+from nemc.build import builder as build
+from nemc.derive.equations import derive, with_diagnostics, with_taylor
+from nemc.emit.optimize import optimize_equations
+from nemc.emit.source import emit, symbol_table
+from nemc.front.validate import validate_text
+from nemc.kinds.constraints import CONSTRAINT_KINDS, Constraint
+from nemc.kinds.joints import JOINT_KINDS, Joint, Revolute, joint_kind
+from nemc.kinds.loads import LOAD_KINDS, Load
 
-NEMC = Path(build.__file__).resolve().parent
+NEMC = Path(nemc.__file__).resolve().parent
 EXAMPLES = NEMC.parent / "examples"
+KINDS = NEMC / "kinds"
 REGISTRIES = ("joints", "loads", "constraints")
 KIND_NAMES = set(JOINT_KINDS) | set(LOAD_KINDS) | set(CONSTRAINT_KINDS)
 KIND_CLASSES = {kind.__name__ for kind in (*JOINT_KINDS.values(), *LOAD_KINDS.values(),
                                            *CONSTRAINT_KINDS.values())}
+# The stages, lowest first: a module may import its own stage's modules and earlier stages'.
+# The vocabulary and the errors are the words every stage shares; the kinds are the vocabulary
+# of mechanisms (the front end reads them, the derivation asks them); the runtime knows a
+# model only by its built package; the pipeline runs the stages; the tools present and drive.
+STAGES = ("vocabulary", "errors", "kinds", "front", "derive", "emit", "build", "runtime",
+          "pipeline", "tools", "__init__")
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(NEMC.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+MODULES = {module_name(path): path for path in sorted(NEMC.rglob("*.py"))}
+
+
+def imported_modules(name: str) -> set[str]:
+    """Every nemc module NAME imports, wherever the import stands (module level, functions,
+    TYPE_CHECKING): `from .x import y` counts y when y is a module, else x."""
+    path = MODULES[name]
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parts = package.split(".")
+                parts = parts[: len(parts) - (node.level - 1)]
+                base = ".".join(parts + ([base] if base else []))
+            for alias in node.names:
+                found.add(f"{base}.{alias.name}" if f"{base}.{alias.name}" in MODULES else base)
+        elif isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+    return {module for module in found if module in MODULES and module != name}
+
+
+def stage(name: str) -> int:
+    parts = name.split(".")
+    return STAGES.index(parts[1] if len(parts) > 1 else "__init__")
+
+
+def test_the_folders_are_the_stages() -> None:
+    """Every module lives in a stage's folder or is one of the few the stages share."""
+    top = {path.stem for path in NEMC.glob("*.py")}
+    folders = {path.parent.name for path in NEMC.glob("*/__init__.py")} - {"templates"}
+    assert top | folders == set(STAGES)
+
+
+def test_no_module_imports_a_later_stage() -> None:
+    back = sorted(f"{name} -> {target}" for name in MODULES for target in imported_modules(name)
+                  if stage(target) > stage(name))
+    assert back == []
+
+
+def import_circles() -> list[set[str]]:
+    """The strongly connected components of more than one module (Tarjan, iteratively)."""
+    graph = {name: imported_modules(name) for name in MODULES}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    circles = []
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        while work:
+            node, targets = work[-1]
+            target = next(targets, None)
+            if target is not None:
+                if target not in index:
+                    index[target] = low[target] = len(index)
+                    stack.append(target)
+                    work.append((target, iter(sorted(graph[target]))))
+                elif target in stack:
+                    low[node] = min(low[node], index[target])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                circle = set()
+                while True:
+                    member = stack.pop()
+                    circle.add(member)
+                    if member == node:
+                        break
+                if len(circle) > 1:
+                    circles.append(circle)
+    return circles
+
+
+def test_no_import_circle() -> None:
+    assert import_circles() == []
+
+
+def test_the_import_checks_can_fail(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A back edge and a circle are found: derive importing the runtime, and it derive."""
+    real = imported_modules
+
+    def with_a_circle(name: str) -> set[str]:
+        extra = {"nemc.derive.equations": {"nemc.runtime.model"},
+                 "nemc.runtime.model": {"nemc.derive.equations"}}
+        return real(name) | extra.get(name, set())
+
+    monkeypatch.setitem(globals(), "imported_modules", with_a_circle)
+    assert any({"nemc.derive.equations", "nemc.runtime.model"} <= c for c in import_circles())
+    assert stage("nemc.runtime.model") > stage("nemc.derive.equations")
 
 
 def modules_outside_registries() -> list[Path]:
-    return [path for path in sorted(NEMC.rglob("*.py"))
-            if path.relative_to(NEMC).parts[0] not in REGISTRIES]
+    return [path for path in MODULES.values()
+            if path.parent.name not in REGISTRIES or path.parent.parent != KINDS]
 
 
 def names_a_kind(node: ast.AST) -> bool:
@@ -95,7 +206,7 @@ def test_the_kind_test_finds_kind_tests() -> None:
                                                     Constraint)])
 def test_every_kind_module_is_in_its_table(registry: str, table: dict, base: type) -> None:
     """One module per kind, each kind in the table under the name the YAML uses."""
-    modules = {path.stem for path in (NEMC / registry).glob("*.py")} - {"__init__", "base"}
+    modules = {path.stem for path in (KINDS / registry).glob("*.py")} - {"__init__", "base"}
     owners = {kind.__module__.rsplit(".", 1)[1]: kind for kind in table.values()}
     assert set(owners) == modules
     assert all(issubclass(kind, base) for kind in table.values())
@@ -162,9 +273,10 @@ def test_the_cdef_is_the_headers_text() -> None:
 
 def test_the_build_key_covers_what_makes_builds() -> None:
     modules = {path.relative_to(NEMC).as_posix() for path in build.build_modules()}
-    assert {"derive.py", "emit.py", "articulated.py", "joints/revolute.py",
-            "loads/spring.py", "validate.py"} <= modules
-    assert not modules & {"cli.py", "report.py", "stress.py", "stress_report.py", "runtime.py"}
+    assert {"derive/equations.py", "emit/source.py", "derive/articulated.py",
+            "kinds/joints/revolute.py", "kinds/loads/spring.py", "front/validate.py",
+            "vocabulary.py", "build/builder.py"} <= modules
+    assert not {module for module in modules if module.startswith(("tools/", "runtime/"))}
     assert {t.name for t in build.template_files()} >= {"model.h.tmpl", "model.c.tmpl"}
 
 
@@ -255,10 +367,11 @@ def test_a_new_constraint_kind_needs_its_class_and_a_line_in_the_table(
 
 def test_every_subpackage_is_in_the_wheel() -> None:
     """pyproject.toml lists the packages a wheel holds: a subpackage left out installs
-    nowhere but an editable checkout (nemc.constraints was, and a wheel could not compile)."""
+    nowhere but an editable checkout (nemc.kinds.constraints was, and a wheel could not compile)."""
     tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
     root = Path(nemc.__file__).resolve().parent
     listed = set(tomllib.loads((root.parent / "pyproject.toml").read_text())
                  ["tool"]["setuptools"]["packages"])
-    found = {"nemc", *(f"nemc.{init.parent.name}" for init in root.glob("*/__init__.py"))}
+    found = {"nemc", *(".".join(init.parent.relative_to(root.parent).parts)
+                       for init in root.rglob("*/__init__.py"))}
     assert found <= listed, f"not in pyproject.toml's packages: {sorted(found - listed)}"

@@ -11,8 +11,9 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import nemc
-from nemc import methods, runtime
-from nemc.build import lane_count
+from nemc import vocabulary as methods
+from nemc.build.builder import lane_count
+from nemc.runtime import model as runtime
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"

@@ -19,12 +19,12 @@ from reference import random_mechanism_yaml
 from test_taylor import FUNCTIONS, OVERFLOW
 
 import nemc
-from nemc.build import Source, fma_available, lane_count
+from nemc.build.builder import Source, fma_available, lane_count
 from nemc.pipeline import compile_source, read_source
-from nemc.runtime import EnsembleResult, ModelError
+from nemc.runtime.model import EnsembleResult, ModelError
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
-LANE_COUNTS = (4, 8)  # nemc.emit.LANE_TARGETS: AVX2 and AVX-512
+LANE_COUNTS = (4, 8)  # nemc.emit.source.LANE_TARGETS: AVX2 and AVX-512
 
 # The overflowing slider of test_taylor with the growth rate a parameter: c = 1000 fails near
 # t = 0.71, c = 1 runs to the end.
@@ -117,7 +117,7 @@ def test_builds_with_and_without_fma_agree_and_keep_their_lanes_bit_equal(
     states equal to rounding, and in each build the lanes equal the runs one by one."""
     source = read_source(EXAMPLES / "double_pendulum.yaml")
     fused = compile_source(source, None, taylor=True, lanes=lane_count())
-    monkeypatch.setattr("nemc.build.fma_available", lambda *_: False)
+    monkeypatch.setattr("nemc.build.builder.fma_available", lambda *_: False)
     monkeypatch.setattr("nemc.pipeline.fma_available", lambda *_: False)
     plain = compile_source(source, None, taylor=True, lanes=lane_count())
     assert plain.package != fused.package  # the build key tells them apart

@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 import sympy
 
-from nemc.c_cost import NS_PER_FUNCTION, NS_PER_PRODUCT, NS_PER_SUM, estimated_ns
-from nemc.derive import ADDITION_FORMULAS, ARTICULATED, LINEARIZED, derive
-from nemc.program import Guard, Program
-from nemc.validate import validate_text
+from nemc.derive.c_cost import NS_PER_FUNCTION, NS_PER_PRODUCT, NS_PER_SUM, estimated_ns
+from nemc.derive.equations import ADDITION_FORMULAS, ARTICULATED, LINEARIZED, derive
+from nemc.derive.program import Guard, Program
+from nemc.front.validate import validate_text
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 a, b, c, d = sympy.symbols("a b c d", real=True)

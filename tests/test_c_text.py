@@ -13,11 +13,11 @@ import sympy
 from reference import random_mechanism_yaml
 from sympy.printing.c import C99CodePrinter
 
-from nemc.c_text import SymbolTablePrinter
-from nemc.derive import derive, with_diagnostics, with_taylor
-from nemc.emit import emit
-from nemc.optimize import optimize_equations
-from nemc.validate import validate_text
+from nemc.derive.equations import derive, with_diagnostics, with_taylor
+from nemc.emit.c_text import SymbolTablePrinter
+from nemc.emit.optimize import optimize_equations
+from nemc.emit.source import emit
+from nemc.front.validate import validate_text
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 MODELS = ("double_pendulum", "robot_arm", "fourbar", "fourbar_driven", "slider_crank",

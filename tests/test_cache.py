@@ -15,10 +15,10 @@ from pathlib import Path
 
 import pytest
 
-from nemc import build
-from nemc.build import COMPLETE, build_key, cached_package, is_intact
-from nemc.cli import main
+from nemc.build import builder as build
+from nemc.build.builder import COMPLETE, build_key, cached_package, is_intact
 from nemc.pipeline import compile_mechanism, generate_and_build, read_source
+from nemc.tools.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 COMPOUND = ROOT / "examples" / "compound_pendulum.yaml"
@@ -61,7 +61,7 @@ def start_compile(path: Path, env: dict[str, str]) -> subprocess.Popen:
 
 
 def run_cli(args: list[str], env: dict[str, str]) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "nemc.cli", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "nemc.tools.cli", *args], capture_output=True,
                           text=True, env=env, timeout=120)
 
 

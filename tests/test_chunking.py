@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from reference import random_mechanism_yaml
 
-from nemc.build import package_c_flags
+from nemc.build.builder import package_c_flags
 from nemc.pipeline import Compiled, compile_mechanism
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
@@ -149,8 +149,8 @@ def units(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFacto
     path = model_path(request.param, folder)
     whole = build(path, folder / "whole", None)
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr("nemc.emit.UNIT_STEPS", 20)
-        patch.setattr("nemc.emit.UNIT_FILE_STEPS", 30)
+        patch.setattr("nemc.emit.source.UNIT_STEPS", 20)
+        patch.setattr("nemc.emit.source.UNIT_FILE_STEPS", 30)
         split = build(path, folder / "split", 7)
     return whole, split
 

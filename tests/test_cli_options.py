@@ -14,7 +14,7 @@ import pytest
 from scipy.io import loadmat
 
 import nemc
-from nemc.cli import main
+from nemc.tools.cli import main
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 COMPOUND = str(EXAMPLES / "compound_pendulum.yaml")

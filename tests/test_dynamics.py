@@ -25,7 +25,7 @@ from reference import (
 from scipy.integrate import solve_ivp
 
 import nemc
-from nemc.validate import load_mechanism
+from nemc.front.validate import load_mechanism
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 EXAMPLE_NAMES = tree_example_names(EXAMPLES)  # loops and drives: test_loops.py
@@ -39,15 +39,15 @@ def random_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @functools.cache
-def _build(path: str) -> tuple[nemc.runtime.Model, ReferenceModel]:
+def _build(path: str) -> tuple[nemc.runtime.model.Model, ReferenceModel]:
     return nemc.compile(path), ReferenceModel(load_mechanism(path))
 
 
-def example(name: str) -> tuple[nemc.runtime.Model, ReferenceModel]:
+def example(name: str) -> tuple[nemc.runtime.model.Model, ReferenceModel]:
     return _build(str(EXAMPLES / f"{name}.yaml"))
 
 
-def random_case(seed: int, folder: Path) -> tuple[nemc.runtime.Model, ReferenceModel]:
+def random_case(seed: int, folder: Path) -> tuple[nemc.runtime.model.Model, ReferenceModel]:
     n_bodies, tree = 1 + seed % 6, seed % 2 == 1
     text = random_mechanism_yaml(np.random.default_rng(seed), n_bodies, tree, f"random{seed}")
     path = folder / f"random{seed}.yaml"
@@ -66,7 +66,7 @@ def random_states(rng: np.random.Generator, n_state: int, count: int = 5) -> Ite
         yield float(rng.uniform(0, 3)), rng.uniform(-1.0, 1.0, n_state)
 
 
-def independent_parameters(model: nemc.runtime.Model, ref: ReferenceModel) -> list[str]:
+def independent_parameters(model: nemc.runtime.model.Model, ref: ReferenceModel) -> list[str]:
     """The model's parameters that are numbers in the file (not derived from others)."""
     exprs = {p.name: sp.sympify(p.expr) for p in ref.mech.parameters}
     return [name for name in model.parameter_names if not exprs[name].free_symbols]

@@ -12,8 +12,8 @@ from scipy.integrate import solve_ivp
 from scipy.special import ellipk
 
 import nemc
-from nemc.cli import main
-from nemc.runtime import ModelError
+from nemc.runtime.model import ModelError
+from nemc.tools.cli import main
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 NATIVE = ["nemc.DOP853", "nemc.Vern9", "nemc.Radau", "nemc.Taylor"]

@@ -7,8 +7,16 @@ import time
 import pytest
 import sympy
 
-from nemc.expr import FUNCTIONS, RESERVED, ExprError, Scope, parse_expression, suggest, tokenize
-from nemc.model import TIME, rate_symbol, symbol
+from nemc.front.expr import (
+    FUNCTIONS,
+    RESERVED,
+    ExprError,
+    Scope,
+    parse_expression,
+    suggest,
+    tokenize,
+)
+from nemc.front.mechanism import TIME, rate_symbol, symbol
 
 x, y, q = symbol("x"), symbol("y"), symbol("q")
 PARAMS = Scope({"x": x, "y": y}, where="in parameters")

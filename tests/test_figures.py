@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import nemc
-from nemc.figures import dense_times, figure
+from nemc.tools.figures import dense_times, figure
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 

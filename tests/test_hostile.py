@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import nemc
-from nemc.cli import main
+from nemc.tools.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 HOSTILE = ROOT / "tests" / "hostile"
@@ -170,7 +170,7 @@ EXPECTED: dict[str, tuple[int, str, str]] = {
     "model_name_rhs_call": (2, "name", "'_rhs_call' is the name of a module or file inside"),
     "model_name_nemc_drivers": (2, "name", "'nemc_drivers' is the name of a module or file"),
     "model_name_nemc_run": (2, "name", "'nemc_run' is the name of a module or file inside"),
-    "model_name_runtime": (2, "name", "'_runtime' is the name of a module or file inside"),
+    "model_name_runtime_package": (2, "name", "'_nemc' is the name of a module or file inside"),
     "model_name_model": (2, "name", "'model' is the name of a module or file inside"),
     "model_name_init": (2, "name", "'__init__' is the name of a module or file inside"),
     "model_name_build_ok": (2, "name", "'BUILD_OK' is the name of a module or file inside"),
@@ -289,7 +289,7 @@ def test_large_file_is_handled_in_bounded_time_and_memory(name: str, tmp_path: P
     data, where = generated_cases()[name]
     file = tmp_path / f"{name}.yaml"
     file.write_bytes(data)
-    code = ("import resource, sys, time; from nemc.cli import main; start = time.perf_counter();"
+    code = ("import resource, sys, time; from nemc.tools.cli import main; start = time.perf_counter();"
             " status = main(['check', sys.argv[1]]); print(status, time.perf_counter() - start,"
             " resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.__stdout__)")
     done = subprocess.run([sys.executable, "-c", code, str(file)], capture_output=True,
@@ -310,7 +310,7 @@ def test_large_file_is_handled_in_bounded_time_and_memory(name: str, tmp_path: P
 def test_real_exit_status_and_no_traceback(stem: str, tmp_path: Path) -> None:
     file = HOSTILE / f"{stem}.yaml"
     out = tmp_path / "out"
-    done = subprocess.run([sys.executable, "-m", "nemc.cli", "compile", str(file), "-o", str(out)],
+    done = subprocess.run([sys.executable, "-m", "nemc.tools.cli", "compile", str(file), "-o", str(out)],
                           capture_output=True, text=True, timeout=120, cwd=tmp_path,
                           env={**os.environ, "PYTHONPATH": str(ROOT),
                                "NEMC_CACHE": str(tmp_path / "cache")})

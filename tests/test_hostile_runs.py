@@ -29,21 +29,22 @@ from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 
 import nemc
-from nemc import build, export
-from nemc.c_text import SymbolTablePrinter, double_literal
-from nemc.cli import main
-from nemc.derive import derive, with_diagnostics, with_taylor
-from nemc.emit import emit
+from nemc.build import builder as build
+from nemc.build import export
+from nemc.derive.equations import derive, with_diagnostics, with_taylor
+from nemc.emit.c_text import SymbolTablePrinter, double_literal
+from nemc.emit.optimize import optimize_equations
+from nemc.emit.source import emit
 from nemc.errors import InputError
-from nemc.optimize import optimize_equations
-from nemc.runtime import (
+from nemc.front.validate import validate_text
+from nemc.runtime.model import (
     METHODS,
     NATIVE_METHODS,
     IntegrationFailure,
     Model,
     ModelError,
 )
-from nemc.validate import validate_text
+from nemc.tools.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
@@ -84,7 +85,7 @@ def environment(cache: Path) -> dict[str, str]:
 
 def run_cli(args: list[str], cache: Path, cwd: Path, timeout: float = 120
             ) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "nemc.cli", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "nemc.tools.cli", *args], capture_output=True,
                           text=True, env=environment(cache), cwd=cwd, timeout=timeout)
 
 
@@ -131,9 +132,23 @@ def test_own_output_is_replaced_with_its_bytecode_cache(tmp_path: Path, capsys) 
 
 def test_a_package_exported_before_the_marker_is_still_nemcs(tmp_path: Path, capsys) -> None:
     target = exported(tmp_path, capsys)
-    (target / export.MARKER).unlink()  # as nemc wrote packages before: BUILD_OK lists the files
+    # as nemc wrote packages before: BUILD_OK lists the files, the runtime's files lie flat
+    (target / export.MARKER).unlink()
+    shutil.rmtree(target / "_nemc")
+    for name in export.LEGACY_RUNTIME_FILES:
+        (target / name).write_text("# nemc's runtime, as copied before the marker\n")
     assert main(["compile", str(PENDULUM), "-o", str(target.parent)]) == 0
-    assert (target / export.MARKER).is_file()
+    assert (target / export.MARKER).is_file() and (target / "_nemc").is_dir()
+    assert not any((target / name).exists() for name in export.LEGACY_RUNTIME_FILES)
+
+
+def test_a_folder_in_nemcs_runtime_copy_that_nemc_did_not_write_is_kept(tmp_path: Path,
+                                                                        capsys) -> None:
+    target = exported(tmp_path, capsys)
+    (target / "_nemc" / "runtime" / "mine.py").write_text("# the user's\n")
+    assert main(["compile", str(PENDULUM), "-o", str(target.parent)]) == 2
+    assert "_nemc/runtime/mine.py" in capsys.readouterr().err
+    assert (target / "_nemc" / "runtime" / "mine.py").is_file()
 
 
 def add_file(target: Path) -> Path:
@@ -449,7 +464,7 @@ def test_endless_and_special_files_are_refused_without_reading_them_whole(specia
         path = str(tmp_path)
     # The peak from /proc (VmHWM, this process image's own): ru_maxrss carries the forked
     # parent's across exec, and pytest's grows past the limit over a whole run.
-    code = ("import re, sys; from nemc.cli import main; status = main(sys.argv[1:]);"
+    code = ("import re, sys; from nemc.tools.cli import main; status = main(sys.argv[1:]);"
             " peak = re.search(r'VmHWM:\\s+(\\d+)', open('/proc/self/status').read()).group(1);"
             " print(status, peak, file=sys.__stdout__)")
     for command in ("check", "compile"):
@@ -622,7 +637,7 @@ def test_a_failed_write_names_its_file_and_leaves_no_part(tmp_path: Path, capsys
         path.write_text("t,q1\n0,")
         raise OSError(errno.ENOSPC, "No space left on device")  # as a full disk: no file name
 
-    from nemc import report
+    from nemc.tools import report
     monkeypatch.setattr(report, "write_csv", full_disk)
     csv = tmp_path / "table.csv"
     assert main(["simulate", str(PENDULUM), "--csv", str(csv)]) == 1

@@ -10,7 +10,7 @@ from reference import ReferenceModel, random_mechanism_yaml
 from scipy.integrate import solve_ivp
 
 import nemc
-from nemc.validate import load_mechanism
+from nemc.front.validate import load_mechanism
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 ARM = EXAMPLES / "two_link_robot_arm.yaml"

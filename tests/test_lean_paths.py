@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import nemc
-from nemc import runs
-from nemc.runtime import Model, ModelError, _all_finite, checked_span, checked_times
+from nemc.runtime import runs
+from nemc.runtime.model import Model, ModelError, _all_finite, checked_span, checked_times
 
 ROOT = Path(__file__).resolve().parent.parent
 COMPOUND = ROOT / "examples" / "compound_pendulum.yaml"  # state [theta, dot(theta)]

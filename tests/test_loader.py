@@ -11,8 +11,8 @@ import pytest
 import sympy
 
 from nemc.errors import InputError
-from nemc.model import TIME, rate_symbol, symbol
-from nemc.validate import METHODS, load_mechanism, validate_text
+from nemc.front.mechanism import TIME, rate_symbol, symbol
+from nemc.front.validate import METHODS, load_mechanism, validate_text
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "double_pendulum.yaml"
@@ -161,7 +161,7 @@ def test_validate_text_accepts_str_and_bytes() -> None:
 
 
 def test_methods_table() -> None:
-    from nemc import runtime
+    from nemc.runtime import model as runtime
 
     assert METHODS == ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA",
                        *runtime.NATIVE_METHODS, "auto")

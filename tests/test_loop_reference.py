@@ -36,7 +36,7 @@ from loop_reference import (
 )
 from scipy.integrate import solve_ivp
 
-from nemc.validate import load_mechanism
+from nemc.front.validate import load_mechanism
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"

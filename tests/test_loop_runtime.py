@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import nemc
-from nemc.cli import main
-from nemc.runtime import ModelError
+from nemc.runtime.model import ModelError
+from nemc.tools.cli import main
 
 # A parallelogram: crank and rocker of length L, coupler and ground of length d. Flat (all four
 # pivots on a line, the loop's equations losing rank) whenever the crank angle is a multiple of

@@ -42,8 +42,8 @@ from loop_reference import (
 from scipy.integrate import solve_ivp
 
 import nemc
-from nemc.cli import main
-from nemc.validate import load_mechanism
+from nemc.front.validate import load_mechanism
+from nemc.tools.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
@@ -66,7 +66,7 @@ SAMPLING = {"andrews": (0.03, 0.005, 0.05), "fourbar": (2.0, 0.1, 0.3),
 
 
 @functools.cache
-def compiled(path: str) -> nemc.runtime.Model:
+def compiled(path: str) -> nemc.runtime.model.Model:
     return nemc.compile(path)
 
 

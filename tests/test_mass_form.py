@@ -13,19 +13,19 @@ import sympy
 from reference import random_mechanism_yaml
 
 import nemc
-from nemc import model as m
-from nemc.derive import ARTICULATED, derive, with_taylor
-from nemc.mass_form import (
+from nemc.derive.equations import ARTICULATED, derive, with_taylor
+from nemc.derive.mass_form import (
     MAX_COORDINATES,
     inverse_solve_2x2,
     ldl_solve,
     linearized,
     mass_form_program,
 )
-from nemc.program import Guard, Program, ProgramBuilder
-from nemc.runtime import IntegrationFailure
-from nemc.taylor import series_cost
-from nemc.validate import validate_text
+from nemc.derive.program import Guard, Program, ProgramBuilder
+from nemc.derive.taylor import series_cost
+from nemc.front import mechanism as m
+from nemc.front.validate import validate_text
+from nemc.runtime.model import IntegrationFailure
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 BOOK = ["compound_pendulum", "double_pendulum", "robot_arm", "two_link_robot_arm"]

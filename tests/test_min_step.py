@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 from c_harness import compiled_harness
 
-from nemc.resources import read_template
+from nemc.emit.resources import read_template
 
 
 def min_step_source() -> str:

@@ -11,7 +11,7 @@ from reference import random_mechanism_yaml
 from scipy.integrate import solve_ivp
 
 import nemc
-from nemc.runtime import ModelError
+from nemc.runtime.model import ModelError
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"

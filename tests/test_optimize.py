@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 import sympy
 
-from nemc.c_text import SymbolTablePrinter
-from nemc.optimize import rewrite
+from nemc.emit.c_text import SymbolTablePrinter
+from nemc.emit.optimize import rewrite
 
 x, y = sympy.symbols("x y", positive=True)
 

@@ -34,16 +34,16 @@ from reference import (
 )
 
 import nemc
-from nemc.loads import Force, JointSpring, Spring, Torque
-from nemc.model import (
+from nemc.front.mechanism import (
     GROUND,
     TIME,
     Mechanism,
     rate_symbol,
     symbol,
 )
+from nemc.front.validate import load_mechanism
+from nemc.kinds.loads import Force, JointSpring, Spring, Torque
 from nemc.pipeline import compile_mechanism
-from nemc.validate import load_mechanism
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 EXAMPLE_NAMES = tree_example_names(EXAMPLES)  # loops and drives: test_loops.py
@@ -117,7 +117,7 @@ class Case:
     """A compiled model with its reference and the test's own kinematics."""
 
     path: str
-    model: nemc.runtime.Model
+    model: nemc.runtime.model.Model
     ref: ReferenceModel
     mech: Mechanism
     frames: dict = field(default_factory=dict)

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 import nemc
-from nemc.build import export
+from nemc.build.builder import export
 from nemc.pipeline import compile_mechanism
-from nemc.runtime import Model
+from nemc.runtime.model import Model
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
@@ -67,7 +67,7 @@ def test_plotting_in_a_package_without_nemc_says_what_it_needs(package: Path) ->
 def test_the_extension_is_built_for_the_stable_abi(package: Path) -> None:
     """Named for the stable ABI, and compiled with Py_LIMITED_API for 3.10 (the wrapper cffi
     writes uses only the limited API; loading it elsewhere is the test below)."""
-    from nemc.build import limited_api_flags
+    from nemc.build.builder import limited_api_flags
 
     assert [p.name for p in package.glob("_native*")] == ["_native.abi3.so"]
     assert limited_api_flags() == ["-DPy_LIMITED_API=0x030A0000"]

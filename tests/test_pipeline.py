@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 import nemc
-from nemc import build
-from nemc.build import package_c_flags
-from nemc.cli import main
+from nemc.build import builder as build
+from nemc.build.builder import package_c_flags
 from nemc.pipeline import compile_mechanism
-from nemc.runtime import ModelError
+from nemc.runtime.model import ModelError
+from nemc.tools.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"

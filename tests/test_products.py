@@ -14,12 +14,12 @@ from reference import random_mechanism_yaml
 from test_hostile import chain_yaml
 from test_mass_form import equations_of, random_values, run
 
-from nemc import model as m
-from nemc.derive import with_taylor
-from nemc.mass_form import mass_form_program
-from nemc.products import distributed, fewer_products, shared_pairs, time_varying
-from nemc.program import Guard, Program, split_deep
-from nemc.taylor import series_cost
+from nemc.derive.equations import with_taylor
+from nemc.derive.mass_form import mass_form_program
+from nemc.derive.products import distributed, fewer_products, shared_pairs, time_varying
+from nemc.derive.program import Guard, Program, split_deep
+from nemc.derive.taylor import series_cost
+from nemc.front import mechanism as m
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 q1, q2, u1, u2 = sympy.symbols("q1 q2 u1 u2", real=True)

@@ -1,6 +1,6 @@
 """The test reference (tests/reference.py) against equations derived by hand.
 
-The mechanisms here are built directly as ``nemc.model`` values, so these checks depend on
+The mechanisms here are built directly as ``nemc.front.mechanism`` values, so these checks depend on
 neither the loader nor the pipeline.
 """
 
@@ -21,9 +21,7 @@ from reference import (
     resolve_parameters,
 )
 
-from nemc.joints import JOINT_KINDS, Joint
-from nemc.loads import Force, JointSpring, Spring, Torque
-from nemc.model import (
+from nemc.front.mechanism import (
     GROUND,
     TIME,
     Body,
@@ -36,6 +34,8 @@ from nemc.model import (
     rate_symbol,
     symbol,
 )
+from nemc.kinds.joints import JOINT_KINDS, Joint
+from nemc.kinds.loads import Force, JointSpring, Spring, Torque
 
 LOC = Loc("hand.yaml", 1, 1, "hand")
 FUNCTIONS = {"sin", "cos", "sqrt", "pi", "e"}

@@ -17,8 +17,8 @@ import pytest
 from reference import relative_chain_yaml
 
 import nemc
-from nemc.build import CFLAGS, call_suffix, compiler, package_c_flags
-from nemc.runtime import IntegrationFailure, Model, _no_fast_call
+from nemc.build.builder import CFLAGS, call_suffix, compiler, package_c_flags
+from nemc.runtime.model import IntegrationFailure, Model, _no_fast_call
 
 ROOT = Path(__file__).resolve().parent.parent
 DOUBLE = ROOT / "examples" / "double_pendulum.yaml"  # state [q1, dot(q1), q2, dot(q2)]

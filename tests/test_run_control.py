@@ -17,7 +17,7 @@ from children import child_process, interrupted_output
 from scipy.integrate import solve_ivp
 
 import nemc
-from nemc.runtime import ModelError
+from nemc.runtime.model import ModelError
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 FREE_BODY = EXAMPLES / "free_body_on_spring.yaml"
@@ -258,7 +258,7 @@ def test_ctrl_c_stops_the_cli_with_status_130(tmp_path: Path) -> None:
     path = tmp_path / "long.yaml"
     path.write_text(text)
     nemc.compile(path)  # the child loads it from the cache
-    with child_process([sys.executable, "-m", "nemc.cli", "simulate", str(path)],
+    with child_process([sys.executable, "-m", "nemc.tools.cli", "simulate", str(path)],
                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as child:
         time.sleep(2.0)
         sent = time.perf_counter()
@@ -291,7 +291,7 @@ def test_an_interrupted_ensemble_returns_its_runs(tmp_path: Path) -> None:
 
 def test_an_interrupted_stress_keeps_what_it_measured(tmp_path: Path) -> None:
     nemc.compile(EXAMPLES / "double_pendulum.yaml")
-    with child_process([sys.executable, "-m", "nemc.cli", "stress",
+    with child_process([sys.executable, "-m", "nemc.tools.cli", "stress",
                         str(EXAMPLES / "double_pendulum.yaml"), "--out", str(tmp_path)],
                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as child:
         time.sleep(6.0)
@@ -320,7 +320,7 @@ class Terminal:
 
 
 def test_progress_shows_only_on_a_terminal() -> None:
-    from nemc.runs import Progress
+    from nemc.runtime.runs import Progress
 
     terminal = Terminal()
     progress = Progress("runs", 10, delay=0.0, stream=terminal)
@@ -337,8 +337,8 @@ def test_threads_take_runs_from_one_counter_and_show_it_as_progress() -> None:
     C's nemc_next_run does), and a thread's error is raised."""
     import threading
 
-    from nemc.runs import Progress
-    from nemc.runtime import run_threads
+    from nemc.runtime.model import run_threads
+    from nemc.runtime.runs import Progress
 
     total, counter, lock = 40, [0], threading.Lock()
     threads_seen: set[int] = set()

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import nemc
-from nemc.runtime import Model, ModelError
+from nemc.runtime.model import Model, ModelError
 
 ROOT = Path(__file__).resolve().parent.parent
 COMPOUND = ROOT / "examples" / "compound_pendulum.yaml"  # state [theta, dot(theta)], outputs

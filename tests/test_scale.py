@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import nemc
-from nemc.derive import derive
-from nemc.validate import validate_text
+from nemc.derive.equations import derive
+from nemc.front.validate import validate_text
 
 
 def mixed_chain(n: int) -> str:
@@ -65,7 +65,7 @@ def test_mixed_chain_matches_reference(n: int, tmp_path: Path) -> None:
     """The test's own chain against the independent Lagrangian reference."""
     from reference import ReferenceModel
 
-    from nemc.validate import load_mechanism
+    from nemc.front.validate import load_mechanism
 
     path = tmp_path / f"mixed{n}.yaml"
     path.write_text(mixed_chain(n))

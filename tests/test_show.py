@@ -9,11 +9,11 @@ import pytest
 import sympy
 
 import nemc
-from nemc.cli import main
-from nemc.derive import derive
-from nemc.show import sections, show
-from nemc.typeset import latex_name
-from nemc.validate import load_mechanism
+from nemc.derive.equations import derive
+from nemc.front.validate import load_mechanism
+from nemc.tools.cli import main
+from nemc.tools.show import sections, show
+from nemc.tools.typeset import latex_name
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 

@@ -13,7 +13,7 @@ import pytest
 from c_harness import compiled_harness
 from scipy.optimize import linear_sum_assignment
 
-from nemc.resources import read_template
+from nemc.emit.resources import read_template
 
 # The model's Jacobian and RHS, stand-ins: p holds the n x n matrix A; jacobian writes A,
 # rhs writes A y (its forward differences are A up to rounding).

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nemc import stress
-from nemc.cli import main
 from nemc.pipeline import compile_mechanism
-from nemc.runtime import IntegrationFailure, Model, ModelError
+from nemc.runtime.model import IntegrationFailure, Model, ModelError
+from nemc.tools import stress
+from nemc.tools.cli import main
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 

@@ -17,8 +17,8 @@ import pytest
 from children import child_process
 
 import nemc
-from nemc.runtime import ModelError
-from nemc.sweeps import (
+from nemc.runtime.model import ModelError
+from nemc.tools.sweeps import (
     SweepInterrupted,
     SweepStoreError,
     output_times,
@@ -34,7 +34,7 @@ pytest.importorskip("zarr")
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "double_pendulum.yaml"
 SETTINGS = dict(t_span=(0.0, 2.0), t_eval=[0.5, 1.0, 2.0], method="nemc.DOP853", rtol=1e-8,
                 atol=1e-10)
-NEMC = [sys.executable, "-m", "nemc.cli"]
+NEMC = [sys.executable, "-m", "nemc.tools.cli"]
 
 
 @pytest.fixture(scope="module")
@@ -219,7 +219,7 @@ def test_the_plan_of_grids_and_random_draws(model):
 
 
 def test_core_nemc_imports_none_of_the_sweep_extra():
-    code = ("import sys, nemc, nemc.sweeps, nemc.cli; heavy = {'xarray', 'dask', 'distributed',"
+    code = ("import sys, nemc, nemc.tools.sweeps, nemc.tools.cli; heavy = {'xarray', 'dask', 'distributed',"
             " 'zarr', 'tqdm', 'h5netcdf'} & set(sys.modules); assert not heavy, heavy")
     subprocess.run([sys.executable, "-c", code], check=True)
 
@@ -230,7 +230,7 @@ def test_workers_report_the_key_they_built_under_and_a_mismatch_warns(model, run
     import dataclasses
     import warnings
 
-    from nemc.sweeps import Inputs, Settings, Tracker, model_ref, run_chunk
+    from nemc.tools.sweeps import Inputs, Settings, Tracker, model_ref, run_chunk
 
     ref = model_ref(model)
     settings = Settings.resolve(model, SETTINGS["t_span"], SETTINGS["t_eval"], "nemc.DOP853",
@@ -248,7 +248,7 @@ def test_workers_report_the_key_they_built_under_and_a_mismatch_warns(model, run
 
 
 def test_a_missing_extra_says_how_to_install_it():
-    from nemc.sweep_store import require
+    from nemc.tools.sweep_store import require
 
     with pytest.raises(ImportError, match=r"pip install 'nemc\[sweep\]'"):
         require("nemc_no_such_module")

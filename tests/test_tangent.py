@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import sympy
 
-from nemc.tangent import derivative_by_diff, directional_derivative, product
+from nemc.derive.tangent import derivative_by_diff, directional_derivative, product
 
 X, Y, Z = sympy.symbols("x y z", real=True)
 K = sympy.Symbol("k", positive=True)  # a parameter: no tangent

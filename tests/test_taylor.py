@@ -12,9 +12,7 @@ import pytest
 from reference import random_mechanism_yaml
 
 import nemc
-from nemc.emit import TAYLOR_MARGIN, TAYLOR_MIN_EXPONENT, StepCosts, taylor_rule
-from nemc.runtime import ModelError
-from nemc.taylor import (
+from nemc.derive.taylor import (
     LANES,
     SCALAR,
     SUMS_PER_BLOCK,
@@ -24,6 +22,8 @@ from nemc.taylor import (
     sums_in_blocks,
     written,
 )
+from nemc.emit.source import TAYLOR_MARGIN, TAYLOR_MIN_EXPONENT, StepCosts, taylor_rule
+from nemc.runtime.model import ModelError
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"

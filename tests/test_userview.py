@@ -11,10 +11,10 @@ import pytest
 from scipy.optimize import fsolve
 
 import nemc
+from nemc.emit.units import label
 from nemc.errors import InputError
-from nemc.model import Units
-from nemc.units import label
-from nemc.validate import validate_text
+from nemc.front.mechanism import Units
+from nemc.front.validate import validate_text
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 ROBOT_ARM = (EXAMPLES / "robot_arm.yaml").read_text()

@@ -1,0 +1,1 @@
+"""nemc.derive."""

@@ -1,0 +1,118 @@
+"""Can the mechanism be assembled? The closed loops' check before anything is generated.
+
+At the default parameter values, the scene's initial state is assembled as the runtime will
+(the given coordinates kept, the others solved from the guess by Gauss-Newton: here numpy's
+least squares on the derived constraint equations, the runtime's is the model's C): a loop
+that cannot close, or given values that over-determine it, is a bad input, refused with the
+constraint's FILE:LINE; otherwise the degrees of freedom are the coordinates less the rank of
+Phi_q there (`nemc check` prints them).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import sympy
+
+from ..errors import InputError, Problem
+from ..front import mechanism as m
+from ..front.values import resolve_values
+from .kinematics import Kinematics
+from .loops import loop_equations
+
+TOLERANCE = 1e-10  # the largest residual an assembled state may keep (as the runtime's)
+ITERATIONS = 100
+
+
+@dataclass(frozen=True)
+class Assembly:
+    """The scene's initial positions, assembled at the default parameters."""
+
+    coordinates: dict[str, float]
+    freedom: int  # degrees of freedom: coordinates less the rank of Phi_q
+    equations: int  # constraint equations
+
+
+def check_assembly(mech: m.Mechanism) -> Assembly:
+    """Assemble the scene's initial positions; raise InputError naming the constraint that
+    cannot close. A mechanism without loops has every coordinate free."""
+    names = mech.coordinates
+    if not mech.constraints:
+        return Assembly({}, len(names), 0)
+    phi, jacobian, start, given = numeric_loops(mech)
+    q = gauss_newton(phi, jacobian, start, ~given)
+    residual = np.abs(phi(q))
+    if not residual.max() <= TOLERANCE:
+        raise InputError([assembly_problem(mech, phi, jacobian, start, given, residual)])
+    rank = np.linalg.matrix_rank(jacobian(q), tol=1e-9 * max(1.0, np.abs(jacobian(q)).max()))
+    return Assembly(dict(zip(names, q.tolist())), len(names) - int(rank), len(residual))
+
+
+def assembly_problem(mech: m.Mechanism, phi, jacobian, start: np.ndarray, given: np.ndarray,
+                     residual: np.ndarray) -> Problem:
+    """Why the loops cannot close: the given initial values (when the loops close once they
+    are free), or the geometry (named by the constraint left farthest from closing)."""
+    kept = [name for name, keep in zip(mech.coordinates, given) if keep]
+    where = mech.simulation.initial_loc
+    owners = [c for c in mech.constraints for _ in range(c.equations_count)]
+    worst = owners[int(residual.argmax())]
+    if kept and where is not None:
+        free = np.abs(phi(gauss_newton(phi, jacobian, start, np.ones_like(given)))).max()
+        if free <= TOLERANCE:
+            return Problem(where.file, where.line, where.key,
+                           f"constraint {worst.name!r} ({worst.loc.key}, line "
+                           f"{worst.loc.line}) cannot close with these values of "
+                           f"{', '.join(kept)}: it stays {residual.max():.3g} from closing, "
+                           "and closes when the coordinates are free; give fewer coordinates, "
+                           "or values the loop can take")
+    return Problem(worst.loc.file, worst.loc.line, worst.loc.key,
+                   f"the mechanism cannot be assembled: this constraint stays "
+                   f"{residual.max():.3g} from closing (the loop is too short or too long to "
+                   "close); change the geometry, or the guess that starts the solve")
+
+
+def numeric_loops(mech: m.Mechanism):
+    """Phi(q) and Phi_q(q) at the default parameters and t0, the start of the solve (the
+    scene's given values and guesses) and which coordinates are given."""
+    values = resolve_values(mech)
+    defaults = dict(zip(values.runtime_symbols, values.runtime_defaults))
+    t0 = (mech.simulation.t_span or (0.0, 0.0))[0]
+
+    def number(expr: sympy.Expr) -> sympy.Expr:
+        return sympy.sympify(expr).xreplace(values.substitutions).xreplace(defaults).xreplace(
+            {m.TIME: t0})
+
+    from .equations import with_motions
+
+    loops = loop_equations(with_motions(mech), Kinematics(with_motions(mech)), number)
+    q = [m.symbol(name) for name in mech.coordinates]
+    phi = sympy.lambdify([q], list(loops.values), "numpy")
+    jacobian = sympy.lambdify([q], [list(row) for row in loops.jacobian], "numpy")
+    scene = {**mech.simulation.guess, **mech.simulation.initial}
+    start = np.array([float(number(scene.get(name, 0))) for name in mech.coordinates])
+    given = np.array([name in mech.simulation.initial for name in mech.coordinates])
+    return (lambda x: np.asarray(phi(x), dtype=float),
+            lambda x: np.asarray(jacobian(x), dtype=float).reshape(len(loops.values), -1),
+            start, given)
+
+
+def gauss_newton(phi, jacobian, q: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """Damped Gauss-Newton on the free entries of q toward phi(q) = 0 (least squares)."""
+    q = q.copy()
+    residual = np.abs(phi(q)).max()
+    for _ in range(ITERATIONS):
+        if residual == 0.0 or not free.any():
+            break
+        step = np.linalg.lstsq(jacobian(q)[:, free], phi(q), rcond=None)[0]
+        for _halving in range(30):
+            trial = q.copy()
+            trial[free] -= step
+            tried = np.abs(phi(trial)).max()
+            if tried < residual:
+                break
+            step = step / 2
+        else:
+            break  # nothing lowers the residual: as close as it gets
+        q, residual = trial, tried
+    return q

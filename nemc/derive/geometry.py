@@ -1,0 +1,126 @@
+"""The mechanism's drawing: which points a picture of it needs, and their ground positions.
+
+A drawing shows each body as the outline through its points (origin, com, named points; a body
+with no named points as a bar from its origin through its mass centre to twice as far), each
+joint where it connects, each spring between its ends and the path of the points the scene
+asks for. Their ground-frame positions are expressions of the coordinates and parameters; the
+build compiles them into the model's C (`<name>_positions`, templates/positions.c.tmpl), so a
+picture shows exactly what the compiled model computes. The drawing's structure (which point
+belongs to which body, joint or spring) goes to the build's metadata (`drawing`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import sympy
+
+from ..front import mechanism as m
+from ..kinds.joints import Joint
+from ..kinds.loads import Load
+from .kinematics import Kinematics
+
+
+@dataclass(frozen=True)
+class Drawing:
+    """Points (name, ground-frame x and y expressions) and what connects them, by index."""
+
+    points: list[tuple[str, sympy.Expr, sympy.Expr]] = field(default_factory=list)
+    bodies: dict[str, list[int]] = field(default_factory=dict)
+    coms: dict[str, int] = field(default_factory=dict)
+    joints: list[dict] = field(default_factory=list)
+    springs: list[dict] = field(default_factory=list)
+    traces: list[int] = field(default_factory=list)
+
+    def metadata(self) -> dict:
+        return {"points": [name for name, _, _ in self.points], "bodies": self.bodies,
+                "coms": self.coms, "joints": self.joints, "springs": self.springs,
+                "traces": self.traces}
+
+
+# where a point fixed in a body (its name, body-frame xy) is in the ground frame: (x, y)
+Locate = Callable[[str, m.Vec2], Sequence[sympy.Expr]]
+
+
+class _Builder:
+    def __init__(self, mech: m.Mechanism, locate: Locate | None):
+        self.locate = locate or Kinematics(mech).position
+        self.drawing = Drawing()
+        self.index: dict[tuple[str, tuple], int] = {}
+
+    def point(self, name: str, body: str, xy: m.Vec2) -> int:
+        """The index of a point fixed in BODY at XY (body frame); the same point once."""
+        key = (body, tuple(sympy.sympify(v) for v in xy))
+        if key not in self.index:
+            position = self.locate(body, xy)
+            self.index[key] = len(self.drawing.points)
+            self.drawing.points.append((name, position[0], position[1]))
+        return self.index[key]
+
+
+def drawing(mech: m.Mechanism, locate: Locate | None = None) -> Drawing:
+    """Every point a picture of MECH needs, in a fixed order: bodies, joints, springs.
+    locate: how a point's ground position is found (default: whole expressions from
+    nemc.kinematics; the build passes names of a program, nemc.articulated.PointPositions)."""
+    builder = _Builder(mech, locate)
+    for body in mech.bodies:
+        named = [("origin", (0, 0)), ("com", body.com), *body.points.items()]
+        if not body.points and any(sympy.sympify(v) != 0 for v in body.com):
+            # no named points: drawn as a uniform bar, origin to twice its mass centre
+            named.append(("end", (2 * body.com[0], 2 * body.com[1])))
+        indices = [builder.point(f"{body.name}.{point}", body.name, xy) for point, xy in named]
+        builder.drawing.bodies[body.name] = list(dict.fromkeys(indices))
+        builder.drawing.coms[body.name] = indices[1]
+    sprung = {name for load in mech.loads if (name := sprung_joint(load)) is not None}
+    for joint in mech.joints:
+        at = builder.point(f"{joint.parent}.{joint.name}", joint.parent, joint.at)
+        child = builder.point(f"{joint.child}.origin", joint.child, (0, 0))
+        entry = {"name": joint.name, "symbol": joint_symbol(joint), "parent": joint.parent,
+                 "child": joint.child, "at": at, "origin": child, "sprung": joint.name in sprung}
+        axis = rail_axis(joint)
+        if axis is not None:  # a point one length unit along the rail from `at`
+            length = sympy.sqrt(axis[0] ** 2 + axis[1] ** 2)
+            ahead = (joint.at[0] + axis[0] / length, joint.at[1] + axis[1] / length)
+            entry["axis"] = builder.point(f"{joint.parent}.{joint.name}.axis", joint.parent, ahead)
+        builder.drawing.joints.append(entry)
+    for k, load in enumerate(mech.loads):
+        ends = spring_ends(load)
+        if ends is not None:
+            found = [builder.point(f"loads[{k}].{end}" if ref.body == m.GROUND else ref.label,
+                                   ref.body, ref.xy) for end, ref in zip("ab", ends)]
+            builder.drawing.springs.append({"a": found[0], "b": found[1], "load": k})
+    for ref in mech.outputs.points:
+        builder.drawing.traces.append(builder.point(ref.label, ref.body, ref.xy))
+    return builder.drawing
+
+
+# What a drawing asks of the joint and load kinds, by what they have, never by their names
+# (the kinds live in nemc/joints/ and nemc/loads/).
+
+
+def joint_symbol(joint: Joint) -> str:
+    """How a joint is drawn: a slider on a rail, a fixed (welded) connection, nothing for a
+    free body, a pin otherwise."""
+    if rail_axis(joint) is not None:
+        return "slider"
+    if joint.merged:
+        return "fixed"
+    return "none" if joint.floating else "pin"
+
+
+def rail_axis(joint: Joint) -> m.Vec2 | None:
+    """The axis (parent frame) a joint slides along, if it slides."""
+    return getattr(joint, "axis", None)
+
+
+def spring_ends(load: Load) -> tuple[m.PointRef, m.PointRef] | None:
+    """The two points a load acts between, if it is one (a spring)."""
+    ends = (getattr(load, "a", None), getattr(load, "b", None))
+    return ends if all(isinstance(end, m.PointRef) for end in ends) else None  # type: ignore
+
+
+def sprung_joint(load: Load) -> str | None:
+    """The joint a load acts across, if it is one (a joint spring)."""
+    joint = getattr(load, "joint", None)
+    return joint if isinstance(joint, str) else None

@@ -1,0 +1,160 @@
+"""What the kinds are handed: the interfaces through which a joint, load or constraint kind reads
+its YAML, places bodies and applies loads, without knowing which stage asks.
+
+- Reader: one YAML mapping, as the front end offers it to a kind's `read` (nemc/front/ builds
+  it: typed values, each checked and located; a wrong one records a problem and reads as None).
+- Frame: a body's pose, as a derivation sees it (the articulated-body algorithm's frames name
+  every value in its program; the kinematics' frames build plain expressions).
+- LoadSink: where a derivation collects the loads on its bodies.
+- ArticulatedLoads: what the articulated-body algorithm offers a load acting in it.
+- KinematicsView: what the kinematics of whole expressions offers a load (Newton-Euler balances,
+  reactions, energy).
+- JointView: what a load acting on a joint may ask of it (nemc/kinds/joints/base.py's Joint
+  answers it).
+
+Protocols only: the stages implement them, the kinds call them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol
+
+import sympy
+
+from .spatial import V2, V3, Vec
+from .terms import Loc, PointRef, Vec2
+
+Expr = sympy.Expr
+
+
+class Reader(Protocol):
+    """One YAML mapping of a joint, load or constraint, as its kind reads it."""
+
+    @property
+    def location(self) -> Loc: ...
+
+    def fields(self, **values: Any) -> dict[str, Any] | None:
+        """The values read, or None when one is None or a problem was recorded meanwhile."""
+
+    def problem(self, key: str, message: str) -> None: ...
+
+    def expr(self, key: str, default: Expr | None = None) -> Expr | None:
+        """An expression of t, coordinates, rates, parameters and constants (as loads take)."""
+
+    def fixed(self, key: str, default: Expr) -> Expr | None:
+        """An expression of parameters and constants, finite at their defaults."""
+
+    def vec2(self, key: str) -> Vec2 | None:
+        """[x, y], each as `expr` reads it."""
+
+    def axis(self, key: str) -> Vec2 | None:
+        """A fixed direction [x, y], not zero; default [1, 0]."""
+
+    def choice(self, key: str, choices: tuple[str, ...], default: str) -> str | None: ...
+
+    def parent_point(self, key: str) -> Vec2 | None:
+        """A point of the joint's parent: a point name or [x, y]; default its origin."""
+
+    def body_point(self, key: str, body: str | None) -> Vec2 | None:
+        """A point of `body`: a point name or [x, y]; default its mass center."""
+
+    def body(self, key: str, ground: bool, default: str | None = None) -> str | None: ...
+
+    def point_ref(self, key: str) -> PointRef | None:
+        """BODY.POINT or {body: BODY, at: [x, y]} (ground allowed)."""
+
+    def joint(self, key: str, accepts: Callable[[type], bool], needs: str) -> str | None:
+        """A joint's name; `needs` says what a joint of a kind (a class of nemc/kinds/joints/)
+        that `accepts` refuses lacks."""
+
+    def mapping(self, key: str, allowed: tuple[str, ...], required: tuple[str, ...]
+                ) -> Reader | None:
+        """The mapping under `key`, to read in turn (None: not a mapping of these keys)."""
+
+
+class Frame(Protocol):
+    """A body's pose, as a derivation sees it."""
+
+    @property
+    def angle(self) -> Expr: ...
+
+    @property
+    def origin(self) -> V2: ...
+
+    def rotate(self, xy: Sequence[Expr]) -> V2:
+        """A vector given in this body's frame, in ground axes."""
+
+    def point(self, xy: Sequence[Expr]) -> V2:
+        """The ground position of the point fixed in this body at xy (body frame)."""
+
+    def velocity(self, xy: Sequence[Expr]) -> V2:
+        """The ground velocity of the point fixed in this body at xy (kinematics only)."""
+
+    def name(self, expr: Expr) -> Expr:
+        """expr, named in the derivation's program (or as it is)."""
+
+    def names(self, exprs: Sequence[Expr]) -> tuple[Expr, ...]: ...
+
+
+class LoadSink(Protocol):
+    """Where a derivation collects the loads on its bodies."""
+
+    def apply(self, body: str, force: V3) -> None:
+        """A spatial force (couple about O, force) on a body."""
+
+    def apply_at(self, body: str, at: Sequence[Expr], force: Sequence[Expr]) -> None:
+        """A force (ground axes) on a body, at ground point `at`."""
+
+
+class ArticulatedLoads(LoadSink, Protocol):
+    """What the articulated-body algorithm offers a load that acts in it."""
+
+    def frame(self, body: str) -> Frame: ...
+
+    def velocity(self, body: str) -> V3: ...
+
+    def coordinate(self, name: str) -> Expr: ...
+
+    def speed(self, coordinate: str) -> Expr: ...
+
+    def joint(self, name: str) -> JointView: ...
+
+
+class KinematicsView(Protocol):
+    """Whole expressions of a point's place and a body's angle (nemc/derive/kinematics.py)."""
+
+    def angle(self, body: str) -> Expr: ...
+
+    def position(self, body: str, xy: Vec2) -> Vec: ...
+
+    def coordinate(self, name: str) -> Expr:
+        """A coordinate's value: its symbol, or a driven coordinate's motion (of t)."""
+
+    def rate(self, expr: Any) -> Any:
+        """d/dt of an expression of q, dq and t (accelerations as the symbols ddot(q))."""
+
+    def frame(self, body: str) -> Frame: ...
+
+    def joint(self, name: str) -> JointView: ...
+
+
+class JointView(Protocol):
+    """A joint, as a load acting on it sees it."""
+
+    name: str
+    parent: str
+    child: str
+    coordinates: tuple[str, ...]
+
+    def displacement(self, child_angle: Expr, parent_angle: Expr, q: Sequence[Expr]) -> Expr:
+        """The relative displacement a joint_spring acts on."""
+
+    def displacement_rate(self, child_rate: Expr, parent_rate: Expr,
+                          u: Sequence[Expr]) -> Expr: ...
+
+    def joint_load(self, sink: LoadSink, parent: Frame, child_origin: V2,
+                   tension: Expr) -> None:
+        """Equal and opposite loads on its two bodies doing power tension * displacement rate."""
+
+    def spring_force_on_child(self, parent_angle: Expr, tension: Expr) -> V2 | None: ...

@@ -1,0 +1,54 @@
+"""A force on a point of a body, its components in the ground's or the body's frame.
+
+    - force: [EXPR, EXPR]
+      body: BODY
+      at: POINT          # a point of the body; default com
+      frame: ground      # or body
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
+
+from ..contract import ArticulatedLoads
+from ..spatial import rotation, vec
+from ..terms import Loc, Vec2
+from .base import Applied, Load, PointForce
+
+if TYPE_CHECKING:
+    from ..contract import KinematicsView, Reader
+
+
+@dataclass(frozen=True)
+class Force(Load):
+    kind: ClassVar[str] = "force"
+    keys: ClassVar[tuple[str, ...]] = ("force", "body", "at", "frame")
+    required: ClassVar[tuple[str, ...]] = ("body",)
+
+    components: Vec2
+    body: str
+    at: Vec2  # point of application in the body frame (default: com)
+    frame: Literal["ground", "body"]
+    loc: Loc
+
+    @classmethod
+    def read(cls, read: Reader) -> dict[str, Any] | None:
+        body = read.body("body", ground=False)
+        return read.fields(components=read.vec2("force"), body=body,
+                           at=read.body_point("at", body), frame=read.choice(
+                               "frame", ("ground", "body"), "ground"))
+
+    def expressions(self) -> list[tuple[str, object]]:
+        return [(f"force[{i}]", c) for i, c in enumerate(self.components)]
+
+    def act(self, aba: ArticulatedLoads) -> None:
+        frame = aba.frame(self.body)
+        force = frame.rotate(self.components) if self.frame == "body" else self.components
+        aba.apply_at(self.body, frame.point(self.at), frame.names(force))
+
+    def applied(self, kin: KinematicsView) -> Applied:
+        force = vec(self.components)
+        if self.frame == "body":
+            force = rotation(kin.angle(self.body)) * force
+        return Applied(forces=[PointForce(self.body, self.at, force)])

@@ -1,0 +1,79 @@
+"""A linear spring, with a damper in parallel, between two points.
+
+    - spring: {a: BODY.POINT, b: {body: BODY, at: [x, y]}, k: EXPR, length: EXPR,
+               damping: EXPR}
+
+It pulls the points together with k (distance - length) + damping d(distance)/dt along the line
+between them; its elastic part has potential energy k (distance - length)^2 / 2.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import sympy
+
+from ..contract import ArticulatedLoads
+from ..spatial import dot, point_velocity, scale
+from ..terms import Loc, PointRef
+from .base import Applied, Load, PointForce
+
+if TYPE_CHECKING:
+    from ..contract import KinematicsView, Reader
+
+
+@dataclass(frozen=True)
+class Spring(Load):
+    kind: ClassVar[str] = "spring"
+    keys: ClassVar[tuple[str, ...]] = ("spring",)
+
+    a: PointRef
+    b: PointRef
+    k: sympy.Expr
+    length: sympy.Expr
+    damping: sympy.Expr
+    loc: Loc
+
+    @classmethod
+    def read(cls, read: Reader) -> dict[str, Any] | None:
+        inner = read.mapping("spring", ("a", "b", "k", "length", "damping"),
+                             ("a", "b", "k", "length"))
+        if inner is None:
+            return None
+        return inner.fields(a=inner.point_ref("a"), b=inner.point_ref("b"), k=inner.expr("k"),
+                            length=inner.expr("length"),
+                            damping=inner.expr("damping", sympy.S.Zero), loc=inner.location)
+
+    def expressions(self) -> list[tuple[str, sympy.Expr]]:
+        return [(key, getattr(self, key)) for key in ("k", "length", "damping")]
+
+    def act(self, aba: ArticulatedLoads) -> None:
+        frame_a, frame_b = aba.frame(self.a.body), aba.frame(self.b.body)
+        pa, pb = frame_a.point(self.a.xy), frame_b.point(self.b.xy)
+        va = point_velocity(aba.velocity(self.a.body), pa)
+        vb = point_velocity(aba.velocity(self.b.body), pb)
+        d = frame_a.names((pb[0] - pa[0], pb[1] - pa[1]))
+        length = frame_a.name(sympy.sqrt(dot(d, d)))
+        stretch_rate = dot(d, (vb[0] - va[0], vb[1] - va[1])) / length
+        pull = self.k * (length - self.length)
+        pull = frame_a.name((pull + self.damping * stretch_rate) / length)
+        on_a = frame_a.names(scale(d, pull))
+        aba.apply_at(self.a.body, pa, on_a)
+        aba.apply_at(self.b.body, pb, scale(on_a, -1))
+
+    def distance_vector(self, kin: KinematicsView) -> sympy.Matrix:
+        return kin.position(self.b.body, self.b.xy) - kin.position(self.a.body, self.a.xy)
+
+    def applied(self, kin: KinematicsView) -> Applied:
+        d = self.distance_vector(kin)
+        length = sympy.sqrt(d.dot(d))
+        stretch_rate = d.dot(kin.rate(d)) / length
+        pull = self.k * (length - self.length) + self.damping * stretch_rate
+        on_a = d / length * pull
+        return Applied(forces=[PointForce(self.a.body, self.a.xy, on_a),
+                               PointForce(self.b.body, self.b.xy, -on_a)])
+
+    def potential(self, kin: KinematicsView) -> sympy.Expr:
+        d = self.distance_vector(kin)
+        return self.k * (sympy.sqrt(d.dot(d)) - self.length) ** 2 / 2

@@ -1,0 +1,429 @@
+"""The mechanism moving: `nemc animate` and `res.animate()`.
+
+Each frame draws every body as the outline through its points (origin, mass centre, named
+points: a bar for two, a filled polygon for more), its mass centre, the joints (pins as open
+circles, sliders on their rails, welds as squares, ground supports hatched), springs as
+zigzags, the paths of the traced points so far and a time stamp. The positions come from the
+compiled model (`Model.positions_array`, the C function `<name>_positions`), never from Python
+geometry: a frame shows what the model computes. Frames are spaced for real time (`speed` 1)
+at `fps` frames per second.
+
+Writers: Pillow for .gif, ffmpeg for .mp4 (when it is installed), to_jshtml for .html; with no
+file, an object a notebook displays inline.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from ..runtime.model import SimulationResult
+from .figures import dense, pretty_unit
+
+FPS = 25  # a GIF stores frame delays in 1/100 s: 25 frames/s is exactly real time
+BODY_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
+                "#17becf")
+INK = "#222222"
+SPRING_COILS = 8
+MAX_FRAMES = 3000
+
+
+@dataclass
+class Scene:
+    """Everything a drawing needs: the drawing's structure and the points' positions at each
+    frame (n_frames, n_points, 2), and for traces the positions on a finer grid."""
+
+    drawing: dict
+    t: np.ndarray
+    xy: np.ndarray
+    trace_t: np.ndarray
+    trace_xy: np.ndarray
+    traces: list[int]
+    time_unit: str = ""
+    length_unit: str = ""
+    scale: float = 1.0  # a typical length of the picture, for the size of symbols
+    hulls: dict[str, list[int]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        lo, hi = self.extent()
+        self.scale = max(float(np.max(hi - lo)), 1e-9)
+        self.hulls = {body: outline(self.xy[0], points)
+                      for body, points in self.drawing["bodies"].items()}
+
+    def extent(self) -> tuple[np.ndarray, np.ndarray]:
+        points = self.xy.reshape(-1, 2)
+        points = points[np.all(np.isfinite(points), axis=1)]
+        if not points.size:
+            return np.zeros(2), np.ones(2)
+        return points.min(axis=0), points.max(axis=0)
+
+
+def outline(xy: np.ndarray, points: list[int]) -> list[int]:
+    """The body's outline: its points' convex hull in order (rigid motion keeps it), the two
+    farthest points when they are collinear, one point when they coincide."""
+    unique: list[int] = []
+    for k in points:
+        if all(np.hypot(*(xy[k] - xy[j])) > 1e-9 for j in unique):
+            unique.append(k)
+    if len(unique) < 3:
+        return unique
+    hull = convex_hull(xy, unique)
+    if len(hull) < 3:  # collinear: the segment between the extreme points
+        far = max(((a, b) for a in unique for b in unique), key=lambda p: np.hypot(
+            *(xy[p[0]] - xy[p[1]])))
+        return list(far)
+    return hull
+
+
+def convex_hull(xy: np.ndarray, indices: list[int]) -> list[int]:
+    """Andrew's monotone chain over the given points; collinear points dropped."""
+    order = sorted(indices, key=lambda k: (xy[k][0], xy[k][1]))
+
+    def cross(o: int, a: int, b: int) -> float:
+        return float((xy[a][0] - xy[o][0]) * (xy[b][1] - xy[o][1])
+                     - (xy[a][1] - xy[o][1]) * (xy[b][0] - xy[o][0]))
+
+    def chain(points: list[int]) -> list[int]:
+        kept: list[int] = []
+        for k in points:
+            while len(kept) >= 2 and cross(kept[-2], kept[-1], k) <= 1e-12:
+                kept.pop()
+            kept.append(k)
+        return kept
+
+    lower, upper = chain(order), chain(order[::-1])
+    return lower[:-1] + upper[:-1]
+
+
+# ---- a scene from a model and states --------------------------------------------------------
+
+
+def scene_of(model: Any, t: np.ndarray, y: np.ndarray, params: dict | None = None,
+             trace_t: np.ndarray | None = None, trace_y: np.ndarray | None = None,
+             traces: list[str] | None = None) -> Scene:
+    """The scene at states y (n_state, n_t) at times t; traces from (trace_t, trace_y)."""
+    drawing = model.metadata["drawing"]
+    xy = model.positions_array(t, y, params)
+    names = drawing["points"]
+    if traces is None:
+        chosen = list(drawing["traces"])
+    else:
+        unknown = [name for name in traces if name not in names]
+        if unknown:
+            raise ValueError(f"no point {', '.join(unknown)} to trace; the points: "
+                             f"{', '.join(names)}")
+        chosen = [names.index(name) for name in traces]
+    if trace_t is None or trace_y is None:
+        trace_t, trace_xy = t, xy
+    else:
+        trace_xy = model.positions_array(trace_t, trace_y, params)
+    units = model.metadata.get("units", {})
+    return Scene(drawing, np.asarray(t), xy, np.asarray(trace_t), trace_xy, chosen,
+                 units.get("time") or "", units.get("length") or "")
+
+
+def frame_times(t0: float, t1: float, fps: float, speed: float) -> np.ndarray:
+    """Real time times speed: a frame every speed/fps units of model time."""
+    step = speed / fps
+    count = min(MAX_FRAMES, int(math.floor((t1 - t0) / step * (1 + 1e-12))) + 1)
+    return t0 + step * np.arange(count)
+
+
+def scene_of_result(res: SimulationResult, fps: float = FPS, speed: float = 1.0,
+                    traces: list[str] | None = None) -> Scene:
+    """Frames at real-time spacing through the run's dense output; traces densely sampled."""
+    model = res.model
+    if model is None:
+        raise ValueError("this result does not know its model: animate a result of simulate()")
+    if res.t.size == 0:
+        raise ValueError("the run has no states to draw")
+    times = frame_times(float(res.t[0]), float(res.t[-1]), fps, speed)
+    if res.rerun is not None and res.success:
+        frames = res.rerun(times)
+        fine = dense(res)
+        t, y, fine_t, fine_y = frames.t, frames.y, fine.t, fine.y
+    else:  # a run that stopped early: its own states, interpolated to the frames
+        t = times
+        y = np.array([np.interp(times, res.t, row) for row in res.y])
+        fine_t, fine_y = res.t, res.y
+    return scene_of(model, t, y, res.params, fine_t, fine_y, traces)
+
+
+# ---- drawing --------------------------------------------------------------------------------
+
+
+def zigzag(a: np.ndarray, b: np.ndarray, width: float, coils: int = SPRING_COILS) -> np.ndarray:
+    """A spring's zigzag from a to b: straight ends, `coils` teeth of the given width."""
+    d = b - a
+    length = math.hypot(*d)
+    if length < 1e-12:
+        return np.array([a, b])
+    along, across = d / length, np.array([-d[1], d[0]]) / length
+    s = np.concatenate([[0.0, 0.15], 0.15 + 0.7 * (np.arange(2 * coils) + 0.5) / (2 * coils),
+                        [0.85, 1.0]])
+    offset = np.concatenate([[0, 0], width * (-1.0) ** np.arange(2 * coils), [0, 0]])
+    return a + np.outer(s * length, along) + np.outer(offset, across)
+
+
+def spiral(center: np.ndarray, radius: float, turns: float = 2.5) -> np.ndarray:
+    u = np.linspace(0, 1, 80)
+    angle = 2 * math.pi * turns * u
+    r = radius * (0.25 + 0.75 * u)
+    return center + np.column_stack([r * np.cos(angle), r * np.sin(angle)])
+
+
+class Artist:
+    """The artists of one scene on one axes, updated frame by frame."""
+
+    def __init__(self, ax: Any, scene: Scene):
+        self.ax, self.scene = ax, scene
+        drawing, size = scene.drawing, scene.scale
+        self.marker = 0.022 * size
+        self.body_colour = {body: BODY_COLOURS[k % len(BODY_COLOURS)]
+                            for k, body in enumerate(drawing["bodies"])}
+        self.rails = [ax.plot([], [], "-", color="#999999", lw=3, solid_capstyle="round",
+                              zorder=1)[0] for j in drawing["joints"] if "axis" in j]
+        self.traces = [ax.plot([], [], "-", lw=1.0, alpha=0.7, color=self.trace_colour(k),
+                               zorder=2)[0] for k in scene.traces]
+        self.springs = [ax.plot([], [], "-", color=INK, lw=1.1, zorder=3)[0]
+                        for _ in drawing["springs"]]
+        self.joint_springs = [ax.plot([], [], "-", color=INK, lw=1.0, zorder=3)[0]
+                              for j in drawing["joints"] if j["sprung"]]
+        self.bodies = {body: self.body_artist(body) for body in drawing["bodies"]}
+        self.coms = ax.plot([], [], "o", ms=5, mfc="white", mec=INK, mew=1.0, zorder=6)[0]
+        self.pins = ax.plot([], [], "o", ms=7, mfc="white", mec=INK, mew=1.4, zorder=7)[0]
+        self.welds = ax.plot([], [], "s", ms=5, color=INK, zorder=7)[0]
+        self.sliders = ax.plot([], [], "s", ms=9, mfc="white", mec=INK, mew=1.4, zorder=7)[0]
+        self.supports = ax.plot([], [], "^", ms=12, mfc="#cccccc", mec=INK, zorder=0)[0]
+        anchors = [spring[end] for spring in drawing["springs"] for end in ("a", "b")
+                   if drawing["points"][spring[end]].startswith("loads[")]
+        self.anchors = anchors
+        self.anchor_marks = ax.plot([], [], "s", ms=6, mfc="#cccccc", mec=INK, zorder=3)[0]
+        # above the axes, right: never on the drawing
+        self.stamp = ax.text(1.0, 1.01, self.stamp_text(scene.t[0]), transform=ax.transAxes,
+                             va="bottom", ha="right", family="monospace", fontsize=10)
+
+    def dynamic(self) -> list[Any]:
+        """Every artist that moves (drawn over a fixed background, frame by frame)."""
+        return [*self.rails, *self.traces, *self.springs, *self.joint_springs,
+                *self.bodies.values(), self.coms, self.pins, self.welds, self.sliders,
+                self.supports, self.anchor_marks, self.stamp]
+
+    def stamp_text(self, now: float) -> str:
+        unit = f" {self.scene.time_unit}" if self.scene.time_unit else ""
+        return f"t = {now:7.3f}{unit}"
+
+    def trace_colour(self, point: int) -> str:
+        name = self.scene.drawing["points"][point]
+        body = name.split(".")[0]
+        bodies = list(self.scene.drawing["bodies"])
+        return BODY_COLOURS[bodies.index(body) % len(BODY_COLOURS)] if body in bodies else INK
+
+    def body_artist(self, body: str) -> Any:
+        colour = self.body_colour[body]
+        hull = self.scene.hulls[body]
+        if len(hull) >= 3:
+            from matplotlib.patches import Polygon
+
+            patch = Polygon(np.zeros((len(hull), 2)), closed=True, fc=colour, ec=colour,
+                            alpha=0.45, lw=2, zorder=4)
+            self.ax.add_patch(patch)
+            return patch
+        if len(hull) == 2:
+            return self.ax.plot([], [], "-", color=colour, lw=6, solid_capstyle="round",
+                                zorder=4)[0]
+        return self.ax.plot([], [], "s", color=colour, ms=14, zorder=4)[0]
+
+    def update(self, k: int) -> list[Any]:
+        """Move every artist to frame k."""
+        scene, xy = self.scene, self.scene.xy[k]
+        drawing = scene.drawing
+        for body, artist in self.bodies.items():
+            points = xy[scene.hulls[body]]
+            if hasattr(artist, "set_xy"):
+                artist.set_xy(points)
+            else:
+                artist.set_data(points[:, 0], points[:, 1])
+        coms = np.array([xy[k] for k in drawing["coms"].values()]).reshape(-1, 2)
+        self.coms.set_data(coms[:, 0], coms[:, 1])
+        self.update_joints(xy)
+        for artist, spring in zip(self.springs, drawing["springs"]):
+            line = zigzag(xy[spring["a"]], xy[spring["b"]], 0.02 * scene.scale)
+            artist.set_data(line[:, 0], line[:, 1])
+        anchors = xy[self.anchors].reshape(-1, 2)
+        self.anchor_marks.set_data(anchors[:, 0], anchors[:, 1])
+        now = scene.t[k]
+        shown = scene.trace_t <= now + 1e-12
+        for artist, point in zip(self.traces, scene.traces):
+            artist.set_data(scene.trace_xy[shown, point, 0], scene.trace_xy[shown, point, 1])
+        self.stamp.set_text(self.stamp_text(now))
+        return [self.stamp]
+
+    def update_joints(self, xy: np.ndarray) -> None:
+        joints = self.scene.drawing["joints"]
+        symbols: dict[str, list[np.ndarray]] = {"pin": [], "fixed": [], "slider": [],
+                                                "none": []}
+        supports, rails, sprung = [], iter(self.rails), iter(self.joint_springs)
+        for joint in joints:
+            origin = xy[joint["origin"]]
+            symbols[joint["symbol"]].append(origin)
+            if joint["parent"] == "ground" and joint["symbol"] == "pin":
+                supports.append(xy[joint["at"]] - [0, 0.035 * self.scene.scale])
+            if "axis" in joint:
+                self.draw_rail(next(rails), joint, xy)
+            if joint["sprung"]:
+                size = self.scene.scale
+                line = (zigzag(xy[joint["at"]], origin, 0.02 * size)
+                        if "axis" in joint else spiral(origin, 0.05 * size))
+                next(sprung).set_data(line[:, 0], line[:, 1])
+        for artist, symbol in ((self.pins, "pin"), (self.welds, "fixed"),
+                               (self.sliders, "slider")):
+            points = np.array(symbols[symbol]).reshape(-1, 2)
+            artist.set_data(points[:, 0], points[:, 1])
+        points = np.array(supports).reshape(-1, 2)
+        self.supports.set_data(points[:, 0], points[:, 1])
+
+    def draw_rail(self, artist: Any, joint: dict, xy: np.ndarray) -> None:
+        """The rail through `at` along the axis, over the range the slider travels."""
+        at, ahead = xy[joint["at"]], xy[joint["axis"]]
+        unit = ahead - at
+        unit = unit / max(math.hypot(*unit), 1e-12)
+        travel = (self.scene.xy[:, joint["origin"]] - self.scene.xy[:, joint["at"]]) @ unit
+        travel = travel[np.isfinite(travel)]
+        low, high = (min(travel.min(), 0.0), max(travel.max(), 0.0)) if travel.size else (0, 0)
+        margin = 0.08 * self.scene.scale
+        ends = np.array([at + (low - margin) * unit, at + (high + margin) * unit])
+        artist.set_data(ends[:, 0], ends[:, 1])
+
+
+def new_axes(scene: Scene, size: float = 5.0) -> tuple[Figure, Any]:
+    """A figure with equal scales spanning every frame of the scene."""
+    fig = Figure(figsize=(size, size), layout="constrained")
+    ax = fig.add_subplot()
+    lo, hi = scene.extent()
+    middle, half = (lo + hi) / 2, max(float(np.max(hi - lo)) / 2, 1e-9) * 1.15
+    ax.set_xlim(middle[0] - half, middle[0] + half)
+    ax.set_ylim(middle[1] - half, middle[1] + half)
+    ax.set_aspect("equal")
+    ax.grid(True, lw=0.4, alpha=0.5)
+    unit = f" ({pretty_unit(scene.length_unit)})" if scene.length_unit else ""
+    ax.set_xlabel(f"x{unit}")
+    ax.set_ylabel(f"y{unit}")
+    return fig, ax
+
+
+def render_frame(model: Any, t: float, y: Any, params: dict | None = None,
+                 size: float = 5.0) -> tuple[Figure, Any]:
+    """One frame at state y (a figure and its axes): what tests and users can look at."""
+    state = np.asarray(y, dtype=float).reshape(-1, 1)
+    scene = scene_of(model, np.array([float(t)]), state, params)
+    fig, ax = new_axes(scene, size)
+    Artist(ax, scene).update(0)
+    return fig, ax
+
+
+# ---- animations -----------------------------------------------------------------------------
+
+
+class Inline:
+    """An animation a notebook shows inline (its HTML is the animation's to_jshtml)."""
+
+    def __init__(self, animation: Any):
+        self.animation = animation
+
+    def _repr_html_(self) -> str:
+        return self.animation.to_jshtml()
+
+
+def animation_of(scene: Scene, fps: float = FPS, title: str = "", size: float = 5.0) -> Any:
+    from matplotlib.animation import FuncAnimation
+
+    fig, _, artist = laid_out(scene, title, size)
+    return FuncAnimation(fig, artist.update, frames=len(scene.t), interval=1000.0 / fps,
+                         blit=False)
+
+
+def laid_out(scene: Scene, title: str = "", size: float = 5.0) -> tuple[Figure, Any, Artist]:
+    """The figure, axes and artists of an animation, laid out once (the axes keep their place
+    in every frame)."""
+    fig, ax = new_axes(scene, size)
+    if title:
+        ax.set_title(title, loc="left")
+    artist = Artist(ax, scene)
+    artist.update(0)
+    fig.draw_without_rendering()
+    fig.set_layout_engine("none")
+    return fig, ax, artist
+
+
+def write_gif(scene: Scene, path: Path, fps: float, title: str = "", size: float = 5.0) -> None:
+    """A GIF drawn the fast way: the axes once, then each frame's moving artists over it
+    (matplotlib's own writers redraw the whole figure, ticks and all, for every frame)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image
+
+    fig, ax, artist = laid_out(scene, title, size)
+    canvas = FigureCanvasAgg(fig)
+    moving = artist.dynamic()
+    for item in moving:
+        item.set_animated(True)
+    canvas.draw()
+    background = canvas.copy_from_bbox(fig.bbox)
+
+    def frame(k: int) -> Any:
+        artist.update(k)
+        canvas.restore_region(background)
+        for item in moving:
+            fig.draw_artist(item)
+        return Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba()
+                                ).convert("RGB")
+
+    # one palette for every frame, from the last (whose traces are complete)
+    palette = frame(len(scene.t) - 1).quantize(colors=96, method=Image.Quantize.FASTOCTREE)
+    frames = [frame(k).quantize(palette=palette, dither=Image.Dither.NONE)
+              for k in range(len(scene.t))]
+    frames[0].save(path, save_all=True, append_images=frames[1:], duration=1000.0 / fps,
+                   loop=0)
+
+
+def save(animation: Any, path: Path, fps: float) -> None:
+    """Write the animation: .mp4 (ffmpeg), .html (to_jshtml); .gif: write_gif."""
+    from matplotlib import animation as anim
+
+    suffix = path.suffix.lower()
+    if suffix == ".mp4":
+        if not anim.writers.is_available("ffmpeg"):
+            raise ValueError("writing .mp4 needs ffmpeg, which is not installed here: write a"
+                             " .gif or .html instead (or install ffmpeg)")
+        animation.save(path, writer=anim.FFMpegWriter(fps=fps))
+    elif suffix in (".html", ".htm"):
+        page = animation.to_jshtml(fps=fps)
+        path.write_text(f"<!DOCTYPE html>\n<html><head><meta charset='utf-8'></head><body>\n"
+                        f"{page}\n</body></html>\n")
+    else:
+        raise ValueError(f"cannot write {path.name}: choose a .gif, .mp4 or .html file")
+
+
+def animate_result(res: SimulationResult, path: str | os.PathLike | None = None, *,
+                   fps: float = FPS, speed: float = 1.0, traces: list[str] | None = None,
+                   size: float = 5.0) -> Any:
+    """The run as an animation: written to PATH when given (returns the path), else an object
+    a notebook displays inline."""
+    if not (fps > 0 and speed > 0):
+        raise ValueError(f"fps and speed must be > 0, got {fps} and {speed}")
+    scene = scene_of_result(res, fps, speed, traces)
+    title = res.model.name + (f" (speed x{speed:g})" if speed != 1 else "")
+    if path is not None and Path(path).suffix.lower() == ".gif":
+        write_gif(scene, Path(path), fps, title, size)
+        return Path(path)
+    animation = animation_of(scene, fps, title, size)
+    if path is None:
+        return Inline(animation)
+    save(animation, Path(path), fps)
+    return Path(path)

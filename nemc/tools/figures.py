@@ -1,0 +1,273 @@
+"""Figures of a run as an engineer puts them in a report.
+
+The state as the book draws it: one coordinate -> its angle, its rate and the phase portrait
+(Fig. 5.2); several -> each coordinate against time (Figs. 5.4, 5.8). Then the outputs in
+panels by kind: reactions (ground frame, body frame, constraint couples), drives, energy, point
+positions, velocities and paths, accelerations, each expression. Axis labels carry the units the
+YAML declares (`units:`), angles in degrees when it says `angle: deg`; legends sit above their
+panel, never on the data; colours are distinct within a panel. Curves come from a dense
+sampling of the same run (several points per solver step), so fast motion does not alias.
+
+`nemc simulate --plot`, `res.plot()` and `make run` all draw through plot_result().
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from ..runtime.model import SOLVER_STEPS, SimulationResult
+from .typeset import math_label
+
+PANEL_KINDS = ("state", "reactions", "drives", "energy", "points", "accelerations",
+               "expressions")
+POINTS_PER_STEP = 12  # dense sampling: curve points per solver step
+MIN_POINTS, MAX_POINTS = 1500, 200_000
+PANEL_SIZE = (6.4, 2.3)  # inches, one panel
+DPI = 150
+COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
+           "#17becf", "#7f7f7f", "#bcbd22")
+
+
+@dataclass
+class Curve:
+    label: str
+    x: np.ndarray
+    y: np.ndarray
+
+
+@dataclass
+class Panel:
+    """One axes: its curves, axis labels, whether it is a path (equal scales, y vs x) and
+    whether its curves need a legend (outputs: always; the state: the axis names it)."""
+
+    ylabel: str
+    curves: list[Curve] = field(default_factory=list)
+    xlabel: str = ""
+    path: bool = False
+    legend: bool = True
+
+
+# ---- dense sampling ---------------------------------------------------------------------------
+
+
+def dense_times(steps: np.ndarray, per_step: int = POINTS_PER_STEP) -> np.ndarray:
+    """Times through every solver step, per_step points in each, between MIN_ and MAX_POINTS."""
+    steps = np.unique(np.asarray(steps, dtype=float))
+    if steps.size < 2:
+        return steps
+    count = min(MAX_POINTS, max(MIN_POINTS, per_step * (steps.size - 1) + 1))
+    fraction = np.linspace(0.0, steps.size - 1, count)
+    return np.interp(fraction, np.arange(steps.size), steps)
+
+
+def dense(result: SimulationResult) -> SimulationResult:
+    """The same run sampled densely (through the integrator's dense output), when the result
+    can rerun; else the result itself."""
+    if result.rerun is None or result.t.size < 2 or not result.success:
+        return result
+    steps = result.rerun(SOLVER_STEPS)
+    if not steps.success:
+        return result
+    return result.rerun(dense_times(steps.t))
+
+
+# ---- panels -----------------------------------------------------------------------------------
+
+
+class Labels:
+    """Axis labels and display scales from the model's metadata (units, kinds)."""
+
+    def __init__(self, model: Any):
+        meta = model.metadata
+        self.kinds: dict[str, str] = meta.get("quantities", {})
+        self.units: dict[str, str] = meta.get("unit_labels", {})
+        self.degrees = meta.get("units", {}).get("angle") == "deg"
+
+    def scale(self, name: str) -> float:
+        angular = self.kinds.get(name, "").startswith("angular") or self.kinds.get(name) == "angle"
+        return 180.0 / math.pi if angular and self.degrees else 1.0
+
+    def unit(self, name: str) -> str:
+        unit = self.units.get(name, "")
+        if self.scale(name) != 1.0:
+            unit = unit.replace("rad", "deg", 1) or "deg"
+        return pretty_unit(unit)
+
+    def axis(self, text: str, name: str) -> str:
+        unit = self.unit(name)
+        return f"{text} ({unit})" if unit else text
+
+
+def pretty_unit(unit: str) -> str:
+    return unit.replace("^2", "\u00b2").replace("^3", "\u00b3").replace("*", "\u00b7")
+
+
+def state_panels(model: Any, res: SimulationResult, labels: Labels) -> list[Panel]:
+    """The book's layout: angle, rate and phase portrait for one coordinate; else each
+    coordinate against time."""
+    tlabel = labels.axis("t", "t")
+    coordinates = model.coordinate_names
+    if len(coordinates) == 1:
+        q, dq = model.state_names[:2]
+        x, v = res.y[0] * labels.scale(q), res.y[1] * labels.scale(dq)
+        return [Panel(labels.axis(math_label(q), q), [Curve(q, res.t, x)], tlabel, legend=False),
+                Panel(labels.axis(math_label(dq), dq), [Curve(dq, res.t, v)], tlabel,
+                      legend=False),
+                Panel(labels.axis(math_label(dq), dq), [Curve("phase", x, v)],
+                      labels.axis(math_label(q), q), legend=False)]
+    return [Panel(labels.axis(math_label(q), q), [Curve(q, res.t, res.y[2 * i] * labels.scale(q))],
+                  tlabel, legend=False) for i, q in enumerate(coordinates)]
+
+
+def output_groups(model: Any, names: Sequence[str]) -> list[tuple[str, str, list[str]]]:
+    """(kind, axis text, output names) for each output panel, in PANEL_KINDS order."""
+    kinds = model.metadata.get("quantities", {})
+    joints = {name.rpartition(".")[0] for name in names
+              if kinds.get(name) in ("joint force", "couple")}
+    groups: list[tuple[str, str, list[str]]] = []
+
+    def add(kind: str, text: str, members: list[str]) -> None:
+        if members:
+            groups.append((kind, text, members))
+
+    reaction = [n for n in names if n.rpartition(".")[0] in joints and not n.endswith(".drive")]
+    add("reactions", "reaction, ground axes", [n for n in reaction if n[-3:] in (".Fx", ".Fy")])
+    add("reactions", "reaction, body axes", [n for n in reaction if n[-3:] in (".Fn", ".Ft")])
+    add("reactions", "constraint couple", [n for n in reaction if n.endswith(".M")])
+    add("drives", "drive", [n for n in names if n.endswith(".drive")])
+    add("energy", "energy", [n for n in names if n.startswith("energy.")])
+    points = [n for n in names if kinds.get(n) in ("length", "speed") and n not in reaction]
+    add("points", "position", [n for n in points if kinds[n] == "length"])
+    add("points", "velocity", [n for n in points if kinds[n] == "speed"])
+    add("accelerations", "acceleration", [n for n in names if n.startswith("ddot(")])
+    grouped = {n for _, _, members in groups for n in members}
+    for name in names:
+        if name not in grouped:
+            groups.append(("expressions", name, [name]))
+    return groups
+
+
+def output_panels(model: Any, res: SimulationResult, labels: Labels,
+                  names: Sequence[str], kinds: Sequence[str]) -> list[Panel]:
+    tlabel = labels.axis("t", "t")
+    panels = []
+    for kind, text, members in output_groups(model, names):
+        if kind not in kinds:
+            continue
+        if kind == "accelerations":  # angular and linear accelerations do not share an axis
+            for unit in dict.fromkeys(labels.unit(n) for n in members):
+                same = [n for n in members if labels.unit(n) == unit]
+                panels.append(Panel(labels.axis(text, same[0]), [
+                    Curve(math_label(n), res.t, np.asarray(res.outputs[n]) * labels.scale(n))
+                    for n in same], tlabel))
+            continue
+        curves = [Curve(n, res.t, np.asarray(res.outputs[n]) * labels.scale(n)) for n in members]
+        panels.append(Panel(labels.axis(text, members[0]), curves, tlabel))
+        if text == "position":
+            panels.append(path_panel(res, members, labels))
+    return panels
+
+
+def path_panel(res: SimulationResult, members: list[str], labels: Labels) -> Panel:
+    """The points' paths in the plane (y against x, equal scales)."""
+    panel = Panel(labels.axis("y", members[0]), xlabel=labels.axis("x", members[0]), path=True)
+    for name in members:
+        if name.endswith(".x") and name[:-2] + ".y" in res.outputs:
+            point = name[:-2]
+            panel.curves.append(Curve(point, res.outputs[name], res.outputs[point + ".y"]))
+    return panel
+
+
+def selected_outputs(model: Any, patterns: Sequence[str] | None) -> list[str]:
+    """The outputs matching any of the patterns (names or shell patterns such as A.*)."""
+    names = list(model.output_names)
+    if patterns is None:
+        return names
+    return [n for n in names if any(fnmatch.fnmatchcase(n, p) for p in patterns)]
+
+
+# ---- drawing ----------------------------------------------------------------------------------
+
+
+def grid(state: int, outputs: int) -> list[tuple[int, int]]:
+    """(row, column) of each panel, state first: the state down the left column and the
+    outputs beside it, then the remaining outputs two to a row; one group alone fills one
+    column (two, row by row, past four panels)."""
+    if state and outputs:
+        beside = [(r, 1) for r in range(min(state, outputs))]
+        rest = outputs - len(beside)
+        below = [(state + k // 2, k % 2) for k in range(rest)]
+        return [(r, 0) for r in range(state)] + beside + below
+    count = state or outputs
+    return [(k // 2, k % 2) for k in range(count)] if count > 4 else [(k, 0) for k in range(count)]
+
+
+def draw(state: list[Panel], outputs: list[Panel], title: str) -> Figure:
+    """The report figure: panels on the grid above."""
+    places = grid(len(state), len(outputs))
+    rows = max(r for r, _ in places) + 1
+    columns = max(c for _, c in places) + 1
+    fig = Figure(figsize=(PANEL_SIZE[0] * columns, PANEL_SIZE[1] * rows + 0.4),
+                 layout="constrained")
+    fig.suptitle(title)
+    for panel, (r, c) in zip(state + outputs, places):
+        draw_panel(fig.add_subplot(rows, columns, r * columns + c + 1), panel)
+    return fig
+
+
+def draw_panel(ax: Any, panel: Panel) -> None:
+    for k, curve in enumerate(panel.curves):
+        style = "-" if k < len(COLOURS) else "--"
+        ax.plot(curve.x, curve.y, style, color=COLOURS[k % len(COLOURS)], lw=1.4,
+                label=curve.label)
+    if panel.path:
+        for k, curve in enumerate(panel.curves):
+            ax.plot(curve.x[:1], curve.y[:1], "o", color=COLOURS[k % len(COLOURS)], ms=4)
+        ax.set_aspect("equal", adjustable="datalim")
+    elif panel.xlabel.startswith("$") and panel.curves:  # phase portrait: mark the start
+        ax.plot(panel.curves[0].x[:1], panel.curves[0].y[:1], "o", color=COLOURS[0], ms=4)
+    ax.set_xlabel(panel.xlabel)
+    ax.set_ylabel(panel.ylabel)
+    ax.grid(True, lw=0.5, alpha=0.6)
+    if not panel.path and panel.curves and panel.xlabel.startswith("t"):
+        ax.set_xlim(panel.curves[0].x[0], panel.curves[0].x[-1])
+    if panel.legend:  # above the axes: never on the data
+        ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=min(len(panel.curves), 5),
+                  frameon=False, fontsize="small", borderaxespad=0.2, handlelength=1.8)
+
+
+def figure(res: SimulationResult, *, panels: Sequence[str] | None = None,
+           outputs: Sequence[str] | None = None, dense_curves: bool = True) -> Figure:
+    """The report figure of a run: the panels of the kinds asked for (default: all)."""
+    model = res.model
+    if model is None:
+        raise ValueError("this result does not know its model: plot a result of simulate()")
+    kinds = tuple(panels) if panels is not None else PANEL_KINDS
+    unknown = [k for k in kinds if k not in PANEL_KINDS]
+    if unknown:
+        raise ValueError(f"unknown panel kind(s) {unknown}; choose from {', '.join(PANEL_KINDS)}")
+    run = dense(res) if dense_curves else res
+    labels = Labels(model)
+    state = state_panels(model, run, labels) if "state" in kinds else []
+    drawn = output_panels(model, run, labels, selected_outputs(model, outputs), kinds)
+    if not state and not drawn:
+        raise ValueError("nothing to draw: no panel of the kinds asked for has data")
+    title = f"{model.name} ({run.method}, rtol {run.rtol:g}, atol {run.atol:g})"
+    return draw(state, drawn, title)
+
+
+def plot_result(res: SimulationResult, path: str | os.PathLike | None = None,
+                **options: Any) -> Figure:
+    """figure(), written to PATH (PNG, PDF, SVG) when given."""
+    fig = figure(res, **options)
+    if path is not None:
+        fig.savefig(path, dpi=DPI)
+    return fig
