@@ -2,8 +2,9 @@
 multipliers.
 
 Written from the format spec alone; it shares nothing with nemc's derivation but the validated
-model (``nemc.front.validate.load_mechanism``). The tree's M(q) and f(t, q, u) come from the Lagrangian
-derivation of tests/reference.py (``ReferenceModel``, over every tree coordinate: a driven one
+model (``nemc.front.validate.load_mechanism``). The tree's M(q) and f(t, q, u) come from the
+Lagrangian derivation of tests/reference.py (``ReferenceModel``, over every tree coordinate: a
+driven one
 is an ordinary coordinate there). On top of it, written here:
 
 - the constraint equations Phi(q, t) = 0 from the positions the reference's own kinematics

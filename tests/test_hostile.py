@@ -289,7 +289,8 @@ def test_large_file_is_handled_in_bounded_time_and_memory(name: str, tmp_path: P
     data, where = generated_cases()[name]
     file = tmp_path / f"{name}.yaml"
     file.write_bytes(data)
-    code = ("import resource, sys, time; from nemc.tools.cli import main; start = time.perf_counter();"
+    code = ("import resource, sys, time; from nemc.tools.cli import main; "
+            "start = time.perf_counter();"
             " status = main(['check', sys.argv[1]]); print(status, time.perf_counter() - start,"
             " resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.__stdout__)")
     done = subprocess.run([sys.executable, "-c", code, str(file)], capture_output=True,
@@ -310,7 +311,8 @@ def test_large_file_is_handled_in_bounded_time_and_memory(name: str, tmp_path: P
 def test_real_exit_status_and_no_traceback(stem: str, tmp_path: Path) -> None:
     file = HOSTILE / f"{stem}.yaml"
     out = tmp_path / "out"
-    done = subprocess.run([sys.executable, "-m", "nemc.tools.cli", "compile", str(file), "-o", str(out)],
+    done = subprocess.run([sys.executable, "-m", "nemc.tools.cli", "compile", str(file),
+                           "-o", str(out)],
                           capture_output=True, text=True, timeout=120, cwd=tmp_path,
                           env={**os.environ, "PYTHONPATH": str(ROOT),
                                "NEMC_CACHE": str(tmp_path / "cache")})

@@ -219,7 +219,8 @@ def test_the_plan_of_grids_and_random_draws(model):
 
 
 def test_core_nemc_imports_none_of_the_sweep_extra():
-    code = ("import sys, nemc, nemc.tools.sweeps, nemc.tools.cli; heavy = {'xarray', 'dask', 'distributed',"
+    code = ("import sys, nemc, nemc.tools.sweeps, nemc.tools.cli; "
+            "heavy = {'xarray', 'dask', 'distributed',"
             " 'zarr', 'tqdm', 'h5netcdf'} & set(sys.modules); assert not heavy, heavy")
     subprocess.run([sys.executable, "-c", code], check=True)
 

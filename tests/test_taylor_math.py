@@ -82,7 +82,8 @@ Run = Callable[[str, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 @pytest.fixture(scope="module")
 def kernels(tmp_path_factory: pytest.TempPathFactory) -> Run:
-    """The functions as the builds instantiate them (nemc.emit.source.taylor_math), in a cffi module:
+    """The functions as the builds instantiate them (nemc.emit.source.taylor_math), in a cffi
+    module:
     run("one_sincos" | "four_log2" | ..., x) -> (out, out2)."""
     folder = tmp_path_factory.mktemp("taylor_math")
     cdef = "".join(f"void {width}_{f}(int, const double *, double *, double *);"
