@@ -3,8 +3,7 @@
 `python benchmarks/baseline.py MECHANISM.yaml FOLDER` derives M(q) and f(t, q, dq) (nemc's own
 `nemc.derive.equations.derive` when it still exposes them, else the independent Lagrangian
 derivation of tests/reference.py), folds the parameters to their defaults and writes, one file
-per variant as
-soon as it is done, the Python source that `sympy.lambdify` generated:
+per variant as soon as it is done, the Python source that `sympy.lambdify` generated:
 
 - `cse.json`:      lambdify(args, [M, f], cse=...)   (mass-matrix form; numpy.linalg.solve)
 - `plain.json`:    lambdify(args, [M, f])            (the same without CSE)

@@ -4,8 +4,7 @@ multipliers.
 Written from the format spec alone; it shares nothing with nemc's derivation but the validated
 model (``nemc.front.validate.load_mechanism``). The tree's M(q) and f(t, q, u) come from the
 Lagrangian derivation of tests/reference.py (``ReferenceModel``, over every tree coordinate: a
-driven one
-is an ordinary coordinate there). On top of it, written here:
+driven one is an ordinary coordinate there). On top of it, written here:
 
 - the constraint equations Phi(q, t) = 0 from the positions the reference's own kinematics
   (``reference.body_frames``) gives the constraint points:
