@@ -10,6 +10,7 @@ from __future__ import annotations
 import ast
 import dataclasses
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -375,3 +376,232 @@ def test_every_subpackage_is_in_the_wheel() -> None:
     found = {"nemc", *(".".join(init.parent.relative_to(root.parent).parts)
                        for init in root.rglob("*/__init__.py"))}
     assert found <= listed, f"not in pyproject.toml's packages: {sorted(found - listed)}"
+
+
+# A joint kind of two degrees of freedom added the way docs/architecture.md says: a pin that
+# slides in a slot of its parent and turns in it (coordinates: the slide s along `axis` and the
+# relative angle th). The articulated-body algorithm projects it through its two axes (D is
+# 2 x 2); its slide axis moves with the parent and its pin axis with the child, so it says its
+# own bias acceleration.
+PIN_IN_SLOT = """\
+name: pin_in_slot
+parameters: {g: 9.81, k: 3.0}
+gravity: [0, -g]
+bodies:
+  slider: {mass: 0.7, inertia: 0.05, com: [0.1, -0.2], points: {P: [0.3, -0.4]}}
+  link: {mass: 1.3, inertia: 0.2, com: [0.5, 0.1], points: {E: [1, 0]}}
+joints:
+  A: {type: pin_in_slot, parent: ground, child: slider, coordinates: [s, th], axis: [2, 1]}
+  B: {type: revolute, parent: slider, child: link, at: P, coordinate: q}
+loads:
+  - spring: {a: link.E, b: {body: ground, at: [0, 1]}, k: k, length: 0.5}
+outputs:
+  energy: true
+simulation:
+  t_span: [0, 3]
+  initial: {s: 0.2, th: 0.4, q: -0.7, dot(s): 0.3, dot(th): -1.0, dot(q): 0.5}
+"""
+
+
+def pin_in_slot_kind() -> type[Joint]:
+    from nemc.kinds.spatial import add, cross_motion, scale, unit
+
+    @dataclasses.dataclass(frozen=True)
+    class PinInSlot(Joint):
+        type = "pin_in_slot"
+        keys = ("at", "coordinates", "axis")
+        coordinate_key = "coordinates"
+        coordinate_kinds = ("length", "angle")
+        axis: tuple = (sympy.S.One, sympy.S.Zero)
+
+        @classmethod
+        def read(cls, read):
+            return read.fields(at=read.parent_point("at"), axis=read.axis("axis"))
+
+        def slide_point(self, s):
+            ux, uy = unit(self.axis)
+            return self.at[0] + ux * s, self.at[1] + uy * s
+
+        def place(self, parent, q):
+            return parent.angle + q[1], parent.point(self.slide_point(q[0]))
+
+        def origin_velocity(self, parent, q, u):
+            along = scale(parent.rotate(unit(self.axis)), u[0])
+            return add(parent.velocity(self.slide_point(q[0])), along)
+
+        def motion_subspace(self, parent, child_origin, parent_velocity, u):
+            ax, ay = parent.names(parent.rotate(unit(self.axis)))
+            px, py = child_origin
+            zero, one = sympy.S.Zero, sympy.S.One
+            return [(zero, ax, ay), (one, py, -px)], [u[0], u[1]]
+
+        def bias_acceleration(self, velocity, relative, axes, rates):
+            """v x (S rates) takes both axes as moving with the child; the slide's moves with
+            the parent: less (pin axis th') x (slide axis s')."""
+            pin, slide = scale(axes[1], rates[1]), scale(axes[0], rates[0])
+            return add(cross_motion(velocity, relative), scale(cross_motion(pin, slide), -1))
+
+    return PinInSlot
+
+
+def evaluate(program, values: dict) -> np.ndarray:
+    """The program's results at these symbol values (step by step, as the C computes them)."""
+    known = dict(values)
+    for name, expr in program.assignments():
+        known[name] = sympy.Float(expr.xreplace(known).evalf(30), 30)
+    return np.array([float(result.xreplace(known)) for result in program.results])
+
+
+def test_a_joint_kind_of_two_degrees_of_freedom_is_projected_generally(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from nemc.derive.articulated import dynamics_program
+    from nemc.derive.equations import mass_and_forcing, runtime_values
+    from nemc.front import mechanism as m
+
+    monkeypatch.setitem(JOINT_KINDS, "pin_in_slot", pin_in_slot_kind())
+    mech = validate_text(PIN_IN_SLOT.encode(), "pin_in_slot.yaml")
+    articulated = dynamics_program(mech, runtime_values(mech))
+    mass, forcing = mass_and_forcing(mech)  # Newton-Euler from the placement alone
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        values = {m.symbol("g"): 9.81, m.symbol("k"): 3.0}
+        values.update({symbol: rng.uniform(-1.5, 1.5) for name in mech.coordinates
+                       for symbol in (m.symbol(name), m.rate_symbol(name))})
+        expected = np.linalg.solve(np.array(mass.xreplace(values), dtype=float),
+                                   np.array(forcing.xreplace(values), dtype=float).ravel())
+        np.testing.assert_allclose(evaluate(articulated, values), expected, rtol=1e-12,
+                                   atol=1e-12)
+    monkeypatch.setenv("NEMC_CACHE", str(tmp_path / "cache"))
+    path = tmp_path / "pin_in_slot.yaml"
+    path.write_text(PIN_IN_SLOT)
+    result = nemc.compile(path).simulate(method="nemc.Vern9", rtol=1e-11, atol=1e-12)
+    assert result.success, result.message
+    energy = result.outputs["energy.total"]  # conservative: gravity and a spring
+    assert np.ptp(energy) < 1e-8 * abs(energy).max()
+
+
+# A constraint kind whose Jacobian has a bare parameter (a gear pair: ratio * angle(a) =
+# angle(b), its derivative by angle(a) is `ratio` itself); it says how its multiplier acts on
+# the two bodies (couples ratio * lambda and -lambda), which is not a reaction at a point.
+GEARS = """\
+name: gears
+parameters: {ratio: 2.0, tau: 1.0}
+bodies:
+  pinion: {mass: 1, inertia: 0.5}
+  wheel: {mass: 2, inertia: 1.5}
+joints:
+  A: {type: revolute, parent: ground, child: pinion, coordinate: q1}
+  B: {type: revolute, parent: ground, child: wheel, at: [3, 0], coordinate: q2}
+constraints:
+  mesh: {type: angle_ratio, a: pinion.origin, b: wheel.origin, ratio: ratio}
+loads:
+  - {torque: tau, body: pinion}
+simulation:
+  t_span: [0, 2]
+  initial: {q1: 0.4}
+  guess: {q2: 0.8}
+"""
+
+
+def angle_ratio_kind() -> type[Constraint]:
+    @dataclasses.dataclass(frozen=True)
+    class AngleRatio(Constraint):
+        type = "angle_ratio"
+        keys = ("ratio",)
+        equations_count = 1
+        ratio: sympy.Expr = sympy.S.One
+
+        @classmethod
+        def read(cls, read):
+            return read.fields(ratio=read.fixed("ratio", sympy.S.One))
+
+        def equations(self, a, b):
+            return [self.ratio * a.angle - b.angle]
+
+        def act(self, sink, a, b, multipliers):
+            sink.couple(self.a.body, self.ratio * multipliers[0])
+            sink.couple(self.b.body, -multipliers[0])
+
+    return AngleRatio
+
+
+def test_a_constraint_with_a_bare_parameter_in_its_jacobian_assembles_and_runs(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """check_assembly once crashed on it ('float' object has no attribute 'xreplace'); the
+    pinion's acceleration is tau / (I1 + ratio^2 I2) in closed form."""
+    from nemc.derive.assembly import check_assembly
+
+    monkeypatch.setitem(CONSTRAINT_KINDS, "angle_ratio", angle_ratio_kind())
+    assembly = check_assembly(validate_text(GEARS.encode(), "gears.yaml"))
+    assert assembly.freedom == 1 and assembly.coordinates["q2"] == pytest.approx(0.8)
+    monkeypatch.setenv("NEMC_CACHE", str(tmp_path / "cache"))
+    path = tmp_path / "gears.yaml"
+    path.write_text(GEARS)
+    times = np.linspace(0, 2, 9)
+    result = nemc.compile(path).simulate(method="nemc.Vern9", rtol=1e-11, atol=1e-12,
+                                         t_eval=times)
+    assert result.success, result.message
+    q1 = 0.4 + 0.5 * 1.0 / (0.5 + 2.0**2 * 1.5) * times**2
+    np.testing.assert_allclose(result.y[0], q1, rtol=1e-9, atol=1e-10)
+    np.testing.assert_allclose(result.y[2], 2.0 * result.y[0], rtol=1e-9, atol=1e-10)
+
+
+def own_fields(kind: type, base: type) -> set[str]:
+    """The fields a kind declares beyond its registry's base class (and its location)."""
+    return ({f.name for f in dataclasses.fields(kind)}
+            - {f.name for f in dataclasses.fields(base)} - {"loc"})
+
+
+def spy_on_kind_fields(monkeypatch: pytest.MonkeyPatch) -> set[tuple[str, str, str]]:
+    """Record (kind, field, file) of every read of a kind's own field from a module of nemc
+    other than the kind's own (or a kind's it extends: a prismatic constraint is a slot) and
+    nemc/kinds/terms.py's generic expression mapping."""
+    readers: set[tuple[str, str, str]] = set()
+    terms = str(KINDS / "terms.py")
+    for table, base in ((JOINT_KINDS, Joint), (LOAD_KINDS, Load), (CONSTRAINT_KINDS, Constraint)):
+        for kind in table.values():
+            watched = own_fields(kind, base)
+            homes = {str(Path(sys.modules[cls.__module__].__file__).resolve())
+                     for cls in kind.__mro__ if issubclass(cls, base)} | {terms}
+
+            def spying(self, name, kind=kind, watched=watched, homes=homes):
+                if name in watched:
+                    caller = str(Path(sys._getframe(1).f_code.co_filename).resolve())
+                    if caller.startswith(str(NEMC)) and caller not in homes:
+                        readers.add((kind.__name__, name, caller))
+                return object.__getattribute__(self, name)
+
+            monkeypatch.setattr(kind, "__getattribute__", spying)
+    return readers
+
+
+def test_a_kinds_own_fields_are_read_in_its_module_alone(monkeypatch: pytest.MonkeyPatch
+                                                         ) -> None:
+    """Every stage asks a kind (its methods) rather than reading what it holds: through the
+    whole pipeline of every example (validate, assemble, derive with every part, emit, show),
+    a kind's own fields are read only in its module (and by the generic expression mapping of
+    nemc/kinds/terms.py, and Python's dataclass machinery)."""
+    from nemc.derive.assembly import check_assembly
+    from nemc.derive.equations import with_jacobian, with_mass_matrix
+    from nemc.tools.show import show
+
+    readers = spy_on_kind_fields(monkeypatch)
+    for path in sorted(EXAMPLES.glob("*.yaml")):
+        mech = validate_text(path.read_bytes(), path.name)
+        check_assembly(mech)
+        eqs = with_mass_matrix(with_taylor(with_jacobian(with_diagnostics(derive(mech)))))
+        emit(eqs, optimize_equations(eqs), lanes=4)
+        show(mech)
+    assert sorted(readers) == []
+
+
+def test_the_field_check_finds_a_reader(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The check above can fail: a stage's line reading a spring's stiffness is caught (code
+    compiled as if it stood in nemc/derive/outputs.py), the spring's own module is not."""
+    mech = validate_text((EXAMPLES / "damped_spring_pendulum.yaml").read_bytes(), "d.yaml")
+    spring = mech.loads[0]
+    readers = spy_on_kind_fields(monkeypatch)
+    outputs = str(NEMC / "derive" / "outputs.py")
+    eval(compile("spring.k", outputs, "eval"), {"spring": spring})  # noqa: S307
+    spring.potential  # the kind's own method object: no field read  # noqa: B018
+    assert readers == {("Spring", "k", outputs)}

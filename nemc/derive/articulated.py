@@ -40,10 +40,12 @@ from ..kinds.spatial import (
     V3,
     ZERO3,
     add,
+    couple,
     cross_force,
     dot,
     mat_vec,
     point_force,
+    point_velocity,
     rigid_inertia,
     scale,
 )
@@ -88,10 +90,11 @@ class Geometry:
 
 class ProgramFrame:
     """A body's pose for the joints and loads acting in the articulated-body algorithm
-    (joints.base.Frame): every value it makes is named in the program."""
+    (nemc/kinds/contract.py Frame): every value it makes is named in the program. motion: the
+    body's spatial velocity, where the algorithm has computed it."""
 
-    def __init__(self, geo: Geometry, body: str):
-        self.geo, self.body = geo, body
+    def __init__(self, geo: Geometry, body: str, motion: V3 | None = None):
+        self.geo, self.body, self.motion = geo, body, motion
 
     @property
     def angle(self) -> Expr:
@@ -108,7 +111,9 @@ class ProgramFrame:
         return self.geo.point(self.body, xy)
 
     def velocity(self, xy: Sequence[Expr]) -> V2:
-        raise NotImplementedError("the articulated-body algorithm uses spatial velocities")
+        if self.motion is None:
+            raise NotImplementedError("no velocities here: the positions' program")
+        return point_velocity(self.motion, self.point(xy))
 
     def name(self, expr: Expr) -> Expr:
         return self.geo.prog.let(expr)
@@ -151,9 +156,9 @@ class Node:
     inertia: M3 | None = None  # articulated inertia, accumulated from the children
     bias_force: V3 = ZERO3  # p^A, accumulated from the children
     loads: list[V3] = field(default_factory=list)
-    u_vector: V3 = ZERO3  # U = I^A S
-    d_inverse: Expr = sympy.S.Zero  # 1 / (S^T I^A S)
-    u_force: Expr = sympy.S.Zero  # u = -S^T p^A
+    u_vectors: list[V3] = field(default_factory=list)  # U = I^A S, a column per axis
+    d_inverse: list[list[Expr]] = field(default_factory=list)  # D^-1 = (S^T I^A S)^-1
+    u_forces: list[Expr] = field(default_factory=list)  # u = -S^T p^A
     acceleration: V3 = ZERO3  # its body's spatial acceleration (pass 3)
 
 
@@ -193,10 +198,15 @@ class ArticulatedBody:
             prescribed = sympy.S.Zero if self.at_rest else self.motions[joint.coordinates[0]][2]
         self.nodes[joint.child] = Node(joint, parent, [joint.child], status, prescribed)
 
-    # -- what joints and loads acting here use (loads.base.ArticulatedLoads) --------------
+    # -- what joints and loads acting here use (nemc/kinds/contract.py: LoadView, LoadSink,
+    #    SpatialSink) ------------------------------------------------------------------------
 
     def frame(self, body: str) -> ProgramFrame:
-        return ProgramFrame(self.geo, body)
+        """Its pose; its velocities once pass 1 has computed them (loads act after it)."""
+        return ProgramFrame(self.geo, body, self.velocity(body))
+
+    def angular_velocity(self, body: str) -> Expr:
+        return self.velocity(body)[0]
 
     def joint(self, name: str) -> Joint:
         return self.joints[name]
@@ -224,6 +234,16 @@ class ArticulatedBody:
     def apply_at(self, body: str, at: Sequence[Expr], force: Sequence[Expr]) -> None:
         self.apply(body, point_force(at, force))
 
+    def force(self, body: str, xy: Sequence[Expr], force: Sequence[Expr],
+              at: Sequence[Expr] | None = None) -> None:
+        self.apply_at(body, self.geo.point(body, xy) if at is None else at, force)
+
+    def couple(self, body: str, torque: Expr) -> None:
+        self.apply(body, couple(torque))
+
+    def tension(self, joint: Joint, displacement: Expr, tension: Expr) -> None:
+        joint.joint_load(self, self.frame(joint.parent), self.geo.origin[joint.child], tension)
+
     # -- pass 1: velocities ---------------------------------------------------------------
 
     def _motion(self, node: Node) -> None:
@@ -231,15 +251,12 @@ class ArticulatedBody:
         speeds = [self.speed(c) for c in joint.coordinates]
         node.axes, node.rates = joint.motion_subspace(self.frame(joint.parent),
                                              self.geo.origin[joint.child], parent_v, speeds)
-        if len(node.axes) > 1 and not joint.floating:
-            raise NotImplementedError(f"{joint.type} joint {joint.name}: the articulated-body "
-                                      "algorithm here projects joints of one degree of freedom")
         relative = ZERO3
         for axis, rate in zip(node.axes, node.rates):
             relative = add(relative, scale(axis, rate))
         node.velocity = self.prog.lets(add(parent_v, relative))  # type: ignore[assignment]
         node.bias_acceleration = self.prog.lets(  # type: ignore[assignment]
-            joint.bias_acceleration(node.velocity, relative, node.rates))  # type: ignore
+            joint.bias_acceleration(node.velocity, relative, node.axes, node.rates))  # type: ignore
 
     # -- loads ----------------------------------------------------------------------------
 
@@ -249,7 +266,7 @@ class ArticulatedBody:
             mass = self.value(body.mass)
             self.apply_at(body.name, self.geo.point(body.name, body.com), (mass * gx, mass * gy))
         for load in self.mech.loads:
-            load.map_expressions(self.value).act(self)
+            load.map_expressions(self.value).act(self, self)
 
     def generalized_forces(self, forces: Sequence[Expr]) -> None:
         """Loads equivalent to generalized forces Q on the coordinates (in file order)."""
@@ -282,8 +299,10 @@ class ArticulatedBody:
         return tuple(tuple(upper[min(i, j), max(i, j)] for j in range(3)) for i in range(3))  # type: ignore
 
     def _articulate(self, node: Node) -> None:
-        """Project the node's articulated inertia through its joint (1 degree of freedom), or
-        for a driven joint hand it whole to the parent with its prescribed motion's bias."""
+        """Project the node's articulated inertia through its joint's motion subspace S (k
+        axes): U = I^A S, D = S^T U, u = -S^T p^A, and pass I^A - U D^-1 U^T and
+        p^A + I^a c + U D^-1 u to the parent; for a driven joint hand the inertia whole to the
+        parent with its prescribed motion's bias."""
         node.inertia = self._symmetric(node.inertia)  # type: ignore[arg-type]
         node.bias_force = self.prog.lets(node.bias_force)  # type: ignore[assignment]
         if node.prescribed is not None:
@@ -292,23 +311,23 @@ class ArticulatedBody:
                 self._pass_to_parent(node, node.inertia,
                                      add(node.bias_force, mat_vec(node.inertia, moving)))
             return
-        axis = node.axes[0]
-        node.u_vector = self.prog.lets(mat_vec(node.inertia, axis))  # type: ignore[assignment]
-        d = self.prog.let(dot(axis, node.u_vector))
-        self.prog.require_positive(d, node.status)
-        node.d_inverse = self.prog.let(1 / d)
-        node.u_force = self.prog.let(-dot(axis, node.bias_force))
+        node.u_vectors = [self.prog.lets(mat_vec(node.inertia, axis))  # type: ignore[misc]
+                          for axis in node.axes]
+        size = len(node.axes)
+        d = {(i, j): self.prog.let(dot(node.axes[i], node.u_vectors[j]))
+             for i in range(size) for j in range(i, size)}
+        node.d_inverse = inverse_symmetric(self.prog, d, size, node.status)
+        node.u_forces = [self.prog.let(-dot(axis, node.bias_force)) for axis in node.axes]
         if node.parent == m.GROUND:
             return
-        u_vec, d_inv = node.u_vector, node.d_inverse
         passed = tuple(
-            tuple(node.inertia[i][j] - u_vec[i] * u_vec[j] * d_inv for j in range(3))
+            tuple(node.inertia[i][j] - projected(node.u_vectors, node.d_inverse, i, j)
+                  for j in range(3))
             for i in range(3)
         )
         passed = self._symmetric(passed)  # type: ignore[arg-type]
         force = add(node.bias_force, mat_vec(passed, node.bias_acceleration))  # type: ignore
-        force = add(force, scale(u_vec, node.u_force * d_inv))
-        self._pass_to_parent(node, passed, force)
+        self._pass_to_parent(node, passed, with_articulated_force(node, node.u_forces, force))
 
     def _pass_to_parent(self, node: Node, inertia: M3, force: Sequence[Expr]) -> None:
         parent = self.nodes[node.parent]
@@ -324,13 +343,25 @@ class ArticulatedBody:
             return self._root_accelerations(node, accel)
         parent_a = ZERO3 if node.parent == m.GROUND else accel[node.parent]
         base = add(parent_a, node.bias_acceleration)
-        axis = node.axes[0]
         if node.prescribed is not None:
-            accel[node.joint.child] = self.prog.lets(add(base, scale(axis, node.prescribed)))  # type: ignore
+            moving = add(base, scale(node.axes[0], node.prescribed))
+            accel[node.joint.child] = self.prog.lets(moving)  # type: ignore[assignment]
             return []
-        joint_acc = self.prog.let((node.u_force - dot(node.u_vector, base)) * node.d_inverse)
-        accel[node.joint.child] = self.prog.lets(add(base, scale(axis, joint_acc)))  # type: ignore
-        return node.joint.coordinate_accelerations([joint_acc], accel[node.joint.child])
+        return self._joint_accelerations(node, node.u_forces, base, accel)
+
+    def _joint_accelerations(self, node: Node, u_forces: Sequence[Expr], base: V3,
+                             accel: dict[str, V3]) -> list[Expr]:
+        """qdd_S = D^-1 (u - U^T a'), the child's acceleration a' + S qdd_S (into accel), and
+        the joint's coordinates' accelerations from them (a' = the parent's plus the bias)."""
+        rest = [u - dot(u_vector, base) for u, u_vector in zip(u_forces, node.u_vectors)]
+        joint_acc = [self.prog.let(sum((row[b] * rest[b] for b in range(len(rest))),
+                                       sympy.S.Zero))
+                     for row in node.d_inverse]
+        moving = base
+        for axis, acc in zip(node.axes, joint_acc):
+            moving = add(moving, scale(axis, acc))  # type: ignore[assignment]
+        accel[node.joint.child] = self.prog.lets(moving)  # type: ignore[assignment]
+        return node.joint.coordinate_accelerations(joint_acc, accel[node.joint.child])
 
     def _root_accelerations(self, node: Node, accel: dict[str, V3]) -> list[Expr]:
         """A root node: I^A a = -p^A gives its spatial acceleration a directly."""
@@ -351,14 +382,14 @@ class ArticulatedBody:
         multiplier of the constraint's equation alone, at rest: M^-1 Phi_q^T e_k for the tree
         with its driven joints held (and what their drives must add). Reuses the articulated
         inertias of the main passes (run first)."""
-        sink = PassLoads(self.node_of)
+        sink = PassLoads(self.node_of, self.geo.point)
         unit = [sympy.S.One if j == equation else sympy.S.Zero
                 for j in range(constraint.equations_count)]
         constraint.map_expressions(self.value).act(
             sink, self.frame(constraint.a.body), self.frame(constraint.b.body), unit)
         order = list(self.nodes.values())
         bias = {node.joint.child: scale(sink.total(node.joint.child), -1) for node in order}
-        u_force: dict[str, Expr] = {}
+        u_forces: dict[str, list[Expr]] = {}
         for node in reversed(order):
             child = node.joint.child
             bias[child] = self.prog.lets(bias[child])
@@ -366,10 +397,10 @@ class ArticulatedBody:
                 continue
             passed = bias[child]
             if node.prescribed is None:
-                u_force[child] = self.prog.let(-dot(node.axes[0], bias[child]))
+                u_forces[child] = [self.prog.let(-dot(axis, bias[child])) for axis in node.axes]
                 if node.parent == m.GROUND:
                     continue
-                passed = add(passed, scale(node.u_vector, u_force[child] * node.d_inverse))
+                passed = with_articulated_force(node, u_forces[child], passed)
             bias[node.parent] = add(bias[node.parent], passed)
         qdd: dict[str, Expr] = {}
         drives: dict[str, Expr] = {}
@@ -386,11 +417,8 @@ class ArticulatedBody:
                 accel[child] = base
                 drives[node.joint.name] = self._drive(node, base, bias[child])
             else:
-                joint_acc = self.prog.let((u_force[child] - dot(node.u_vector, base))
-                                          * node.d_inverse)
-                accel[child] = self.prog.lets(add(base, scale(node.axes[0], joint_acc)))  # type: ignore
                 qdd.update(zip(node.joint.coordinates,
-                               node.joint.coordinate_accelerations([joint_acc], accel[child])))
+                               self._joint_accelerations(node, u_forces[child], base, accel)))
         return ([qdd[c] for c in self.mech.coordinates],
                 [drives[joint.name] for joint in self.mech.driven])
 
@@ -435,10 +463,11 @@ class ArticulatedBody:
 
 
 class PassLoads:
-    """The loads of one unit pass, by node (a LoadSink for Joint.generalized_load)."""
+    """The loads of one unit pass, by node: a constraint's reaction (LoadSink) or generalized
+    forces (SpatialSink, Joint.generalized_load)."""
 
-    def __init__(self, node_of: dict[str, str]):
-        self.node_of = node_of
+    def __init__(self, node_of: dict[str, str], point: Callable[[str, Sequence[Expr]], V2]):
+        self.node_of, self.point = node_of, point
         self.loads: dict[str, list[V3]] = {}
 
     def apply(self, body: str, force: V3) -> None:
@@ -449,11 +478,67 @@ class PassLoads:
     def apply_at(self, body: str, at: Sequence[Expr], force: Sequence[Expr]) -> None:
         self.apply(body, point_force(at, force))
 
+    def force(self, body: str, xy: Sequence[Expr], force: Sequence[Expr],
+              at: Sequence[Expr] | None = None) -> None:
+        self.apply_at(body, self.point(body, xy) if at is None else at, force)
+
+    def couple(self, body: str, torque: Expr) -> None:
+        self.apply(body, couple(torque))
+
+    def tension(self, joint: Joint, displacement: Expr, tension: Expr) -> None:
+        raise NotImplementedError("a unit pass carries a constraint's reaction, no tension")
+
     def total(self, node: str) -> V3:
         total = ZERO3
         for force in self.loads.get(node, []):
             total = add(total, force)  # type: ignore[assignment]
         return total
+
+
+def projected(u_vectors: Sequence[V3], d_inverse: Sequence[Sequence[Expr]], i: int, j: int
+              ) -> Expr:
+    """(U D^-1 U^T)[i][j]."""
+    size = len(u_vectors)
+    return sum((u_vectors[a][i] * d_inverse[a][b] * u_vectors[b][j]
+                for a in range(size) for b in range(size)), sympy.S.Zero)
+
+
+def with_articulated_force(node: Node, u_forces: Sequence[Expr], force: Sequence[Expr]
+                           ) -> tuple[Expr, ...]:
+    """force + U D^-1 u: what the joint's own forces u add to what its node passes on."""
+    for a, u_vector in enumerate(node.u_vectors):
+        weight = sum((node.d_inverse[a][b] * u for b, u in enumerate(u_forces)), sympy.S.Zero)
+        force = add(force, scale(u_vector, weight))
+    return tuple(force)
+
+
+def inverse_symmetric(prog: ProgramBuilder, d: dict[tuple[int, int], Expr], size: int,
+                      status: int) -> list[list[Expr]]:
+    """D^-1 of a symmetric positive definite SIZE x SIZE matrix D (its upper triangle d), by
+    LDL^T with guarded pivots (a joint's projected inertia: 1 x 1 for one degree of freedom,
+    where it is 1 / d, k x k for a joint of k)."""
+    low = [[sympy.S.Zero] * size for _ in range(size)]
+    pivots = [sympy.S.Zero] * size
+    for j in range(size):
+        pivot = prog.let(d[j, j] - sum((low[j][k] ** 2 * pivots[k] for k in range(j)),
+                                       sympy.S.Zero))
+        prog.require_positive(pivot, status)
+        pivots[j] = pivot
+        for i in range(j + 1, size):
+            entry = d[j, i] - sum((low[i][k] * low[j][k] * pivots[k] for k in range(j)),
+                                  sympy.S.Zero)
+            low[i][j] = prog.let(entry / pivot)
+    columns = []
+    for column in range(size):
+        z = [sympy.S.One if i == column else sympy.S.Zero for i in range(size)]
+        for i in range(size):
+            z[i] = prog.let(z[i] - sum((low[i][k] * z[k] for k in range(i)), sympy.S.Zero))
+        x = [prog.let(z[i] / pivots[i]) for i in range(size)]
+        for i in reversed(range(size)):
+            x[i] = prog.let(x[i] - sum((low[k][i] * x[k] for k in range(i + 1, size)),
+                                       sympy.S.Zero))
+        columns.append(x)
+    return [[columns[b][a] for b in range(size)] for a in range(size)]
 
 
 def solve_symmetric(prog: ProgramBuilder, a: M3, b: V3, status: int) -> V3:

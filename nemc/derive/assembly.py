@@ -79,9 +79,13 @@ def numeric_loops(mech: m.Mechanism):
     defaults = dict(zip(values.runtime_symbols, values.runtime_defaults))
     t0 = (mech.simulation.t_span or (0.0, 0.0))[0]
 
+    at_start = {**{symbol: sympy.Float(value) for symbol, value in defaults.items()},
+                m.TIME: sympy.Float(t0)}
+
     def number(expr: sympy.Expr) -> sympy.Expr:
-        return sympy.sympify(expr).xreplace(values.substitutions).xreplace(defaults).xreplace(
-            {m.TIME: t0})
+        """EXPR at the defaults and t0 (a bare symbol's xreplace gives its value as it is
+        mapped: a sympy number, never a Python float)."""
+        return sympy.sympify(expr).xreplace(values.substitutions).xreplace(at_start)
 
     from .equations import with_motions
 

@@ -152,19 +152,19 @@ def newton_euler(mech: m.Mechanism, kin: Kinematics) -> tuple[sympy.Matrix, symp
         jv, jw = kin.partials(v_c), kin.partials(omega)
         for k in range(n):
             residual[k] += jv[k].dot(body.mass * a_c) + jw[k] * body.inertia * alpha
-    forces, couples, generalized = applied_loads(mech, kin)
-    for load in forces:
+    applied = applied_loads(mech, kin)
+    for load in applied.forces:
         jv = kin.partials(kin.rate(kin.position(load.body, load.xy)))
         for k in range(n):
             residual[k] -= jv[k].dot(load.force)
-    for body, torque in couples:
+    for body, torque in applied.couples:
         if body != m.GROUND:
             jw = kin.partials(kin.rate(kin.angle(body)))
             for k in range(n):
                 residual[k] -= jw[k] * torque
-    for rel, tension in generalized:
+    for across in applied.tensions:
         for k in range(n):
-            residual[k] -= sympy.diff(rel, kin.q[k]) * tension
+            residual[k] -= sympy.diff(across.displacement, kin.q[k]) * across.tension
     mass = residual.jacobian(kin.qdd)
     forcing = -residual.xreplace({a: sympy.S.Zero for a in kin.qdd})
     return mass, forcing

@@ -2,8 +2,9 @@
 
 A drawing shows each body as the outline through its points (origin, com, named points; a body
 with no named points as a bar from its origin through its mass centre to twice as far), each
-joint where it connects, each spring between its ends and the path of the points the scene
-asks for. Their ground-frame positions are expressions of the coordinates and parameters; the
+joint where it connects, as the joint says it is drawn (Joint.drawing), each load the way it
+says (Load.drawing: a spring between its ends, or on a joint) and the path of the points the
+scene asks for. Their ground-frame positions are expressions of the coordinates and parameters; the
 build compiles them into the model's C (`<name>_positions`, templates/positions.c.tmpl), so a
 picture shows exactly what the compiled model computes. The drawing's structure (which point
 belongs to which body, joint or spring) goes to the build's metadata (`drawing`).
@@ -17,8 +18,6 @@ from dataclasses import dataclass, field
 import sympy
 
 from ..front import mechanism as m
-from ..kinds.joints import Joint
-from ..kinds.loads import Load
 from .kinematics import Kinematics
 
 
@@ -72,55 +71,25 @@ def drawing(mech: m.Mechanism, locate: Locate | None = None) -> Drawing:
         indices = [builder.point(f"{body.name}.{point}", body.name, xy) for point, xy in named]
         builder.drawing.bodies[body.name] = list(dict.fromkeys(indices))
         builder.drawing.coms[body.name] = indices[1]
-    sprung = {name for load in mech.loads if (name := sprung_joint(load)) is not None}
+    drawn = [load.drawing() for load in mech.loads]
+    sprung = {drawing.on_joint for drawing in drawn if drawing.on_joint is not None}
     for joint in mech.joints:
         at = builder.point(f"{joint.parent}.{joint.name}", joint.parent, joint.at)
         child = builder.point(f"{joint.child}.origin", joint.child, (0, 0))
-        entry = {"name": joint.name, "symbol": joint_symbol(joint), "parent": joint.parent,
+        shown = joint.drawing()
+        entry = {"name": joint.name, "symbol": shown.symbol, "parent": joint.parent,
                  "child": joint.child, "at": at, "origin": child, "sprung": joint.name in sprung}
-        axis = rail_axis(joint)
-        if axis is not None:  # a point one length unit along the rail from `at`
+        if shown.axis is not None:  # a point one length unit along the rail from `at`
+            axis = shown.axis
             length = sympy.sqrt(axis[0] ** 2 + axis[1] ** 2)
             ahead = (joint.at[0] + axis[0] / length, joint.at[1] + axis[1] / length)
             entry["axis"] = builder.point(f"{joint.parent}.{joint.name}.axis", joint.parent, ahead)
         builder.drawing.joints.append(entry)
-    for k, load in enumerate(mech.loads):
-        ends = spring_ends(load)
-        if ends is not None:
+    for k, drawing in enumerate(drawn):
+        if drawing.between is not None:
             found = [builder.point(f"loads[{k}].{end}" if ref.body == m.GROUND else ref.label,
-                                   ref.body, ref.xy) for end, ref in zip("ab", ends)]
+                                   ref.body, ref.xy) for end, ref in zip("ab", drawing.between)]
             builder.drawing.springs.append({"a": found[0], "b": found[1], "load": k})
     for ref in mech.outputs.points:
         builder.drawing.traces.append(builder.point(ref.label, ref.body, ref.xy))
     return builder.drawing
-
-
-# What a drawing asks of the joint and load kinds, by what they have, never by their names
-# (the kinds live in nemc/joints/ and nemc/loads/).
-
-
-def joint_symbol(joint: Joint) -> str:
-    """How a joint is drawn: a slider on a rail, a fixed (welded) connection, nothing for a
-    free body, a pin otherwise."""
-    if rail_axis(joint) is not None:
-        return "slider"
-    if joint.merged:
-        return "fixed"
-    return "none" if joint.floating else "pin"
-
-
-def rail_axis(joint: Joint) -> m.Vec2 | None:
-    """The axis (parent frame) a joint slides along, if it slides."""
-    return getattr(joint, "axis", None)
-
-
-def spring_ends(load: Load) -> tuple[m.PointRef, m.PointRef] | None:
-    """The two points a load acts between, if it is one (a spring)."""
-    ends = (getattr(load, "a", None), getattr(load, "b", None))
-    return ends if all(isinstance(end, m.PointRef) for end in ends) else None  # type: ignore
-
-
-def sprung_joint(load: Load) -> str | None:
-    """The joint a load acts across, if it is one (a joint spring)."""
-    joint = getattr(load, "joint", None)
-    return joint if isinstance(joint, str) else None

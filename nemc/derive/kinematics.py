@@ -3,14 +3,15 @@
 Each body's angle and origin are built joint by joint from the ground, each joint placing its
 child (Joint.place, the same placement the articulated-body algorithm uses); velocities and
 accelerations are time derivatives, with the symbols ddot(q) standing for the unknown
-accelerations. Gravity and the loads of the YAML (Load.applied) become point forces, body
-couples and generalized forces.
+accelerations. Kinematics is the LoadView of whole expressions (nemc/kinds/contract.py):
+gravity and the loads of the YAML (each Load.act) become point forces, body couples and
+tensions across joints in a BalanceLoads, as the Newton-Euler balances take them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import sympy
@@ -20,7 +21,6 @@ from ..kinds.spatial import Vec, rotation, vec
 
 if TYPE_CHECKING:
     from ..kinds.joints import Joint
-    from ..kinds.loads import PointForce
 
 
 @dataclass(frozen=True)
@@ -68,6 +68,9 @@ class Kinematics:
 
     def frame(self, body: str) -> SymbolicFrame:
         return SymbolicFrame(self, body)
+
+    def angular_velocity(self, body: str) -> sympy.Expr:
+        return self.rate(self.angle(body))
 
     def joint(self, name: str) -> Joint:
         return self.mech.joint(name)
@@ -178,17 +181,53 @@ def joints_parent_first(joints: Iterable[Joint]) -> list[Joint]:
     return sorted(joints, key=lambda joint: depth[joint.child])
 
 
-def applied_loads(mech: m.Mechanism, kin: Kinematics
-                  ) -> tuple[list[PointForce], list, list]:
-    """Gravity and the YAML's loads as point forces, body couples and generalized forces.
+@dataclass(frozen=True)
+class PointForce:
+    """A force (ground axes) applied at a point fixed in a body (xy: in its frame)."""
 
-    Returns (point forces, couples as (body, torque), generalized forces as (displacement,
-    scalar) pairs whose contribution is scalar * d(displacement)/dq)."""
-    from ..kinds.loads import Applied, PointForce
+    body: str
+    xy: m.Vec2
+    force: Vec  # 2 x 1
 
+
+@dataclass(frozen=True)
+class Tension:
+    """A tension across a joint: equal and opposite loads on its bodies doing power
+    tension * d(displacement)/dt (a generalized force tension * d(displacement)/dq)."""
+
+    joint: Joint
+    displacement: sympy.Expr
+    tension: sympy.Expr
+
+
+@dataclass
+class BalanceLoads:
+    """Loads as the Newton-Euler balances take them (a LoadSink, nemc/kinds/contract.py):
+    point forces, couples (body, torque) and tensions across joints."""
+
+    forces: list[PointForce] = field(default_factory=list)
+    couples: list[tuple[str, sympy.Expr]] = field(default_factory=list)
+    tensions: list[Tension] = field(default_factory=list)
+
+    def force(self, body: str, xy: Sequence[sympy.Expr], force: Sequence[sympy.Expr],
+              at: Sequence[sympy.Expr] | None = None) -> None:
+        if body != m.GROUND:
+            self.forces.append(PointForce(body, tuple(xy), vec(force)))  # type: ignore[arg-type]
+
+    def couple(self, body: str, torque: sympy.Expr) -> None:
+        self.couples.append((body, torque))
+
+    def tension(self, joint: Joint, displacement: sympy.Expr, tension: sympy.Expr) -> None:
+        self.tensions.append(Tension(joint, displacement, tension))
+
+
+def applied_loads(mech: m.Mechanism, kin: Kinematics) -> BalanceLoads:
+    """Gravity and the YAML's loads (each kind's Load.act) as point forces, body couples and
+    tensions across joints."""
+    applied = BalanceLoads()
     g = vec(mech.gravity)
-    applied = Applied(forces=[PointForce(b.name, b.com, b.mass * g) for b in mech.bodies])
+    for body in mech.bodies:
+        applied.force(body.name, body.com, body.mass * g)
     for load in mech.loads:
-        applied.add(load.applied(kin))
-    forces = [f for f in applied.forces if f.body != m.GROUND]
-    return forces, applied.couples, applied.generalized
+        load.act(kin, applied)
+    return applied

@@ -14,13 +14,12 @@ from typing import TYPE_CHECKING
 import sympy
 
 from ..front import mechanism as m
-from ..kinds.loads import PointForce
 
 if TYPE_CHECKING:
     from ..kinds.constraints import Constraint
     from ..kinds.joints import Joint
 from ..kinds.spatial import cross_z, rotation, vec
-from .kinematics import Kinematics, applied_loads
+from .kinematics import BalanceLoads, Kinematics, applied_loads
 
 Named = list[tuple[str, sympy.Expr]]
 
@@ -34,11 +33,12 @@ def subtree(mech: m.Mechanism, root: str) -> set[str]:
     return bodies
 
 
-def joint_reaction(mech: m.Mechanism, kin: Kinematics, joint: Joint,
-                   constraint_forces: list[PointForce], constraint_couples: list,
+def joint_reaction(mech: m.Mechanism, kin: Kinematics, joint: Joint, loads: BalanceLoads,
                    drive: sympy.Expr | None) -> Named:
     """The force of the parent on the child (the drive of a driven joint left out): the
-    Newton-Euler balance of the child's subtree, the loop constraints' forces on it included."""
+    Newton-Euler balance of the child's subtree under LOADS (gravity, the YAML's loads, the loop
+    constraints' reactions). A tension across the joint itself (a joint spring) acts through
+    it: the load's, not the reaction's."""
     inside = subtree(mech, joint.child)
     point = kin.position(joint.child, (0, 0))
     force, moment = sympy.zeros(2, 1), sympy.S.Zero
@@ -48,14 +48,13 @@ def joint_reaction(mech: m.Mechanism, kin: Kinematics, joint: Joint,
         force += body.mass * a_c
         moment += body.inertia * kin.rate(kin.rate(kin.angle(body.name)))
         moment += cross_z(r_c - point, body.mass * a_c)
-    forces, couples, _ = applied_loads(mech, kin)
-    forces, couples = forces + constraint_forces, couples + constraint_couples
-    for load in (f for f in forces if f.body in inside):
+    for load in (f for f in loads.forces if f.body in inside):
         force -= load.force
         moment -= cross_z(kin.position(load.body, load.xy) - point, load.force)
-    moment -= sum((tq for body, tq in couples if body in inside), sympy.S.Zero)
-    for load in mech.loads:
-        through = load.force_through_joint(kin, joint)  # the load's own, not a reaction
+    moment -= sum((tq for body, tq in loads.couples if body in inside), sympy.S.Zero)
+    for across in loads.tensions:
+        through = (joint.spring_force_on_child(kin.angle(joint.parent), across.tension)
+                   if across.joint.name == joint.name else None)
         if through is not None:
             force -= vec(through)
     if drive is not None:  # a drive along the joint's motion is the drive's, not a reaction
@@ -116,19 +115,13 @@ def constraint_reaction(kin: Kinematics, constraint: Constraint,
 
 
 def constraint_loads(mech: m.Mechanism, kin: Kinematics,
-                     multipliers: dict[str, list[sympy.Expr]]) -> tuple[list[PointForce], list]:
-    """Every loop constraint's reaction as loads: on body(a) at point a, its opposite on
-    body(b) at the point of b under a."""
-    forces: list[PointForce] = []
-    couples: list[tuple[str, sympy.Expr]] = []
+                     multipliers: dict[str, list[sympy.Expr]], loads: BalanceLoads) -> None:
+    """Every loop constraint's reaction as loads into LOADS, as the constraint puts them
+    (Constraint.act: on body(a) at point a, its opposite on body(b) at the point of b under
+    a)."""
     for constraint in mech.constraints:
-        frame_a, frame_b = kin.frame(constraint.a.body), kin.frame(constraint.b.body)
-        force, couple = constraint.reaction(frame_a, frame_b, multipliers[constraint.name])
-        contact = constraint.contact_on_b(frame_a, frame_b)  # where Constraint.act puts it
-        forces += [PointForce(constraint.a.body, constraint.a.xy, vec(force)),
-                   PointForce(constraint.b.body, contact, -vec(force))]
-        couples += [(constraint.a.body, couple), (constraint.b.body, -couple)]
-    return [f for f in forces if f.body != m.GROUND], couples
+        constraint.act(loads, kin.frame(constraint.a.body), kin.frame(constraint.b.body),
+                       multipliers[constraint.name])
 
 
 def derive_outputs(mech: m.Mechanism, kin: Kinematics, drives: dict[str, sympy.Expr],
@@ -137,14 +130,14 @@ def derive_outputs(mech: m.Mechanism, kin: Kinematics, drives: dict[str, sympy.E
     drives: the symbol of each driven joint's drive; multipliers: each constraint's."""
     wanted = mech.outputs
     named: Named = []
-    forces, couples = constraint_loads(mech, kin, multipliers)
+    loads = applied_loads(mech, kin)
+    constraint_loads(mech, kin, multipliers, loads)
     constraints = {c.name: c for c in mech.constraints}
     for name in wanted.reactions:
         if name in constraints:
             named += constraint_reaction(kin, constraints[name], multipliers[name])
         else:
-            named += joint_reaction(mech, kin, mech.joint(name), forces, couples,
-                                    drives.get(name))
+            named += joint_reaction(mech, kin, mech.joint(name), loads, drives.get(name))
     named += [(f"{name}.drive", drives[name]) for name in wanted.drives]
     if wanted.energy:
         named += energy(mech, kin)

@@ -5,10 +5,15 @@ its YAML, places bodies and applies loads, without knowing which stage asks.
   it: typed values, each checked and located; a wrong one records a problem and reads as None).
 - Frame: a body's pose, as a derivation sees it (the articulated-body algorithm's frames name
   every value in its program; the kinematics' frames build plain expressions).
-- LoadSink: where a derivation collects the loads on its bodies.
-- ArticulatedLoads: what the articulated-body algorithm offers a load acting in it.
-- KinematicsView: what the kinematics of whole expressions offers a load (Newton-Euler balances,
-  reactions, energy).
+- LoadView: what a derivation shows a load or a constraint: the bodies' frames and rates, the
+  coordinates, the joints. Both derivations offer it (nemc/derive/articulated.py and
+  nemc/derive/kinematics.py), so a kind writes its force law once for all of them.
+- LoadSink: what a load or a constraint says it does: forces at points of bodies, couples,
+  tensions across joints. The articulated-body algorithm turns them into spatial forces; the
+  Newton-Euler balances (mass matrix form, reactions) project them.
+- SpatialSink: the articulated-body algorithm's own sink of spatial forces, where a joint puts
+  what a tension across it or a generalized force on its coordinates does.
+- KinematicsView: whole expressions of places and angles (potential energy).
 - JointView: what a load acting on a joint may ask of it (nemc/kinds/joints/base.py's Joint
   answers it).
 
@@ -97,8 +102,8 @@ class Frame(Protocol):
     def names(self, exprs: Sequence[Expr]) -> tuple[Expr, ...]: ...
 
 
-class LoadSink(Protocol):
-    """Where a derivation collects the loads on its bodies."""
+class SpatialSink(Protocol):
+    """Spatial forces on bodies (the articulated-body algorithm's, about the ground origin)."""
 
     def apply(self, body: str, force: V3) -> None:
         """A spatial force (couple about O, force) on a body."""
@@ -107,16 +112,32 @@ class LoadSink(Protocol):
         """A force (ground axes) on a body, at ground point `at`."""
 
 
-class ArticulatedLoads(LoadSink, Protocol):
-    """What the articulated-body algorithm offers a load that acts in it."""
+class LoadSink(Protocol):
+    """What a load or a constraint does to the bodies, in the terms of the mechanism."""
+
+    def force(self, body: str, xy: Sequence[Expr], force: Sequence[Expr],
+              at: Sequence[Expr] | None = None) -> None:
+        """A force (ground axes) on the point of `body` at xy (its frame); `at`: that point's
+        ground position, when the load has it at hand."""
+
+    def couple(self, body: str, torque: Expr) -> None: ...
+
+    def tension(self, joint: JointView, displacement: Expr, tension: Expr) -> None:
+        """Equal and opposite loads on the joint's two bodies doing power tension * d/dt of its
+        relative displacement (the joint says how: JointView.joint_load)."""
+
+
+class LoadView(Protocol):
+    """The mechanism's bodies, coordinates and joints as a derivation shows them to a load."""
 
     def frame(self, body: str) -> Frame: ...
 
-    def velocity(self, body: str) -> V3: ...
+    def angular_velocity(self, body: str) -> Expr: ...
 
-    def coordinate(self, name: str) -> Expr: ...
+    def coordinate(self, name: str) -> Expr:
+        """A coordinate's value: its symbol, or a driven coordinate's motion (of t)."""
 
-    def speed(self, coordinate: str) -> Expr: ...
+    def speed(self, name: str) -> Expr: ...
 
     def joint(self, name: str) -> JointView: ...
 
@@ -128,13 +149,7 @@ class KinematicsView(Protocol):
 
     def position(self, body: str, xy: Vec2) -> Vec: ...
 
-    def coordinate(self, name: str) -> Expr:
-        """A coordinate's value: its symbol, or a driven coordinate's motion (of t)."""
-
-    def rate(self, expr: Any) -> Any:
-        """d/dt of an expression of q, dq and t (accelerations as the symbols ddot(q))."""
-
-    def frame(self, body: str) -> Frame: ...
+    def coordinate(self, name: str) -> Expr: ...
 
     def joint(self, name: str) -> JointView: ...
 
@@ -153,7 +168,7 @@ class JointView(Protocol):
     def displacement_rate(self, child_rate: Expr, parent_rate: Expr,
                           u: Sequence[Expr]) -> Expr: ...
 
-    def joint_load(self, sink: LoadSink, parent: Frame, child_origin: V2,
+    def joint_load(self, sink: SpatialSink, parent: Frame, child_origin: V2,
                    tension: Expr) -> None:
         """Equal and opposite loads on its two bodies doing power tension * displacement rate."""
 

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import sympy
 
-from ..spatial import V2, couple
+from ..spatial import V2
 from ..terms import Loc, PointRef, with_expressions_mapped
 
 if TYPE_CHECKING:
@@ -60,14 +60,15 @@ class Constraint:
 
     def act(self, sink: LoadSink, a: Frame, b: Frame, multipliers: list[Expr]) -> None:
         """The reaction of these multipliers as loads: on body(a) at point a, its opposite on
-        body(b) at the same place (generalized force Phi_q^T lambda, driven coordinates'
-        included)."""
+        body(b) at the same place, the point of b under a (generalized force Phi_q^T lambda,
+        driven coordinates' included). Every derivation takes a constraint's loads from here:
+        the articulated-body algorithm's unit passes and the reaction outputs."""
         force, torque = self.reaction(a, b, multipliers)
         at = a.point(self.a.xy)
-        sink.apply_at(self.a.body, at, force)
-        sink.apply(self.a.body, couple(torque))
-        sink.apply_at(self.b.body, at, (-force[0], -force[1]))
-        sink.apply(self.b.body, couple(-torque))
+        sink.force(self.a.body, self.a.xy, force, at=at)
+        sink.couple(self.a.body, torque)
+        sink.force(self.b.body, self.contact_on_b(a, b), (-force[0], -force[1]), at=at)
+        sink.couple(self.b.body, -torque)
 
     def contact_on_b(self, a: Frame, b: Frame) -> tuple[Expr, Expr]:
         """Where the reaction's opposite acts on body(b), in b's frame: the point of b at a."""

@@ -6,7 +6,7 @@ docstring lists), add it to JOINT_KINDS, and test it; nothing else in nemc names
 
 from __future__ import annotations
 
-from .base import Joint
+from .base import Joint, JointDrawing
 from .free import Free
 from .prismatic import Prismatic
 from .revolute import Revolute
@@ -24,5 +24,5 @@ def joint_kind(name: str) -> type[Joint]:
         raise ValueError(f"unknown joint kind {name!r}; known: {', '.join(JOINT_KINDS)}") from None
 
 
-__all__ = ["JOINT_KINDS", "Free", "Joint", "Prismatic", "Revolute", "Weld",
+__all__ = ["JOINT_KINDS", "Free", "Joint", "JointDrawing", "Prismatic", "Revolute", "Weld",
            "joint_kind"]

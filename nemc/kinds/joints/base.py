@@ -5,8 +5,8 @@ every question the pipeline asks about a joint of that kind: which YAML keys it 
 they are read (validate), where it places its child (every derivation: the articulated-body
 algorithm, the kinematics of the outputs and of the mass-matrix form, hence Taylor too), its
 motion axes and how its coordinates' accelerations follow (articulated body), how a load on the
-joint acts (joint springs, generalized forces), and its reaction output. Nothing outside
-nemc/joints/ tests a joint's kind by its name; it asks the joint.
+joint acts (joint springs, generalized forces), its reaction output, and how it is drawn.
+Nothing outside nemc/kinds/joints/ tests a joint's kind by its name; it asks the joint.
 
 Derivations hand a joint a Frame (nemc/kinds/contract.py): the pose of its parent, with the
 operations a placement needs. The articulated-body algorithm's frames name every value in its
@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import sympy
 
-from ..contract import Frame, LoadSink
+from ..contract import Frame, SpatialSink
 from ..spatial import V2, V3, cross_motion
 from ..terms import ZERO2, Loc, Vec2, with_expressions_mapped
 
@@ -30,6 +30,15 @@ if TYPE_CHECKING:
     from ..contract import Reader
 
 Expr = sympy.Expr
+
+
+@dataclass(frozen=True)
+class JointDrawing:
+    """How a picture shows a joint: a pin, a slider on a rail (its axis, in the parent's frame),
+    a fixed (welded) connection, or nothing (a free body)."""
+
+    symbol: str = "pin"
+    axis: Vec2 | None = None
 
 
 @dataclass(frozen=True)
@@ -103,9 +112,12 @@ class Joint:
         child's spatial velocity is the parent's plus sum(axis * rate)."""
         raise NotImplementedError
 
-    def bias_acceleration(self, velocity: V3, relative: V3, rates: Sequence[Expr]) -> V3:
-        """dS/dt rates: the child's acceleration when the joint's rates are constant. S moves
-        with the child (revolute) or the parent (prismatic): v x (S rates)."""
+    def bias_acceleration(self, velocity: V3, relative: V3, axes: Sequence[V3],
+                          rates: Sequence[Expr]) -> V3:
+        """dS/dt rates: the child's acceleration when the joint's rates are constant (relative:
+        S rates, the child's velocity less the parent's). S moves with the child (revolute) or
+        the parent (prismatic): v x (S rates), the same for both; a kind whose axes move
+        otherwise (some with the parent, some with the child) says so."""
         return cross_motion(velocity, relative)
 
     def coordinate_accelerations(self, joint_accelerations: Sequence[Expr],
@@ -131,12 +143,12 @@ class Joint:
         """d/dt of displacement, from the bodies' angular rates or the joint's rates."""
         raise NotImplementedError(f"a {self.type} joint has no relative displacement")
 
-    def joint_load(self, sink: LoadSink, parent: Frame, child_origin: V2,
+    def joint_load(self, sink: SpatialSink, parent: Frame, child_origin: V2,
                    tension: Expr) -> None:
         """Equal and opposite loads on its two bodies doing power tension * displacement rate."""
         raise NotImplementedError(f"a {self.type} joint has no relative displacement")
 
-    def generalized_load(self, sink: LoadSink, parent: Frame, child_origin: V2,
+    def generalized_load(self, sink: SpatialSink, parent: Frame, child_origin: V2,
                          forces: Sequence[Expr]) -> None:
         """Loads equivalent to generalized forces on its coordinates (for M^-1)."""
         if forces:
@@ -146,3 +158,9 @@ class Joint:
         """The force (ground axes) a joint_spring of this tension puts on the child, when it
         acts by a force (not a couple): the reaction output leaves it out."""
         return None
+
+    # -- the picture -----------------------------------------------------------------------------
+
+    def drawing(self) -> JointDrawing:
+        """How a picture of the mechanism shows it (default: a pin)."""
+        return JointDrawing()

@@ -15,10 +15,10 @@ from typing import ClassVar
 
 import sympy
 
-from ..contract import Frame, LoadSink
+from ..contract import Frame, SpatialSink
 from ..spatial import V2, V3, add, couple, scale
 from ..terms import GROUND
-from .base import Joint
+from .base import Joint, JointDrawing
 
 Expr = sympy.Expr
 
@@ -47,7 +47,8 @@ class Free(Joint):
         one, zero = sympy.S.One, sympy.S.Zero
         return [(zero, one, zero), (zero, zero, one), (one, y, -x)], list(u)
 
-    def bias_acceleration(self, velocity: V3, relative: V3, rates: Sequence[Expr]) -> V3:
+    def bias_acceleration(self, velocity: V3, relative: V3, axes: Sequence[V3],
+                          rates: Sequence[Expr]) -> V3:
         """S depends on the origin (x, y), which moves: dS/dt u = uth * (0, uy, -ux)."""
         ux, uy, uth = rates
         return (sympy.S.Zero, uth * uy, -uth * ux)
@@ -60,7 +61,10 @@ class Free(Joint):
         w = add(acceleration, scale(bias, -1))
         return [name(w[1] - y * w[0]), name(w[2] + x * w[0]), w[0]]
 
-    def generalized_load(self, sink: LoadSink, parent: Frame, child_origin: V2,
+    def generalized_load(self, sink: SpatialSink, parent: Frame, child_origin: V2,
                          forces: Sequence[Expr]) -> None:
         sink.apply_at(self.child, child_origin, forces[:2])
         sink.apply(self.child, couple(forces[2]))
+
+    def drawing(self) -> JointDrawing:
+        return JointDrawing("none")

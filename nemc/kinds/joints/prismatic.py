@@ -16,9 +16,9 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import sympy
 
-from ..contract import Frame, LoadSink
+from ..contract import Frame, SpatialSink
 from ..spatial import V2, V3, add, rotation, scale, unit, vec
-from .base import Joint
+from .base import Joint, JointDrawing
 
 if TYPE_CHECKING:
     from ..contract import Reader
@@ -65,7 +65,7 @@ class Prismatic(Joint):
                           u: Sequence[Expr]) -> Expr:
         return u[0]
 
-    def joint_load(self, sink: LoadSink, parent: Frame, child_origin: V2,
+    def joint_load(self, sink: SpatialSink, parent: Frame, child_origin: V2,
                    tension: Expr) -> None:
         along = parent.names(parent.rotate(unit(self.axis)))
         sink.apply_at(self.child, child_origin, scale(along, tension))
@@ -75,3 +75,6 @@ class Prismatic(Joint):
         axis = rotation(parent_angle) * vec(self.axis)
         force = axis / sympy.sqrt(axis.dot(axis)) * tension
         return force[0], force[1]
+
+    def drawing(self) -> JointDrawing:
+        return JointDrawing("slider", self.axis)

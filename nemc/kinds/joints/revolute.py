@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import sympy
 
-from ..contract import Frame, LoadSink
+from ..contract import Frame, SpatialSink
 from ..spatial import V2, V3, couple
 from ..terms import GROUND
 from .base import Joint
@@ -81,12 +81,12 @@ class Revolute(Joint):
                           u: Sequence[Expr]) -> Expr:
         return child_rate - parent_rate
 
-    def joint_load(self, sink: LoadSink, parent: Frame, child_origin: V2,
+    def joint_load(self, sink: SpatialSink, parent: Frame, child_origin: V2,
                    tension: Expr) -> None:
         sink.apply(self.child, couple(tension))
         sink.apply(self.parent, couple(-tension))
 
-    def generalized_load(self, sink: LoadSink, parent: Frame, child_origin: V2,
+    def generalized_load(self, sink: SpatialSink, parent: Frame, child_origin: V2,
                          forces: Sequence[Expr]) -> None:
         if self.absolute:  # the coordinate is the child's angle: a couple on it alone
             sink.apply(self.child, couple(forces[0]))

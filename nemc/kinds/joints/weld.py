@@ -16,7 +16,7 @@ import sympy
 
 from ..contract import Frame
 from ..spatial import V2
-from .base import Joint
+from .base import Joint, JointDrawing
 
 if TYPE_CHECKING:
     from ..contract import Reader
@@ -42,3 +42,6 @@ class Weld(Joint):
 
     def origin_velocity(self, parent: Frame, q: Sequence[Expr], u: Sequence[Expr]) -> V2:
         return parent.velocity(self.at)
+
+    def drawing(self) -> JointDrawing:
+        return JointDrawing("fixed")

@@ -6,7 +6,7 @@ docstring lists), add it to LOAD_KINDS, and test it; nothing else in nemc names 
 
 from __future__ import annotations
 
-from .base import Applied, Load, PointForce
+from .base import Load, LoadDrawing
 from .force import Force
 from .joint_spring import JointSpring
 from .spring import Spring
@@ -15,5 +15,4 @@ from .torque import Torque
 LOAD_KINDS: dict[str, type[Load]] = {kind.kind: kind for kind in (Torque, Force, Spring,
                                                                   JointSpring)}
 
-__all__ = ["LOAD_KINDS", "Applied", "Force", "JointSpring", "Load",
-           "PointForce", "Spring", "Torque"]
+__all__ = ["LOAD_KINDS", "Force", "JointSpring", "Load", "LoadDrawing", "Spring", "Torque"]

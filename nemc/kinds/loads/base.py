@@ -2,52 +2,36 @@
 
 A load kind is a frozen dataclass (what its YAML mapping holds, ending with its location) whose
 methods answer every question the pipeline asks about a load of that kind: its YAML keys and
-how they are read (validate), the expressions it holds, how it acts in the articulated-body
-algorithm (spatial forces on bodies) and in the Newton-Euler balances of the kinematics (point
-forces, couples and generalized forces: the mass-matrix form and the reaction outputs), and its
-potential energy. Nothing outside nemc/loads/ tests a load's kind; it asks the load.
+how they are read (the front end), the expressions it holds, what it does to the bodies (`act`:
+its force law, written once against a LoadView and told to a LoadSink, nemc/kinds/contract.py;
+the articulated-body algorithm, the Newton-Euler balances of the mass-matrix form and the
+reaction outputs all take it from there), its potential energy, and how it is drawn. Nothing
+outside nemc/kinds/loads/ tests a load's kind; it asks the load.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import sympy
 
-from ..spatial import V2
-from ..terms import Loc, Vec2, with_expressions_mapped
+from ..terms import Loc, PointRef, with_expressions_mapped
 
 if TYPE_CHECKING:
-    from ..contract import ArticulatedLoads, KinematicsView, Reader
-    from ..joints import Joint
+    from ..contract import KinematicsView, LoadSink, LoadView, Reader
 
 Expr = sympy.Expr
 
 
 @dataclass(frozen=True)
-class PointForce:
-    """A force (ground frame) applied at a point fixed in a body."""
+class LoadDrawing:
+    """How a picture shows a load: as a spring between two points, or on a joint (None: not
+    at all)."""
 
-    body: str
-    xy: Vec2
-    force: sympy.Matrix  # 2 x 1
-
-
-@dataclass
-class Applied:
-    """Loads as the Newton-Euler balances take them: point forces, couples (body, torque), and
-    generalized forces (relative displacement, tension) doing tension * d(displacement)/dq."""
-
-    forces: list[PointForce] = field(default_factory=list)
-    couples: list[tuple[str, Expr]] = field(default_factory=list)
-    generalized: list[tuple[Expr, Expr]] = field(default_factory=list)
-
-    def add(self, other: Applied) -> None:
-        self.forces += other.forces
-        self.couples += other.couples
-        self.generalized += other.generalized
+    between: tuple[PointRef, PointRef] | None = None
+    on_joint: str | None = None
 
 
 @dataclass(frozen=True)
@@ -76,20 +60,15 @@ class Load:
         """The load with f applied to every expression it holds (e.g. constants folded)."""
         return with_expressions_mapped(self, f)
 
-    def act(self, aba: ArticulatedLoads) -> None:
-        """Apply the load in the articulated-body algorithm (its expressions already in
-        runtime symbols)."""
-        raise NotImplementedError
-
-    def applied(self, kin: KinematicsView) -> Applied:
-        """The load as point forces, couples and generalized forces."""
+    def act(self, view: LoadView, sink: LoadSink) -> None:
+        """What the load does to the bodies: forces, couples and tensions into SINK, computed
+        from what VIEW shows (its expressions already in the derivation's symbols)."""
         raise NotImplementedError
 
     def potential(self, kin: KinematicsView) -> Expr | None:
         """Its potential energy, for the kinds that have one."""
         return None
 
-    def force_through_joint(self, kin: KinematicsView, joint: Joint) -> V2 | None:
-        """The force this load puts on the joint's child through the joint itself (the joint's
-        reaction output leaves it out); None when it puts none."""
-        return None
+    def drawing(self) -> LoadDrawing:
+        """How a picture of the mechanism shows it (default: not at all)."""
+        return LoadDrawing()

@@ -11,13 +11,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
-from ..contract import ArticulatedLoads
-from ..spatial import rotation, vec
 from ..terms import Loc, Vec2
-from .base import Applied, Load, PointForce
+from .base import Load
 
 if TYPE_CHECKING:
-    from ..contract import KinematicsView, Reader
+    from ..contract import LoadSink, LoadView, Reader
 
 
 @dataclass(frozen=True)
@@ -42,13 +40,7 @@ class Force(Load):
     def expressions(self) -> list[tuple[str, object]]:
         return [(f"force[{i}]", c) for i, c in enumerate(self.components)]
 
-    def act(self, aba: ArticulatedLoads) -> None:
-        frame = aba.frame(self.body)
+    def act(self, view: LoadView, sink: LoadSink) -> None:
+        frame = view.frame(self.body)
         force = frame.rotate(self.components) if self.frame == "body" else self.components
-        aba.apply_at(self.body, frame.point(self.at), frame.names(force))
-
-    def applied(self, kin: KinematicsView) -> Applied:
-        force = vec(self.components)
-        if self.frame == "body":
-            force = rotation(kin.angle(self.body)) * force
-        return Applied(forces=[PointForce(self.body, self.at, force)])
+        sink.force(self.body, self.at, frame.names(force))

@@ -14,15 +14,12 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import sympy
 
-from ..contract import ArticulatedLoads
 from ..joints import JOINT_KINDS
-from ..spatial import V2
 from ..terms import Loc
-from .base import Applied, Load
+from .base import Load, LoadDrawing
 
 if TYPE_CHECKING:
-    from ..contract import KinematicsView, Reader
-    from ..joints import Joint
+    from ..contract import KinematicsView, LoadSink, LoadView, Reader
 
 
 @dataclass(frozen=True)
@@ -51,36 +48,22 @@ class JointSpring(Load):
     def expressions(self) -> list[tuple[str, sympy.Expr]]:
         return [(key, getattr(self, key)) for key in ("k", "rest", "damping")]
 
-    def tension(self, displacement: sympy.Expr, rate: sympy.Expr) -> sympy.Expr:
-        return -self.k * (displacement - self.rest) - self.damping * rate
-
-    def act(self, aba: ArticulatedLoads) -> None:
-        joint = aba.joint(self.joint)
-        parent, child = aba.frame(joint.parent), aba.frame(joint.child)
-        q = [aba.coordinate(c) for c in joint.coordinates]
-        u = [aba.speed(c) for c in joint.coordinates]
-        displacement = joint.displacement(child.angle, parent.angle, q)
-        rate = joint.displacement_rate(aba.velocity(joint.child)[0],
-                                       aba.velocity(joint.parent)[0], u)
+    def act(self, view: LoadView, sink: LoadSink) -> None:
+        joint = view.joint(self.joint)
+        parent, child = view.frame(joint.parent), view.frame(joint.child)
+        displacement = joint.displacement(child.angle, parent.angle,
+                                          [view.coordinate(c) for c in joint.coordinates])
+        rate = joint.displacement_rate(view.angular_velocity(joint.child),
+                                       view.angular_velocity(joint.parent),
+                                       [view.speed(c) for c in joint.coordinates])
         tension = -self.k * (displacement - self.rest)
-        tension = parent.name(tension - self.damping * rate)
-        joint.joint_load(aba, parent, child.origin, tension)
-
-    def displacement(self, kin: KinematicsView, joint: Joint) -> sympy.Expr:
-        return joint.displacement(kin.angle(joint.child), kin.angle(joint.parent),
-                                  [kin.coordinate(c) for c in joint.coordinates])
-
-    def applied(self, kin: KinematicsView) -> Applied:
-        rel = self.displacement(kin, kin.joint(self.joint))
-        return Applied(generalized=[(rel, self.tension(rel, kin.rate(rel)))])
-
-    def force_through_joint(self, kin: KinematicsView, joint: Joint) -> V2 | None:
-        if joint.name != self.joint:
-            return None
-        rel = self.displacement(kin, joint)
-        return joint.spring_force_on_child(kin.angle(joint.parent),
-                                           self.tension(rel, kin.rate(rel)))
+        sink.tension(joint, displacement, parent.name(tension - self.damping * rate))
 
     def potential(self, kin: KinematicsView) -> sympy.Expr:
-        rel = self.displacement(kin, kin.joint(self.joint))
-        return self.k * (rel - self.rest) ** 2 / 2
+        joint = kin.joint(self.joint)
+        displacement = joint.displacement(kin.angle(joint.child), kin.angle(joint.parent),
+                                          [kin.coordinate(c) for c in joint.coordinates])
+        return self.k * (displacement - self.rest) ** 2 / 2
+
+    def drawing(self) -> LoadDrawing:
+        return LoadDrawing(on_joint=self.joint)

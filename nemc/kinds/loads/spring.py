@@ -14,13 +14,12 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import sympy
 
-from ..contract import ArticulatedLoads
-from ..spatial import dot, point_velocity, scale
+from ..spatial import dot, scale
 from ..terms import Loc, PointRef
-from .base import Applied, Load, PointForce
+from .base import Load, LoadDrawing
 
 if TYPE_CHECKING:
-    from ..contract import KinematicsView, Reader
+    from ..contract import KinematicsView, LoadSink, LoadView, Reader
 
 
 @dataclass(frozen=True)
@@ -48,32 +47,22 @@ class Spring(Load):
     def expressions(self) -> list[tuple[str, sympy.Expr]]:
         return [(key, getattr(self, key)) for key in ("k", "length", "damping")]
 
-    def act(self, aba: ArticulatedLoads) -> None:
-        frame_a, frame_b = aba.frame(self.a.body), aba.frame(self.b.body)
+    def act(self, view: LoadView, sink: LoadSink) -> None:
+        frame_a, frame_b = view.frame(self.a.body), view.frame(self.b.body)
         pa, pb = frame_a.point(self.a.xy), frame_b.point(self.b.xy)
-        va = point_velocity(aba.velocity(self.a.body), pa)
-        vb = point_velocity(aba.velocity(self.b.body), pb)
+        va, vb = frame_a.velocity(self.a.xy), frame_b.velocity(self.b.xy)
         d = frame_a.names((pb[0] - pa[0], pb[1] - pa[1]))
         length = frame_a.name(sympy.sqrt(dot(d, d)))
         stretch_rate = dot(d, (vb[0] - va[0], vb[1] - va[1])) / length
         pull = self.k * (length - self.length)
         pull = frame_a.name((pull + self.damping * stretch_rate) / length)
         on_a = frame_a.names(scale(d, pull))
-        aba.apply_at(self.a.body, pa, on_a)
-        aba.apply_at(self.b.body, pb, scale(on_a, -1))
-
-    def distance_vector(self, kin: KinematicsView) -> sympy.Matrix:
-        return kin.position(self.b.body, self.b.xy) - kin.position(self.a.body, self.a.xy)
-
-    def applied(self, kin: KinematicsView) -> Applied:
-        d = self.distance_vector(kin)
-        length = sympy.sqrt(d.dot(d))
-        stretch_rate = d.dot(kin.rate(d)) / length
-        pull = self.k * (length - self.length) + self.damping * stretch_rate
-        on_a = d / length * pull
-        return Applied(forces=[PointForce(self.a.body, self.a.xy, on_a),
-                               PointForce(self.b.body, self.b.xy, -on_a)])
+        sink.force(self.a.body, self.a.xy, on_a, at=pa)
+        sink.force(self.b.body, self.b.xy, scale(on_a, -1), at=pb)
 
     def potential(self, kin: KinematicsView) -> sympy.Expr:
-        d = self.distance_vector(kin)
+        d = kin.position(self.b.body, self.b.xy) - kin.position(self.a.body, self.a.xy)
         return self.k * (sympy.sqrt(d.dot(d)) - self.length) ** 2 / 2
+
+    def drawing(self) -> LoadDrawing:
+        return LoadDrawing(between=(self.a, self.b))

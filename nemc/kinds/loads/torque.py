@@ -12,13 +12,11 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import sympy
 
-from ..contract import ArticulatedLoads
-from ..spatial import couple
 from ..terms import GROUND, Loc
-from .base import Applied, Load
+from .base import Load
 
 if TYPE_CHECKING:
-    from ..contract import KinematicsView, Reader
+    from ..contract import LoadSink, LoadView, Reader
 
 
 @dataclass(frozen=True)
@@ -44,10 +42,7 @@ class Torque(Load):
     def expressions(self) -> list[tuple[str, sympy.Expr]]:
         return [("torque", self.expr)]
 
-    def act(self, aba: ArticulatedLoads) -> None:
-        torque = aba.frame(self.body).name(self.expr)
-        aba.apply(self.body, couple(torque))
-        aba.apply(self.reaction, couple(-torque))
-
-    def applied(self, kin: KinematicsView) -> Applied:
-        return Applied(couples=[(self.body, self.expr), (self.reaction, -self.expr)])
+    def act(self, view: LoadView, sink: LoadSink) -> None:
+        torque = view.frame(self.body).name(self.expr)
+        sink.couple(self.body, torque)
+        sink.couple(self.reaction, -torque)
