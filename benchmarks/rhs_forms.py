@@ -66,8 +66,8 @@ def systems(config: Config, folder: Path) -> list[tuple[str, Path]]:
 def built(eqs: Any, program: Any, tag: str) -> Any:
     """A model whose right-hand side runs PROGRAM."""
     from nemc.build.builder import build
+    from nemc.emit.emitted import emit
     from nemc.emit.optimize import optimize_equations
-    from nemc.emit.source import emit
     from nemc.runtime.load import load_package
 
     variant = dataclasses.replace(eqs, dynamics=program)

@@ -80,8 +80,8 @@ def compile_mechanism(
     taylor: the same for nemc.Taylor's coefficient code (scene method nemc.Taylor).
     mass_matrix: True generates M^-1 (Model.mass_matrix) now; False, on its first call.
     energy: True adds the energy outputs when the YAML does not request them (`nemc stress`).
-    chunk_steps: the most steps of a program emitted as one C function (None: nemc.emit's
-    CHUNK_STEPS); part of the build key."""
+    chunk_steps: the most steps of a program emitted as one C function (None:
+    nemc.emit.parts.CHUNK_STEPS); part of the build key."""
     return compile_source(read_source(path), jacobian, energy=energy, taylor=taylor,
                           chunk_steps=chunk_steps, mass_matrix=mass_matrix)
 
@@ -148,8 +148,8 @@ def generate_and_build(
         with_mass_matrix,
         with_taylor,
     )
+    from .emit.emitted import emit
     from .emit.optimize import optimize_equations
-    from .emit.source import emit
     from .front.validate import validate_text
     from .vocabulary import IMPLICIT_METHODS, auto_builds_taylor, auto_keeps_taylor
 

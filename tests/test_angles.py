@@ -15,8 +15,8 @@ import nemc
 from nemc.derive.equations import ARTICULATED, derive
 from nemc.derive.program import Guard, Program
 from nemc.emit.angles import angle_calls
+from nemc.emit.emitted import emit
 from nemc.emit.optimize import optimize_equations
-from nemc.emit.source import emit
 from nemc.front.validate import validate_text
 
 q1, q2, p, w0, w1, w2 = sympy.symbols("q1 q2 p w0 w1 w2", real=True)

@@ -20,8 +20,9 @@ import sympy
 import nemc
 from nemc.build import builder as build
 from nemc.derive.equations import derive, with_diagnostics, with_taylor
+from nemc.emit.emitted import emit
 from nemc.emit.optimize import optimize_equations
-from nemc.emit.source import emit, symbol_table
+from nemc.emit.printing import symbol_table
 from nemc.front.validate import validate_text
 from nemc.kinds.constraints import CONSTRAINT_KINDS, Constraint
 from nemc.kinds.joints import JOINT_KINDS, Joint, Revolute, joint_kind
@@ -274,7 +275,7 @@ def test_the_cdef_is_the_headers_text() -> None:
 
 def test_the_build_key_covers_what_makes_builds() -> None:
     modules = {path.relative_to(NEMC).as_posix() for path in build.build_modules()}
-    assert {"derive/equations.py", "emit/source.py", "derive/articulated.py",
+    assert {"derive/equations.py", "emit/emitted.py", "derive/articulated.py",
             "kinds/joints/revolute.py", "kinds/loads/spring.py", "front/validate.py",
             "vocabulary.py", "build/builder.py"} <= modules
     assert not {module for module in modules if module.startswith(("tools/", "runtime/"))}

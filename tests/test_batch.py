@@ -24,7 +24,7 @@ from nemc.pipeline import compile_source, read_source
 from nemc.runtime.model import EnsembleResult, ModelError
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
-LANE_COUNTS = (4, 8)  # nemc.emit.source.LANE_TARGETS: AVX2 and AVX-512
+LANE_COUNTS = (4, 8)  # nemc.emit.taylor_c.LANE_TARGETS: AVX2 and AVX-512
 
 # The overflowing slider of test_taylor with the growth rate a parameter: c = 1000 fails near
 # t = 0.71, c = 1 runs to the end.

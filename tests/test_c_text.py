@@ -15,8 +15,8 @@ from sympy.printing.c import C99CodePrinter
 
 from nemc.derive.equations import derive, with_diagnostics, with_taylor
 from nemc.emit.c_text import SymbolTablePrinter
+from nemc.emit.emitted import emit
 from nemc.emit.optimize import optimize_equations
-from nemc.emit.source import emit
 from nemc.front.validate import validate_text
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"

@@ -1,4 +1,4 @@
-"""Long programs emitted in parts (nemc/emit.py, CHUNK_STEPS): forced on small models, the parts
+"""Long programs emitted in parts (emit.parts.CHUNK_STEPS): forced on small models, the parts
 must give bit-for-bit the numbers and statuses of the one-body code, and compile warning-free."""
 
 from __future__ import annotations
@@ -67,7 +67,7 @@ def test_parts_are_emitted_only_when_forced(pair: tuple[Compiled, Compiled]) -> 
     text = c_source(parts)
     assert all(f"{name}2(" in text for name in PARTS if name != "accelerations_part")
     assert "intermediates passed between the parts" in text
-    # with the Jacobian, the accelerations run its primal's parts (emit.shares_primal)
+    # with the Jacobian, the accelerations run its primal's parts (emit.jacobian_c.shares_primal)
     assert "accelerations_part" not in text
     accelerations = text[text.index("static int accelerations("):]
     assert "jacobian_primal_part1(" in accelerations[: accelerations.index("\n}")]
@@ -129,7 +129,7 @@ def test_parts_compile_warning_free(pair: tuple[Compiled, Compiled], tmp_path: P
     assert done.returncode == 0, done.stderr
 
 
-# ---- very long programs in unit files (nemc/emit.py Units, issue 19): forced on small models -
+# ---- very long programs in unit files (nemc/emit/parts.py, issue 19): forced on small models -
 
 
 def model_path(name: str, folder: Path) -> Path:
@@ -149,8 +149,8 @@ def units(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFacto
     path = model_path(request.param, folder)
     whole = build(path, folder / "whole", None)
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr("nemc.emit.source.UNIT_STEPS", 20)
-        patch.setattr("nemc.emit.source.UNIT_FILE_STEPS", 30)
+        patch.setattr("nemc.emit.parts.UNIT_STEPS", 20)
+        patch.setattr("nemc.emit.parts.UNIT_FILE_STEPS", 30)
         split = build(path, folder / "split", 7)
     return whole, split
 
@@ -163,7 +163,7 @@ def test_unit_files_hold_the_parts(units: tuple[Compiled, Compiled]) -> None:
     main = (split.package / f"{name}.c").read_text()
     assert "in a unit file of its own" in main and "static void accelerations_part" not in main
     defined = "".join(path.read_text() for path in files)
-    # the accelerations run the Jacobian's primal parts (emit.shares_primal)
+    # the accelerations run the Jacobian's primal parts (emit.jacobian_c.shares_primal)
     assert f"\nvoid {name}_jacobian_primal_part1(" in defined or \
         f"\nint {name}_jacobian_primal_part1(" in defined
 

@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 
 from nemc.errors import InputError
 from nemc.front.mechanism import Mechanism
-from nemc.front.validate import JOINT_KEYS, JOINT_TYPES, LOAD_KEYS, TOP_KEYS, validate_text
+from nemc.front.reader import JOINT_KEYS, JOINT_TYPES, LOAD_KEYS
+from nemc.front.validate import TOP_KEYS, validate_text
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = {p.stem: p.read_text() for p in sorted((ROOT / "examples").glob("*.yaml"))}

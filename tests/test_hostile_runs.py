@@ -33,8 +33,8 @@ from nemc.build import builder as build
 from nemc.build import export
 from nemc.derive.equations import derive, with_diagnostics, with_taylor
 from nemc.emit.c_text import SymbolTablePrinter, double_literal
+from nemc.emit.emitted import emit
 from nemc.emit.optimize import optimize_equations
-from nemc.emit.source import emit
 from nemc.errors import InputError
 from nemc.front.validate import validate_text
 from nemc.runtime.model import (

@@ -12,7 +12,8 @@ import sympy
 
 from nemc.errors import InputError
 from nemc.front.mechanism import TIME, rate_symbol, symbol
-from nemc.front.validate import METHODS, load_mechanism, validate_text
+from nemc.front.scene import METHODS  # what the scene accepts
+from nemc.front.validate import load_mechanism, validate_text
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "double_pendulum.yaml"

@@ -22,7 +22,7 @@ from nemc.derive.taylor import (
     sums_in_blocks,
     written,
 )
-from nemc.emit.source import TAYLOR_MARGIN, TAYLOR_MIN_EXPONENT, StepCosts, taylor_rule
+from nemc.emit.taylor_c import TAYLOR_MARGIN, TAYLOR_MIN_EXPONENT, StepCosts, taylor_rule
 from nemc.runtime.model import ModelError
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
@@ -91,7 +91,7 @@ def compiled(tmp_path: Path, text: str, name: str):
 def test_error_follows_the_tolerance(pendulum, rtol: float) -> None:
     """The chaotic double pendulum over [0, 10]: the error at t_eval points (dense output,
     the step's own polynomial) follows rtol as Jorba and Zou's error bound promises (at the
-    order and step nemc's cost model chooses: emit.taylor_rule)."""
+    order and step nemc's cost model chooses: emit.taylor_c.taylor_rule)."""
     t_eval = np.linspace(0.0, 10.0, 41)
     y0 = pendulum.initial_state()
     result = pendulum.simulate((0.0, 10.0), y0, method="nemc.Taylor", rtol=rtol,
@@ -218,7 +218,7 @@ def test_the_step_rule_meets_jorba_and_zous_error_bound(seed: int) -> None:
 
 
 def test_the_c_rule_is_the_python_rule(pendulum) -> None:
-    """The build's taylor_rule (C, <model>_taylor_order) chooses what emit.taylor_rule does
+    """The build's taylor_rule (C, <model>_taylor_order) chooses what emit.taylor_c.taylor_rule does
     with the build's costs."""
     costs = StepCosts(4 * 120.0, 27.0, 13.0)  # the double pendulum's program
     exponent = pendulum._ffi.new("double *")

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from c_harness import compiled_harness
 
-from nemc.emit.source import taylor_math
+from nemc.emit.math_kernels import taylor_math
 
 HARNESS = """
 #include <math.h>
@@ -82,7 +82,7 @@ Run = Callable[[str, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 @pytest.fixture(scope="module")
 def kernels(tmp_path_factory: pytest.TempPathFactory) -> Run:
-    """The functions as the builds instantiate them (nemc.emit.source.taylor_math), in a cffi
+    """The functions as the builds instantiate them (nemc.emit.math_kernels.taylor_math), in a cffi
     module:
     run("one_sincos" | "four_log2" | ..., x) -> (out, out2)."""
     folder = tmp_path_factory.mktemp("taylor_math")

@@ -56,14 +56,14 @@ if TYPE_CHECKING:  # emit imports sympy; a cached load must not (nor subprocess,
     import subprocess
     from importlib.abc import Traversable
 
-    from ..emit.source import Emitted
+    from ..emit.emitted import Emitted
 
 NEMC_DIR = Path(__file__).resolve().parent.parent
 # nemc's folders and modules that do not change what a build contains: they run, present or
 # measure it. Every other module under nemc/ (and every template) is part of the build key.
 NOT_IN_BUILD_KEY = frozenset({"runtime", "tools", "errors.py"})
 CFLAGS = ["-O2", "-fPIC", "-Wall", "-Wextra", "-std=c99"]  # never -ffast-math: it changes answers
-# A long model's unit files (straight-line parts of its programs, emit.UNIT_STEPS), and every
+# A long model's unit files (straight-line parts of its programs, emit.parts.UNIT_STEPS), and every
 # model's <name>_spectrum.c (auto's look at the start: 0.07 s of gcc, 0.11 at -O2), at -O1: gcc
 # took 35% less time on a 100-body chain with its Jacobian (8.0 -> 5.2 s) for a right-hand side
 # about 2% slower (4.77 -> 4.86 us a state) and the same Jacobian. The arithmetic is the same
@@ -483,7 +483,7 @@ def write_package(code: Emitted, folder: Path) -> None:
 
 def side_sources(code: Emitted, folder: Path) -> list[tuple[Path, str]]:
     """The model's C files besides <name>.c, and their text, compiled in parallel with it:
-    its unit files (nemc.emit.Units: <name>_unit<k>.c, k = 1, 2, ...) and <name>_spectrum.c."""
+    its unit files (emit.parts.Units: <name>_unit<k>.c, k = 1, 2, ...) and <name>_spectrum.c."""
     return [*((folder / f"{code.name}_unit{k}.c", text)
               for k, text in enumerate(code.units, start=1)),
             (folder / f"{code.name}_spectrum.c", code.spectrum)]

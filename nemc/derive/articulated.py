@@ -124,7 +124,7 @@ class ProgramFrame:
 
 class PointPositions:
     """Ground positions of points fixed in the bodies as names of one straight-line program
-    (the drawing's, nemc/emit.py positions_part): each body placed once from its parent, so the
+    (the drawing's, nemc/emit/positions_c.py): each body placed once from its parent, so the
     program grows linearly with the bodies where whole position expressions grow
     quadratically."""
 

@@ -42,7 +42,7 @@ class Dialect:
     The operations are the same; only the types, the helpers' names and what a failed guard
     does differ: one run returns its status, a lane records it in status[l] and the others go
     on. Lanes' parameter-only values are computed lane by lane, each with its own p (the
-    constants are the scalar lines, in a loop over the lanes: see emit.lanes_section)."""
+    constants are the scalar lines, in a loop over the lanes: see emit.taylor_c.lanes_section)."""
 
     value_type: str  # the type of a coefficient
     prefix: str  # the recurrences' prefix, for "series_"
@@ -74,7 +74,7 @@ class Dialect:
         """A singular articulated inertia: in the loop at coefficient 0, or before it."""
         if self.lanes and loop:
             return ["if (k == 0)", f"    lanes_guard({self.argument(test)}, {status}, status);"]
-        if self.lanes:  # in the loop over the lanes, with its p (emit.lanes_section)
+        if self.lanes:  # in the loop over the lanes, with its p (emit.taylor_c.lanes_section)
             return [f"if (!({test} > 0.0) && !status[l])", f"    status[l] = {status};"]
         return [f"if ({'k == 0 && ' if loop else ''}!({test} > 0.0))", f"    return {status};"]
 

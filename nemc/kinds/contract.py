@@ -1,8 +1,9 @@
 """What the kinds are handed: the interfaces through which a joint, load or constraint kind reads
 its YAML, places bodies and applies loads, without knowing which stage asks.
 
-- Reader: one YAML mapping, as the front end offers it to a kind's `read` (nemc/front/ builds
-  it: typed values, each checked and located; a wrong one records a problem and reads as None).
+- Reader: one YAML mapping, as the front end offers it to a kind's `read` (nemc/front/reader.py
+  builds it: typed values, each checked and located; a wrong one records a problem and reads as
+  None).
 - Frame: a body's pose, as a derivation sees it (the articulated-body algorithm's frames name
   every value in its program; the kinematics' frames build plain expressions).
 - LoadView: what a derivation shows a load or a constraint: the bodies' frames and rates, the

@@ -1,0 +1,48 @@
+"""The native integrators (issue 9): the model's entry points appended to <name>.c, the
+model-independent nemc_drivers.c, and <name>_spectrum.c, method auto's look at the start.
+"""
+
+from __future__ import annotations
+
+from ..derive.equations import Equations
+from ..vocabulary import AUTO_SPECTRUM_MAX_STATES
+from ..vocabulary import NEMC_VERSION as __version__
+from .jacobian_c import has_jacobian, jacobian_function
+from .printing import template
+from .resources import read_template
+
+
+def native_section(eqs: Equations, prefix: str, taylor: str, lanes: str = "") -> str:
+    """The model's side of the native integrators in <name>.c: nemc.Taylor's code (the model's
+    own coefficients) only in builds that ask for it, its ensembles in SIMD lanes (lanes:
+    templates/batch.c.tmpl, else batch_absent.c.tmpl) only when asked, and the model's entry
+    points, which hand its functions to the drivers (drivers_source)."""
+    entry = template("integrators_entry.c.tmpl").substitute(
+        name=eqs.mechanism.name, prefix=prefix, jacobian=jacobian_function(eqs, prefix)
+    )
+    batch = lanes or template("batch_absent.c.tmpl").substitute(prefix=prefix)
+    return "\n" + taylor + entry + batch
+
+
+def drivers_source(eqs: Equations) -> str:
+    """nemc_drivers.c: the model-independent integrators, run control and ensembles' loop for
+    a model of N_STATE states (templates/drivers.c.tmpl). Radau only in builds with the
+    Jacobian: it halves the compile time the integrators add elsewhere. The text names no
+    model, so models of one size (and Jacobian or not) share one compiled object
+    (build.builder.drivers_object)."""
+    radau = has_jacobian(eqs)
+    return template("drivers.c.tmpl").substitute(
+        version=__version__, n_state=2 * eqs.n, radau_note=" (with the Jacobian)" if radau else "",
+        radau_name=", Radau" if radau else "",
+        run_control=read_template("run_control.c.tmpl"),
+        integrators=read_template("integrators.c.tmpl"),
+        radau=read_template("radau.c.tmpl") if radau else "")
+
+
+def spectrum_source(eqs: Equations, prefix: str) -> str:
+    """<name>_spectrum.c: method auto's look at the start (templates/spectrum.c.tmpl), in a
+    file of its own that the build compiles in parallel with <name>.c."""
+    return template("spectrum_unit.c.tmpl").substitute(
+        name=eqs.mechanism.name, version=__version__, prefix=prefix,
+        spectrum=read_template("spectrum.c.tmpl"), jacobian=jacobian_function(eqs, prefix),
+        spectrum_max_states=AUTO_SPECTRUM_MAX_STATES)
