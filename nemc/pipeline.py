@@ -36,6 +36,7 @@ class Recipe:
     chunk_steps: int | None = None
     parts: tuple[str, ...] = ()
     mass_matrix: bool = False
+    linearization: bool = False
 
 
 @dataclass
@@ -72,6 +73,7 @@ def read_source(path: str | Path) -> Source:
 def compile_mechanism(
     path: str | Path, jacobian: bool | None = None, *, energy: bool = False,
     taylor: bool | None = None, chunk_steps: int | None = None, mass_matrix: bool = False,
+    linearization: bool = False,
 ) -> Compiled:
     """Build the mechanism in PATH (or load its cached build) and load it.
 
@@ -79,17 +81,20 @@ def compile_mechanism(
     scene's method is implicit, and later on the model's first need of it.
     taylor: the same for nemc.Taylor's coefficient code (scene method nemc.Taylor).
     mass_matrix: True generates M^-1 (Model.mass_matrix) now; False, on its first call.
+    linearization: True generates A, B, C, D's code (Model.linearize) now; False, on its first
+    call.
     energy: True adds the energy outputs when the YAML does not request them (`nemc stress`).
     chunk_steps: the most steps of a program emitted as one C function (None:
     nemc.emit.parts.CHUNK_STEPS); part of the build key."""
     return compile_source(read_source(path), jacobian, energy=energy, taylor=taylor,
-                          chunk_steps=chunk_steps, mass_matrix=mass_matrix)
+                          chunk_steps=chunk_steps, mass_matrix=mass_matrix,
+                          linearization=linearization)
 
 
 def compile_source(
     source: Source, jacobian: bool | None, *, energy: bool = False,
     taylor: bool | None = None, chunk_steps: int | None = None, lanes: int = 0,
-    mass_matrix: bool = False,
+    mass_matrix: bool = False, linearization: bool = False,
 ) -> Compiled:
     """lanes: also nemc.Taylor's ensembles in SIMD lanes, this many per batch (with taylor: the
     part "lanes"; build.lane_count() gives this machine's); 0: none."""
@@ -103,6 +108,8 @@ def compile_source(
         options["lanes"] = lanes
     if mass_matrix:
         options["mass_matrix"] = True
+    if linearization:
+        options["linearization"] = True
     if chunk_steps is not None:
         options["chunk_steps"] = chunk_steps
     key = build_key(source, options)
@@ -112,7 +119,7 @@ def compile_source(
         cached = package is not None
         if package is None:
             package = generate_and_build(source, key, jacobian, timings, energy, taylor,
-                                         chunk_steps, lanes, mass_matrix)
+                                         chunk_steps, lanes, mass_matrix, linearization)
         try:
             with timed(timings, "load"):
                 model = load_package(package)
@@ -126,18 +133,19 @@ def compile_source(
         return compile_source(source, "jacobian" in parts, energy=energy,
                               taylor=bool(parts & {"taylor", "lanes"}), chunk_steps=chunk_steps,
                               lanes=lane_count() if "lanes" in parts else 0,
-                              mass_matrix="mass_matrix" in parts).model
+                              mass_matrix="mass_matrix" in parts,
+                              linearization="linearization" in parts).model
 
     model.part_compiler = compile_parts
     model.recipe = Recipe(source, jacobian, taylor, energy, chunk_steps,
-                          tuple(model.metadata["generated"]), mass_matrix)
+                          tuple(model.metadata["generated"]), mass_matrix, linearization)
     return Compiled(model, package, cached, timings)
 
 
 def generate_and_build(
     source: Source, key: str, jacobian: bool | None, timings: dict[str, float],
     energy: bool = False, taylor: bool | None = None, chunk_steps: int | None = None,
-    lanes: int = 0, mass_matrix: bool = False,
+    lanes: int = 0, mass_matrix: bool = False, linearization: bool = False,
 ) -> Path:
     from .build.builder import build
     from .derive.assembly import check_assembly
@@ -145,6 +153,7 @@ def generate_and_build(
         derive,
         taylor_cost_ratio,
         with_jacobian,
+        with_linearization,
         with_mass_matrix,
         with_taylor,
     )
@@ -167,6 +176,8 @@ def generate_and_build(
                 equations = with_jacobian(equations)
             if mass_matrix:
                 equations = with_mass_matrix(equations)
+            if linearization:
+                equations = with_linearization(equations)
             if taylor or (taylor is None and method == "nemc.Taylor"):
                 equations = with_taylor(equations)
             elif taylor is None and auto_builds_taylor(method, equations.n):

@@ -528,3 +528,37 @@ def program_results(program, values: Mapping) -> list[float]:
     for name, expr in program.assignments():
         env[name] = expr.xreplace(env).evalf(30)
     return [float(sp.sympify(result).xreplace(env).evalf(30)) for result in program.results]
+
+
+def complex_step_linearization(mech: Mechanism, t: float, y: np.ndarray,
+                               inputs: Mapping[str, float], params: Params = None,
+                               step: float = 1e-200) -> tuple[np.ndarray, np.ndarray]:
+    """A = d(dy/dt)/dy and B = d(dy/dt)/du of the Lagrange derivation above, by complex steps:
+    Im f(x + i h e_k) / h is the derivative to rounding, with no cancellation (Squire and
+    Trapp 1998); the mechanism's loads may name its inputs (here held as numbers)."""
+    lag = lagrangian(mech)
+    M, f = equations(lag)
+    params_symbols = tuple(_definitions(mech))
+    input_symbols = tuple(symbol(item.name) for item in mech.inputs)
+    args = (TIME, *lag.q, *lag.u, *params_symbols, *input_symbols)
+    mass = sp.lambdify(args, M, modules="numpy")
+    force = sp.lambdify(args, f, modules="numpy")
+    values = resolve_parameters(mech, params)
+    p = [values[s.name] for s in params_symbols]
+    n = len(lag.q)
+
+    def rhs(state: np.ndarray, u: np.ndarray) -> np.ndarray:
+        call = (t, *state[0::2], *state[1::2], *p, *u)
+        qdd = np.linalg.solve(np.array(mass(*call), dtype=complex).reshape(n, n),
+                              np.array(force(*call), dtype=complex).reshape(n))
+        out = np.empty(2 * n, dtype=complex)
+        out[0::2], out[1::2] = state[1::2], qdd
+        return out
+
+    u0 = np.array([float(inputs[item.name]) for item in mech.inputs], dtype=complex)
+    y0 = np.asarray(y, dtype=complex)
+    a = np.column_stack([rhs(y0 + 1j * step * e, u0).imag / step
+                         for e in np.eye(2 * n)])
+    b = np.column_stack([rhs(y0, u0 + 1j * step * e).imag / step
+                         for e in np.eye(len(u0))]) if len(u0) else np.zeros((2 * n, 0))
+    return a, b

@@ -26,7 +26,9 @@ from ..front import mechanism as m
 from ..front.values import resolve_values
 from .articulated import dynamics_program, generalized_force_symbols, inverse_mass_program
 from .c_cost import estimated_ns
+from .inputs import InputLaw, input_law
 from .kinematics import Kinematics, applied_loads, motion_substitutions
+from .linearization import Linearization, input_seeds, linearization, state_seeds
 from .loops import LoopEquations, loop_equations
 from .mass_form import (
     MAX_COORDINATES,
@@ -76,8 +78,9 @@ class Equations:
     coordinates: tuple[sympy.Symbol, ...]
     speeds: tuple[sympy.Symbol, ...]
     accelerations: tuple[sympy.Symbol, ...]
-    parameters: tuple[sympy.Symbol, ...]  # the runtime parameter vector p, in order
-    parameter_defaults: tuple[float, ...]
+    parameters: tuple[sympy.Symbol, ...]  # the runtime parameter vector p, in order: the
+    parameter_defaults: tuple[float, ...]  # YAML's runtime parameters, then the inputs' laws'
+    #                                        coefficients (inputs.InputLaw)
     derived_parameters: tuple[tuple[str, sympy.Expr], ...]  # name -> expression of parameters
     dynamics: Program  # the accelerations qdd(t, q, dq)
     outputs: tuple[tuple[str, sympy.Expr], ...]  # may contain the acceleration symbols
@@ -102,6 +105,9 @@ class Equations:
     taylor_form: str | None = None  # the form nemc.Taylor's program was made from
     taylor_sums: float | None = None  # its Cauchy sums per order (taylor.series_cost)
     derived_mass_forcing: tuple[sympy.Matrix, sympy.Matrix] | None = None  # M, f if derived
+    inputs: InputLaw = InputLaw((), (), (), ())  # the inputs' laws and their coefficients
+    linearization: Linearization | None = None  # A, B, C, D's programs (trees), if built
+    linearization_unavailable: str | None = None  # why it is not, where it is asked for
 
     @property
     def n(self) -> int:
@@ -171,11 +177,19 @@ def newton_euler(mech: m.Mechanism, kin: Kinematics) -> tuple[sympy.Matrix, symp
 
 
 def runtime_values(mech: m.Mechanism) -> Callable[[object], sympy.Expr]:
-    """expression -> the same in runtime symbols (constants folded, derived parameters expanded)."""
+    """expression -> the same in runtime symbols (constants folded, derived parameters expanded,
+    each input replaced by its law: nemc/derive/inputs.py)."""
     fold = resolve_values(mech).substitutions
 
-    def runtime(expr: object) -> sympy.Expr:
+    def folded(expr: object) -> sympy.Expr:
         return sympy.sympify(expr).xreplace(fold)
+
+    laws = input_law(mech, folded).substitutions
+    if not laws:
+        return folded
+
+    def runtime(expr: object) -> sympy.Expr:
+        return sympy.sympify(expr).xreplace(fold).xreplace(laws)
 
     return runtime
 
@@ -186,6 +200,7 @@ def derive(mech: m.Mechanism) -> Equations:
     values = resolve_values(mech)
     kin = Kinematics(mech)
     runtime = runtime_values(mech)
+    inputs = input_law(mech, lambda expr: sympy.sympify(expr).xreplace(values.substitutions))
     checks = tuple(
         (f"bodies.{b.name}.{field}", runtime(getattr(b, field)))
         for b in mech.bodies
@@ -209,8 +224,8 @@ def derive(mech: m.Mechanism) -> Equations:
         coordinates=kin.q,
         speeds=kin.u,
         accelerations=kin.qdd,
-        parameters=values.runtime_symbols,
-        parameter_defaults=values.runtime_defaults,
+        parameters=values.runtime_symbols + inputs.coefficients,
+        parameter_defaults=values.runtime_defaults + inputs.defaults,
         derived_parameters=values.derived,
         dynamics=forms[form],
         outputs=tuple((name, runtime(expr)) for name, expr in
@@ -226,6 +241,7 @@ def derive(mech: m.Mechanism) -> Equations:
         dynamics_form=form,
         forms=forms,
         derived_mass_forcing=mass_forcing,
+        inputs=inputs,
     )
 
 
@@ -299,6 +315,17 @@ def with_jacobian(eqs: Equations) -> Equations:
     seeds = dict(zip(eqs.state, seed_symbols(len(eqs.state))))
     return dataclasses.replace(eqs, jacobian=tangent_program(eqs.accelerations_program, seeds),
                                seeds=seeds)
+
+
+def with_linearization(eqs: Equations) -> Equations:
+    """Add the exact linearization's programs (A, B, C, D at a state: nemc/derive/
+    linearization.py): a tree's, or a closed loop's pieces (the derivatives of its dynamics
+    program's every result: the runtime solves the index-1 equations' derivative and reduces
+    them to independent coordinates)."""
+    seeds = {**(eqs.seeds or state_seeds(eqs.state)), **input_seeds(eqs.inputs.values())}
+    results = (*eqs.accelerations, *eqs.drives, *eqs.multipliers)
+    return dataclasses.replace(eqs, linearization=linearization(
+        eqs.dynamics, seeds, results, tuple(expr for _, expr in eqs.outputs)))
 
 
 def with_mass_matrix(eqs: Equations) -> Equations:

@@ -105,12 +105,13 @@ def seed_symbols(n_state: int) -> tuple[sympy.Symbol, ...]:
     return tuple(sympy.Dummy(f"seed_{k}", real=True) for k in range(n_state))
 
 
-def tangent_program(primal: Program, seeds: Mapping[sympy.Symbol, sympy.Symbol]) -> Program:
+def tangent_program(primal: Program, seeds: Mapping[sympy.Symbol, sympy.Symbol],
+                    prefix: str = "dw") -> Program:
     """The directional derivatives of primal's results along seeds (state symbol -> the symbol
-    of its tangent)."""
+    of its tangent); its steps named PREFIX<k>."""
     tangent: dict[sympy.Symbol, sympy.Expr] = dict(seeds)
     known = {expr: name for name, expr in primal.assignments()}
-    builder = ProgramBuilder("dw")
+    builder = ProgramBuilder(prefix)
     for name, expr in primal.assignments():
         change = directional_derivative(expr, tangent, known)
         if change != 0:

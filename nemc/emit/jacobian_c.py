@@ -25,25 +25,27 @@ TANGENT = Caller("jacobian_tangent", "The derivative of the accelerations along 
 def jacobian_programs(
     eqs: Equations, printer: SymbolTablePrinter, primal: Program, tangent: Program,
     chunk_steps: int, units: Units | None = None,
+    callers: tuple[Caller, Caller] = (PRIMAL, TANGENT),
 ) -> tuple[Printed, Printed]:
     """The primal (run once) and its tangent (once per column): in parts when either is long,
     the primal then also passing on every value the tangent reads. The tangent's sums are
     printed in sympy's canonical order of their terms (order "none"), not sorted for print,
     more than half of printing's time; the primal, as the RHS, keeps the sorted order and its
     bits (docs/decisions.md, "Printing order")."""
+    primal_caller, tangent_caller = callers
     angles = angles_c(eqs, printer, primal, tangent)
     assert angles.reader is not None
     tangent = angles.reader
     if max(primal.size, tangent.size) <= chunk_steps:
         return (Printed("", angles.prologue + program_body(angles.printer, angles.program,
-                                                           PRIMAL.results[0])),
+                                                           primal_caller.writes)),
                 Printed("", program_body(angles.printer.with_names({}, order="none"), tangent,
-                                         TANGENT.results[0], TANGENT.indent)))
-    primal_code, passed = in_parts(angles.printer, angles.program, angles.caller(PRIMAL),
+                                         tangent_caller.writes, tangent_caller.indent)))
+    primal_code, passed = in_parts(angles.printer, angles.program, angles.caller(primal_caller),
                                    chunk_steps, symbols_used(tangent), units)
     tangent_printer = angles.printer.with_names(passed, order="none")
     return (Printed(primal_code.functions, angles.prologue + primal_code.body),
-            in_parts(tangent_printer, tangent, angles.caller(TANGENT), chunk_steps,
+            in_parts(tangent_printer, tangent, angles.caller(tangent_caller), chunk_steps,
                      units=units)[0])
 
 

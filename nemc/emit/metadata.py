@@ -12,6 +12,7 @@ from .jacobian_c import has_jacobian
 
 def metadata(eqs: Equations, prefix: str) -> dict:
     mech, sim = eqs.mechanism, eqs.mechanism.simulation
+    settable = len(eqs.parameters) - len(eqs.inputs.coefficients)  # then the inputs' laws
     return {
         "name": mech.name,
         "description": mech.description,
@@ -22,8 +23,11 @@ def metadata(eqs: Equations, prefix: str) -> dict:
         "coordinate_names": list(mech.coordinates),
         "coordinate_kinds": coordinate_kinds(mech),
         "state_names": list(mech.state_names),
-        "parameter_names": [s.name for s in eqs.parameters],
-        "parameter_defaults": list(eqs.parameter_defaults),
+        "parameter_names": [s.name for s in eqs.parameters[:settable]],
+        "parameter_defaults": list(eqs.parameter_defaults[:settable]),
+        "inputs": {"names": list(eqs.inputs.names), "offset": settable,
+                   "stride": eqs.inputs.stride,
+                   "defaults": list(eqs.parameter_defaults[settable:])},
         "derived_parameters": {name: str(expr) for name, expr in eqs.derived_parameters},
         "check_names": [key for key, _ in eqs.checks],
         "output_names": [name for name, _ in eqs.outputs],
@@ -53,7 +57,9 @@ def generated_functions(eqs: Equations) -> list[str]:
     jacobian = ["jacobian"] if has_jacobian(eqs) else []
     mass_matrix = ["mass_matrix"] if eqs.inverse_mass is not None else []
     outputs = ["outputs"] if eqs.outputs else []
-    return ["rhs", "rhs_many", "checks", "initial_state"] + outputs + jacobian + mass_matrix
+    linear = ["linearization"] if eqs.linearization is not None else []
+    return (["rhs", "rhs_many", "checks", "initial_state"] + outputs + jacobian + mass_matrix
+            + linear)
 
 
 def coordinate_kinds(mech: m.Mechanism) -> list[str]:

@@ -14,6 +14,7 @@ from .angles_c import angles_kernel
 from .c_text import SymbolTablePrinter
 from .dynamics_c import DYNAMICS_FORMS, dynamics_section
 from .jacobian_c import jacobian_programs, jacobian_section, shares_primal
+from .linearization_c import linearization_section
 from .optimize import Block
 from .parts import Units
 from .printing import body, comment_text, indexed, needed, symbol_table, template
@@ -30,6 +31,7 @@ def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
     dynamics = dynamics_section(eqs, block, printer, prefix, chunk_steps, units,
                                 shared and shared[0])
     jacobian = jacobian_section(eqs, block, printer, prefix, chunk_steps, units, shared)
+    jacobian += linearization_section(eqs, block, printer, prefix, chunk_steps, units)
     return template("model.c.tmpl").substitute(
         name=mech.name,
         version=__version__,

@@ -110,9 +110,13 @@ def optimize_equations(eqs: Equations) -> Block:
         **event_groups(eqs),
     }
     primal = eqs.accelerations_program if eqs.jacobian is not None else None
+    lin = eqs.linearization
     programs = {"dynamics": eqs.dynamics, "jacobian": eqs.jacobian,
                 "inverse_mass": eqs.inverse_mass,
-                "primal": primal if primal is not eqs.dynamics else None}
+                "primal": primal if primal is not eqs.dynamics else None,
+                "linearization": lin and lin.dynamics,
+                "linearization_outputs": lin and lin.outputs,
+                "linearization_outputs_tangent": lin and lin.outputs_tangent}
     temporaries, reduced = shared_cse(groups)
     rewritten = {name: rewrite_program(prog) for name, prog in programs.items()
                  if prog is not None}

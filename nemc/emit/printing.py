@@ -52,10 +52,27 @@ def symbol_table(eqs: Equations, block: Block) -> dict[sympy.Symbol, str]:
     if eqs.seeds:
         for i, (q, u) in enumerate(zip(eqs.coordinates, eqs.speeds)):
             names[eqs.seeds[q]], names[eqs.seeds[u]] = f"SEED_Q({i})", f"SEED_DQ({i})"
+    if eqs.linearization is not None:
+        names.update(linearization_names(eqs))
     names.update({s: s.name for s, _ in block.temporaries})
     for program in (*block.programs.values(), eqs.taylor):
         if program is not None:
             names.update({s: s.name for s, _ in program.assignments()})
+    return names
+
+
+def linearization_names(eqs: Equations) -> dict[sympy.Symbol, str]:
+    """The linearization's seeds and the tangents of the accelerations and drives."""
+    lin = eqs.linearization
+    assert lin is not None
+    names = {}
+    for i, (q, u) in enumerate(zip(eqs.coordinates, eqs.speeds)):
+        names[lin.seeds[q]], names[lin.seeds[u]] = f"SEED_Q({i})", f"SEED_DQ({i})"
+    names.update({lin.seeds[value]: f"SEED_U({k})" for k, value in
+                  enumerate(eqs.inputs.values())})
+    names.update({lin.results_seeds[a]: f"DQDD({i})" for i, a in enumerate(eqs.accelerations)})
+    names.update({lin.results_seeds[d]: f"DDRIVE({j})" for j, d in enumerate(eqs.drives)})
+    names.update({lin.results_seeds[k]: f"DLAMBDA({j})" for j, k in enumerate(eqs.multipliers)})
     return names
 
 

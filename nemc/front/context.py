@@ -19,7 +19,8 @@ from .parse import Node
 # Problems reported at most: each costs a suggestion (difflib over every name), so a file of
 # 15,000 wrong loads and 5,000 parameters took 106 s to report in full.
 MAX_PROBLEMS = 100
-FIXED_WHERE = "in body, joint, gravity and initial-condition fields (parameters and constants only)"
+FIXED_WHERE = ("in body, joint, gravity and initial-condition fields (parameters and constants "
+               "only)")
 MOTION_WHERE = "in a joint's motion (parameters, constants and t only)"
 
 
@@ -34,6 +35,7 @@ class Context:
     parameters: list[str] = field(default_factory=list)
     constants: list[str] = field(default_factory=list)
     coordinates: list[str] = field(default_factory=list)
+    inputs: list[str] = field(default_factory=list)  # the inputs' names, in file order
     defaults: dict[sympy.Symbol, sympy.Expr] = field(default_factory=dict)
     depths: dict[sympy.Symbol, int] = field(default_factory=dict)  # of written-out definitions
     bodies: dict[str, Body] = field(default_factory=dict)
@@ -57,34 +59,38 @@ class Context:
 
     def scope(self, kind: str) -> Scope:
         """``constants``, ``parameters``, ``fixed`` (body, joint, ...), ``motion`` (a driven
-        joint's: fixed and t), ``load`` or ``event`` fields.
+        joint's: fixed and t; also the scene's inputs), ``load`` or ``event`` fields (these
+        also the state and the inputs).
 
         Made once per kind while the names it is made of stay the same (they only grow):
         making it costs time linear in the names, and a file may hold 20,000 expressions."""
         version = (kind, len(self.names), len(self.constants), len(self.parameters),
-                   len(self.coordinates))
+                   len(self.coordinates), len(self.inputs))
         if version not in self.scopes:
             self.scopes[version] = self._make_scope(kind)
         return self.scopes[version]
 
     def _make_scope(self, kind: str) -> Scope:
         allowed = list(self.constants)
-        if kind != "constants":
+        if kind != "constants":  # every other kind also takes the parameters
             allowed += self.parameters
         where = {"constants": "in constants (other constants only)",
                  "parameters": "in parameters (parameters and constants only)",
                  "fixed": FIXED_WHERE,
                  "motion": MOTION_WHERE,
+                 "inputs": "in inputs' defaults (parameters and constants only)",
+                 "scene inputs": "in simulation.inputs (parameters, constants and t only)",
                  "load": "in loads and outputs",
                  "event": "in events"}[kind]
-        state = kind in ("load", "event")  # coordinates, their rates and t are allowed
+        state = kind in ("load", "event")  # coordinates, their rates, inputs and t are allowed
         if state:
-            allowed += self.coordinates
+            allowed += self.coordinates + self.inputs
         names = {name: symbol(name) for name in allowed}
         refused = {name: f"{name!r} is {_article(kind_)} {kind_}, not allowed {where}"
                    for name, (kind_, _) in self.names.items() if name not in names}
         rates = frozenset(self.coordinates) if state else frozenset()
-        return Scope(names, rates, state or kind == "motion", refused, where, self.budget)
+        timed = state or kind in ("motion", "scene inputs")
+        return Scope(names, rates, timed, refused, where, self.budget)
 
 
 def _article(word: str) -> str:

@@ -103,6 +103,7 @@ class Simulation:
     max_step: float | None = None  # the largest step any method may take (solve_ivp's max_step)
     tstops: tuple[float, ...] = ()  # times every method's steps land on exactly
     max_steps: int | None = None  # the step budget (None: the runtime's default)
+    inputs: Mapping[str, Expr] = field(default_factory=dict)  # input -> expression of p, t
 
 
 AngleDisplay = Literal["rad", "deg"]
@@ -136,6 +137,7 @@ class Mechanism:
     simulation: Simulation
     constraints: tuple[Constraint, ...] = ()  # loop-closing joints (nemc/constraints/)
     units: Units = field(default_factory=Units)
+    inputs: tuple[Param, ...] = ()  # values set from outside at run time, with their defaults
 
     @property
     def coordinates(self) -> tuple[str, ...]:

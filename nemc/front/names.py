@@ -50,6 +50,7 @@ def collect_names(ctx: Context, root: Mapping[str, Node]) -> None:
     """Register every user-chosen name first, so collisions are found whatever the order."""
     for section, kind, target in (("parameters", "parameter", ctx.parameters),
                                   ("constants", "constant", ctx.constants),
+                                  ("inputs", "input", ctx.inputs),
                                   ("bodies", "body", ctx.body_names),
                                   ("joints", "joint", None),
                                   ("constraints", "constraint", None)):

@@ -1,6 +1,6 @@
 """The scene: `simulation` (time span, initial values and the assembly's guess, output times,
-method and tolerances), its run control (events, max_step, tstops, the step budget) and the
-`units` labels.
+method and tolerances, the inputs' values), its run control (events, max_step, tstops, the step
+budget) and the `units` labels.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ from .parse import Node
 
 
 def read_simulation(ctx: Context, node: Node) -> Simulation:
-    keys = ("t_span", "initial", "t_eval", "method", "rtol", "atol", "guess", *RUN_CONTROL_KEYS)
+    keys = ("t_span", "initial", "t_eval", "method", "rtol", "atol", "guess", "inputs",
+            *RUN_CONTROL_KEYS)
     if not check_keys(ctx, node, "simulation", keys):
         return Simulation()
     entries = entries_of(node)
@@ -38,8 +39,30 @@ def read_simulation(ctx: Context, node: Node) -> Simulation:
         guess = _initial(ctx, entries["guess"], "simulation.guess", rates=False)
     initial_loc = (ctx.loc(entries["initial"], "simulation.initial") if "initial" in entries
                    else None)
+    inputs = _scene_inputs(ctx, entries["inputs"]) if "inputs" in entries else {}
     return Simulation(t_span, initial, t_eval, step, method, tolerances["rtol"],
-                      tolerances["atol"], guess, initial_loc, **_run_control(ctx, entries, t_span))
+                      tolerances["atol"], guess, initial_loc, **_run_control(ctx, entries, t_span),
+                      inputs=inputs)
+
+
+def _scene_inputs(ctx: Context, node: Node) -> dict[str, sympy.Expr]:
+    """The scene's values of inputs: input name -> expression of parameters, constants and t."""
+    path = "simulation.inputs"
+    if not node.is_map:
+        ctx.problem(node.line, path, f"expected a mapping input name -> value, {described(node)}")
+        return {}
+    found = {}
+    for name, value in entries_of(node).items():
+        key = join_path(path, name)
+        if name not in ctx.inputs:
+            known = ", ".join(ctx.inputs) or "none: declare them under inputs:"
+            ctx.problem(node.key_lines[name], key, f"unknown input {name!r}"
+                        f"{suggestion(name, ctx.inputs)}; the inputs: {known}")
+            continue
+        expr = read_expr(ctx, value, key, ctx.scope("scene inputs"))
+        if expr is not None:
+            found[name] = expr
+    return found
 
 
 def _positive(ctx: Context, node: Node, path: str) -> float | None:

@@ -2,10 +2,10 @@
 
 Every rule of ``shared/spec/mechanism-format.md`` is checked, once: this module walks the file's
 top level and hands each section to the module that checks it (names.py, parameters.py,
-bodies.py, joints.py, constraints.py, loads.py, outputs.py, scene.py; the values themselves
-through fields.py and references.py, a kind's keys through reader.Reader). Problems are
-collected in a context.Context (not raised one by one) so a user can fix the whole file in one
-pass; each names the file, the line, the key path and what was expected.
+inputs.py, bodies.py, joints.py, constraints.py, loads.py, outputs.py, scene.py; the values
+themselves through fields.py and references.py, a kind's keys through reader.Reader). Problems
+are collected in a context.Context (not raised one by one) so a user can fix the whole file in
+one pass; each names the file, the line, the key path and what was expected.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ from .bodies import read_bodies
 from .constraints import read_constraints
 from .context import Context, check_keys, entries_of
 from .fields import ZERO2, read_string, read_vec2
+from .inputs import read_inputs
 from .joints import read_joints
 from .loads import read_loads
 from .mechanism import Mechanism, Outputs, Simulation, Units
@@ -29,8 +30,8 @@ from .parse import Node, parse_text
 from .reading import read_file
 from .scene import read_simulation, read_units
 
-TOP_KEYS = ("name", "description", "parameters", "constants", "gravity", "bodies", "joints",
-            "constraints", "loads", "outputs", "simulation", "units")
+TOP_KEYS = ("name", "description", "parameters", "constants", "inputs", "gravity", "bodies",
+            "joints", "constraints", "loads", "outputs", "simulation", "units")
 # The largest mechanism nemc builds. The build grows linearly with the bodies (issue 19): a
 # 1000-body chain of revolute joints builds cold in 53 s with 224 MB at most (400 bodies 22 s,
 # 200 bodies 16 s), 264 s and 710 MB with its Jacobian (whose derivation, sympy's diff of every
@@ -72,6 +73,7 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
     collect_names(ctx, root)
     _check_size(ctx, root)
     parameters, constants = read_parameters(ctx, root)
+    inputs = read_inputs(ctx, root["inputs"]) if "inputs" in root else ()
     gravity = read_vec2(ctx, root["gravity"], "gravity") if "gravity" in root else ZERO2
     bodies = read_bodies(ctx, root.get("bodies"))
     joints = read_joints(ctx, root.get("joints"))
@@ -86,7 +88,7 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
                      source_hash=source_hash, parameters=parameters, constants=constants,
                      gravity=gravity, bodies=bodies, joints=joints, loads=loads,
                      outputs=outputs, simulation=simulation, constraints=constraints,
-                     units=units)
+                     units=units, inputs=inputs)
 
 
 def _check_size(ctx: Context, root: Mapping[str, Node]) -> None:
