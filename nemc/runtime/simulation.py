@@ -53,7 +53,7 @@ def simulate(model: BuiltModel, arguments: tuple, t_eval: Any) -> SimulationResu
     """The run of simulate()'s ARGUMENTS (as RUN_ARGUMENTS names them) at the times T_EVAL:
     each resolved against the scene, then the defaults, and checked, in this order."""
     t_span, y0, method, rtol, atol, params, events, max_step, tstops, max_steps = arguments
-    p = model.parameter_vector(params)
+    p = model.parameter_table.vector(params)  # Model.parameter_vector's, one call less
     scene = model.scene
     span = checked_span(scene["t_span"] or DEFAULT_T_SPAN if t_span is None else t_span)
     method = checked_method(scene["method"] or DEFAULT_METHOD if method is None else method,
