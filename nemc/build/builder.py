@@ -47,10 +47,10 @@ from typing import TYPE_CHECKING
 
 import _cffi_backend  # the extension loads it anyway; cffi itself is imported to build only
 
-from ..vocabulary import NEMC_VERSION as __version__
+from ..emit.resources import template_files
 from ..errors import BuildError, describe
 from ..vocabulary import COMPLETE, DRIVERS, RHS_CALL, RUN_HEADER, RUNTIME_PACKAGE
-from ..emit.resources import template_files
+from ..vocabulary import NEMC_VERSION as __version__
 
 if TYPE_CHECKING:  # emit imports sympy; a cached load must not (nor subprocess, cffi, ...)
     import subprocess

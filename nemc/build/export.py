@@ -20,8 +20,8 @@ import stat
 import tempfile
 from pathlib import Path
 
-from ..vocabulary import NEMC_VERSION as __version__
 from ..errors import OutputRefused
+from ..vocabulary import NEMC_VERSION as __version__
 
 MARKER = ".nemc-package.json"
 LEGACY_MARKER = "BUILD_OK"  # the cache's manifest, copied into packages exported before MARKER

@@ -53,7 +53,7 @@ def taylor_cheap(model: BuiltModel, rtol: float) -> bool:
 def lanes_at_hand(model: BuiltModel) -> int:
     """The lanes per batch of a build at hand with nemc.Taylor's lanes (this one, or the
     variant compiled_with("lanes") already gave), else 0: nothing is built to find out."""
-    for build in model.builds_at_hand():
+    for build in model._builds_at_hand():
         if build.has_part("lanes") and build.compiled.taylor_ready():
             return int(build.metadata.get("lane_count", 0))
     return 0
@@ -93,9 +93,9 @@ def start_stiffness(model: BuiltModel, span: tuple[float, ...], y0: np.ndarray,
 def stiffness_build(model: BuiltModel) -> BuiltModel:
     """The build start_stiffness looks with: the first at hand with the exact Jacobian (the
     model or a variant), else the model; found again only when a variant was added."""
-    count, build = model.stiffness_build
-    if count != len(model.variants) or build is None:
-        build = next((build for build in model.builds_at_hand() if build.has_part("jacobian")),
+    count, build = model._stiffness_build
+    if count != len(model._variants) or build is None:
+        build = next((build for build in model._builds_at_hand() if build.has_part("jacobian")),
                      model)
-        model.stiffness_build = (len(model.variants), build)
+        model._stiffness_build = (len(model._variants), build)
     return build

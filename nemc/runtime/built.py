@@ -51,9 +51,9 @@ class BuiltModel:
         # Compiles this mechanism with more parts (set by nemc's pipeline; None in a
         # standalone package, which has only the parts it was built with): see compiled_with.
         self.part_compiler: Callable[[frozenset[str]], BuiltModel] | None = None
-        self.variants: dict[str, BuiltModel] = {}  # compiled_with's, by the part asked for
-        self.native_builds: dict[str, BuiltModel] = {}  # native.native_build's, by method
-        self.stiffness_build: tuple[int, BuiltModel | None] = (-1, None)  # auto.look_build's
+        self._variants: dict[str, BuiltModel] = {}  # compiled_with's, by the part asked for
+        self._native_builds: dict[str, BuiltModel] = {}  # native.native_build's, by method
+        self._stiffness_build: tuple[int, BuiltModel | None] = (-1, None)  # auto.stiffness_build's
         self._rhs_cache: tuple[Any, Any] = (None, None)  # rhs(): (p, its closure)
         # rhs(t, y) at the default parameters: through the build's _rhs_call (None: not made
         # yet), else through cffi with the checks (Compiled.fast_rhs, checked_rhs)
@@ -246,14 +246,14 @@ class BuiltModel:
             return self
         if f"{part}_unavailable" in self.metadata:  # this mechanism cannot have it
             return self
-        if part not in self.variants:
-            have = {name for model in self.builds_at_hand()
+        if part not in self._variants:
+            have = {name for model in self._builds_at_hand()
                     for name in model.metadata["generated"]}
             variant = self.part_compiler(frozenset(have & OPTIONAL_PARTS | {part}))
             variant.parameter_table.share_defaults(self.parameter_table)
-            self.variants[part] = variant
-        return self.variants[part]
+            self._variants[part] = variant
+        return self._variants[part]
 
-    def builds_at_hand(self) -> tuple[BuiltModel, ...]:
+    def _builds_at_hand(self) -> tuple[BuiltModel, ...]:
         """This build and the variants compiled_with gave already (nothing is built)."""
-        return (self, *self.variants.values())
+        return (self, *self._variants.values())

@@ -24,9 +24,9 @@ def native_build(model: BuiltModel, method: str) -> BuiltModel:
     """The build that has what the native method needs: nemc.Radau the Jacobian, nemc.Taylor
     its coefficients (compiled now when this build lacks them); the same from then on, kept
     on the model (1 us less a run)."""
-    kept = model.native_builds.get(method)
+    kept = model._native_builds.get(method)
     if kept is None:
-        kept = model.native_builds[method] = find_native_build(model, method)
+        kept = model._native_builds[method] = find_native_build(model, method)
     return kept
 
 
