@@ -80,8 +80,8 @@ def chained_calls(model: nemc.Model, states: np.ndarray, folder: Path) -> tuple[
     ffi = cffi.FFI()
     ffi.cdef("int chained_rhs(const void *, int, int, const double *, const double *, long);")
     chain = ffi.dlopen(str(library))
-    address = model._ffi.cast("uintptr_t", model._ffi.addressof(
-        model._lib, model.metadata["c_prefix"] + "rhs"))
+    c = model.compiled
+    address = c.ffi.cast("uintptr_t", c.ffi.addressof(c.lib, c.prefix + "rhs"))
     function = ffi.cast("const void *", int(address))
     rows = np.ascontiguousarray(states)
     p = model.parameter_vector()
@@ -101,8 +101,8 @@ def main() -> int:
     model = nemc.compile(ROOT / "examples" / "double_pendulum.yaml")
     y0 = model.initial_state()
     states = random_states(model.n_state, STATES)  # (n_state, STATES)
-    through_cffi = model._checked_rhs(model.parameter_vector())
-    closure = model._rhs_function(model.parameter_vector())
+    through_cffi = model.compiled.checked_rhs(model.parameter_vector())
+    closure = model.compiled.integrator_rhs(model.parameter_vector())
     calls = {
         "C right-hand side (rhs_many, per state)": (lambda: model.rhs_many(0.0, states), STATES),
         "model.rhs(t, y)": (lambda: model.rhs(0.0, y0), 1),

@@ -412,7 +412,7 @@ def worker(spec: dict[str, Any]) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="nemc-bench-peer-") as folder:
         peer = BUILDERS[spec["peer"]](mech, Path(folder))
         out["build_seconds"] = peer.build_seconds
-        closure = model._rhs_function(model.parameter_vector())
+        closure = model.compiled.integrator_rhs(model.parameter_vector())
         states = np.random.default_rng(2).uniform(-1.5, 1.5, size=(16, model.n_state))
         ours = np.array([closure(0.0, s) for s in states])
         theirs = np.array([peer.rhs(0.0, s) for s in states])

@@ -46,6 +46,7 @@ from common import (  # noqa: E402
 )
 
 from nemc.runtime.runs import interrupts_raise  # noqa: E402
+from nemc.runtime.scipy_run import integrator_jacobian  # noqa: E402
 
 DOUBLE_PENDULUM = ROOT / "examples" / "double_pendulum.yaml"
 BOOK_SYSTEMS = {
@@ -124,7 +125,7 @@ def test_states(model, count: int, seed: int = 1) -> np.ndarray:
 def rhs_contenders(model, baselines: Baselines, config: Config) -> dict[str, tuple[Callable, int]]:
     states = test_states(model, config.many_states)
     y = np.ascontiguousarray(states[:, 0])
-    closure = model._rhs_function(model.parameter_vector())
+    closure = model.compiled.integrator_rhs(model.parameter_vector())
     calls = {
         "nemc model.rhs": (partial(model.rhs, 0.0, y), 1),
         "nemc closure": (partial(closure, 0.0, y), 1),
@@ -143,7 +144,7 @@ def rhs_agreement(model, baselines: Baselines) -> dict[str, float]:
     for name, rhs in baselines.rhs.items():
         theirs = np.column_stack([rhs(0.0, states[:, k]) for k in range(states.shape[1])])
         diffs[name] = float(np.max(np.abs(theirs - ours)) / scale)
-    closure = model._rhs_function(model.parameter_vector())
+    closure = model.compiled.integrator_rhs(model.parameter_vector())
     diffs["rhs_many vs closure"] = float(np.max(np.abs(ours[:, 0] - closure(0.0, states[:, 0]))))
     return diffs
 
@@ -220,7 +221,7 @@ def warm_parts(model, methods: Sequence[str]) -> dict[str, float]:
     need: both are built here, before any timed run (their seconds are reported apart)."""
     seconds = {"jacobian": 0.0, "taylor": 0.0}
     if set(methods) & set(IMPLICIT):
-        seconds["jacobian"], _ = timed(lambda: model._jacobian_function(model.parameter_vector()))
+        seconds["jacobian"], _ = timed(lambda: integrator_jacobian(model, model.parameter_vector()))
     if "nemc.Taylor" in methods:
         seconds["taylor"], _ = timed(lambda: model.compiled_with("taylor"))
     return seconds

@@ -86,7 +86,7 @@ def rhs_costs(package: Path, config: Config) -> dict[str, Any]:
     model = load_package(package)
     states = common.random_states(model.n_state, config.many_states, bound=1.0)
     y = np.ascontiguousarray(states[:, 0])
-    closure = model._rhs_function(model.parameter_vector())
+    closure = model.compiled.integrator_rhs(model.parameter_vector())
     calls = {"C (rhs_many, per state)": (lambda: model.rhs_many(0.0, states), states.shape[1]),
              "Python (closure per call)": (lambda: closure(0.0, y), 1)}
     return common.interleaved(calls, config.rounds, config.sample_seconds)

@@ -25,6 +25,7 @@ from scipy.integrate import solve_ivp
 import nemc
 from nemc.derive.equations import derive
 from nemc.front.validate import load_mechanism
+from nemc.runtime.scipy_run import integrator_jacobian
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
@@ -64,7 +65,7 @@ def lambdify_rhs(path: Path, params: dict[str, float]):
 def contenders(model, path: Path, params: dict[str, float], method: str, span, rtol: float):
     p = model.parameter_vector(params)
     y0 = model.initial_state(params)
-    c_rhs = model._rhs_function(p)
+    c_rhs = model.compiled.integrator_rhs(p)
     py_rhs = lambdify_rhs(path, params)
     atol = rtol * 1e-2
 
@@ -73,7 +74,7 @@ def contenders(model, path: Path, params: dict[str, float], method: str, span, r
         return solve_ivp(fun, span, y0, method=method, rtol=rtol, atol=atol, **extra)
 
     return {
-        "nemc analytic J": lambda: run(c_rhs, model._jacobian_function(p)),
+        "nemc analytic J": lambda: run(c_rhs, integrator_jacobian(model, p)),
         "nemc FD J": lambda: run(c_rhs),
         "lambdify(cse) FD J": lambda: run(py_rhs),
     }
@@ -82,9 +83,9 @@ def contenders(model, path: Path, params: dict[str, float], method: str, span, r
 def measure(case: str, path: Path, params, span, tolerances, repeats: int) -> list[dict]:
     model = nemc.compile(path, jacobian=True)
     p = model.parameter_vector(params)
-    reference = solve_ivp(model._rhs_function(p), span, model.initial_state(params),
+    reference = solve_ivp(model.compiled.integrator_rhs(p), span, model.initial_state(params),
                           method="Radau", rtol=1e-12, atol=1e-14,
-                          jac=model._jacobian_function(p)).y[:, -1]
+                          jac=integrator_jacobian(model, p)).y[:, -1]
     rows = []
     for method in METHODS:
         for rtol in tolerances:

@@ -13,7 +13,9 @@ from scipy.integrate import solve_ivp
 import nemc
 from nemc import vocabulary as methods
 from nemc.build.builder import lane_count
+from nemc.runtime import auto
 from nemc.runtime import model as runtime
+from nemc.runtime.auto import start_stiffness
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"
@@ -118,8 +120,8 @@ def test_the_start_stiffness_agrees_with_the_analytic_jacobian() -> None:
     eigenvalues = np.linalg.eigvals(arm.jacobian(0.0, y0))
     decay = -eigenvalues.real
     expected = decay[decay > np.abs(eigenvalues.imag)].max() * 15.0 / methods.EXPLICIT_STABILITY
-    assert arm._start_stiffness(span, y0, p) == pytest.approx(expected, rel=1e-12)
-    assert differences._start_stiffness(span, y0, p) == pytest.approx(expected, rel=1e-3)
+    assert start_stiffness(arm, span, y0, p) == pytest.approx(expected, rel=1e-12)
+    assert start_stiffness(differences, span, y0, p) == pytest.approx(expected, rel=1e-3)
     assert not differences.has_part("jacobian")  # the look at the start built nothing
     assert expected > methods.AUTO_STIFF_STEPS  # so auto starts this arm with nemc.Radau
     assert arm.simulate(span, method="auto").method == "nemc.Radau"
@@ -139,14 +141,14 @@ def test_an_oscillation_or_an_unstable_start_is_not_stiffness() -> None:
     near its top (eigenvalues +-3.4): nothing there for Radau to step over."""
     for path in (PENDULUM, EXAMPLES / "compound_pendulum.yaml"):
         model = nemc.compile(path)
-        assert model._start_stiffness((0.0, 1e6), model.initial_state(),
-                                      model.parameter_vector()) < 1e-3
+        assert start_stiffness(model, (0.0, 1e6), model.initial_state(),
+                               model.parameter_vector()) < 1e-3
 
 
 @pytest.fixture
 def explicit_start(monkeypatch: pytest.MonkeyPatch) -> None:
     """auto starts explicit whatever the start's stiffness: the switch has to do the work."""
-    monkeypatch.setattr(runtime, "auto_method", lambda *args: "nemc.DOP853")
+    monkeypatch.setattr(auto, "auto_method", lambda *args: "nemc.DOP853")
 
 
 @pytest.mark.usefixtures("explicit_start")

@@ -140,12 +140,12 @@ def test_a_cpu_without_fma_refuses_a_build_for_it(monkeypatch: pytest.MonkeyPatc
     """A package built for FMA, loaded where the CPU lacks it (taylor_ready() is 0): nemc.Taylor
     says so and what to do, and "auto" chooses another method."""
     model = nemc.compile(EXAMPLES / "double_pendulum.yaml").compiled_with("taylor")
-    monkeypatch.setattr(type(model), "_taylor_ready", lambda self: False)
+    monkeypatch.setattr(type(model.compiled), "taylor_ready", lambda self: False)
     with pytest.raises(ModelError, match="FMA.*compile the mechanism again"):
         model.simulate((0.0, 1.0), method="nemc.Taylor")
     assert model.simulate((0.0, 1.0), method="auto").method == "nemc.Vern9"
     monkeypatch.undo()
-    assert model._taylor_ready() and model.simulate((0.0, 1.0), method="auto").method == \
+    assert model.compiled.taylor_ready() and model.simulate((0.0, 1.0), method="auto").method == \
         "nemc.Taylor"
 
 

@@ -49,14 +49,15 @@ def evaluate(compiled: Compiled, y: np.ndarray, p: np.ndarray) -> dict[str, tupl
     """Status and values of the C rhs, jacobian and inverse mass matrix, called directly (the
     Model refuses parameters that make the mass matrix singular before C sees them)."""
     model = compiled.model
-    n, n_coord, buffer = model.n_state, len(model.coordinate_names), model._buffer
+    n, n_coord, buffer = model.n_state, len(model.coordinate_names), model.compiled.buffer
+    c = model.compiled.functions  # the build's C entry points
     y, p = np.ascontiguousarray(y, dtype=float), np.ascontiguousarray(p, dtype=float)
     dy, jac, minv = np.zeros(n), np.zeros((n, n)), np.zeros((n_coord, n_coord))
     return {
-        "rhs": (model._c["rhs"](0.7, buffer(y), buffer(p), buffer(dy)), dy.tolist()),
-        "jacobian": (model._c["jacobian"](0.7, buffer(y), buffer(p), buffer(jac)), jac.tolist()),
+        "rhs": (c["rhs"](0.7, buffer(y), buffer(p), buffer(dy)), dy.tolist()),
+        "jacobian": (c["jacobian"](0.7, buffer(y), buffer(p), buffer(jac)), jac.tolist()),
         "inverse_mass_matrix": (
-            model._c["inverse_mass_matrix"](0.0, buffer(y), buffer(p), buffer(minv)),
+            c["inverse_mass_matrix"](0.0, buffer(y), buffer(p), buffer(minv)),
             minv.tolist()),
     }
 

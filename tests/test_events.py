@@ -162,7 +162,7 @@ def scipy_tip_events(swinging) -> tuple[np.ndarray, np.ndarray]:
         return tip_height(y)
 
     low.direction, up.direction = -1, 1
-    rhs = swinging._rhs_function(swinging.parameter_vector())
+    rhs = swinging.compiled.integrator_rhs(swinging.parameter_vector())
     sol = solve_ivp(rhs, (0, 5), swinging.initial_state(), method="DOP853", rtol=1e-13,
                     atol=1e-14, events=[low, up])
     return sol.t_events[0], sol.t_events[1]
@@ -316,7 +316,8 @@ def test_an_impact_on_a_closed_loop_is_projected_onto_its_constraints(tmp_path: 
     times, before = result.events["bumper"]
     assert result.success and len(times) >= 1
     p = model.parameter_vector(None)
-    after = model._model_events(p).impact(0, times[0], before[0])  # what the run went on from
+    events = model.compiled.model_events(p)
+    after = events.impact(0, times[0], before[0])  # what the run went on from
     rates = after[1::2]
     assert after[1] == pytest.approx(-0.5 * before[0][1], rel=1e-12)
     assert model.constraint_residual(before[0], times[0])[1] < 1e-8

@@ -96,7 +96,7 @@ def test_stiff_arm_with_analytic_jacobian(gain: float) -> None:
     analytic = model.simulate(span, method="Radau", t_eval=times, rtol=1e-8, atol=1e-10,
                               params=params)
     p = model.parameter_vector(params)
-    numeric = solve_ivp(model._rhs_function(p), span, model.initial_state(params),
+    numeric = solve_ivp(model.compiled.integrator_rhs(p), span, model.initial_state(params),
                         method="Radau", t_eval=times, rtol=1e-8, atol=1e-10)
     explicit = model.simulate(span, method="RK45", rtol=1e-8, atol=1e-10, params=params)
     assert analytic.success and analytic.njev > 0

@@ -16,7 +16,8 @@ import pytest
 
 import nemc
 from nemc.runtime import runs
-from nemc.runtime.model import Model, ModelError, _all_finite, checked_span, checked_times
+from nemc.runtime.checks import all_finite, checked_span, checked_times
+from nemc.runtime.model import Model, ModelError
 
 ROOT = Path(__file__).resolve().parent.parent
 COMPOUND = ROOT / "examples" / "compound_pendulum.yaml"  # state [theta, dot(theta)]
@@ -77,10 +78,10 @@ def test_t_eval_checked_of_any_size(times: list[float]) -> None:
 
 
 def test_all_finite() -> None:
-    assert _all_finite(np.array([1e308, 1e308]))  # the sum overflows; every entry is finite
-    assert _all_finite(np.ones(100))
+    assert all_finite(np.array([1e308, 1e308]))  # the sum overflows; every entry is finite
+    assert all_finite(np.ones(100))
     for bad in ([math.nan, 1.0], [math.inf, -math.inf], [1.0] * 99 + [math.nan]):
-        assert not _all_finite(np.array(bad))
+        assert not all_finite(np.array(bad))
 
 
 @pytest.mark.parametrize("y0", [[math.nan, 0.0], [0.0, math.inf]])
@@ -123,7 +124,7 @@ def test_interrupt_flag_restores_the_handlers_also_after_an_error() -> None:
         raise RuntimeError("inside")
     assert signal.getsignal(signal.SIGINT) is handler
     assert signal.set_wakeup_fd(-1) == -1  # none left set
-    assert not runs._WATCH.guards
+    assert not runs.WATCH.guards
 
 
 def test_a_cached_compile_imports_no_build_or_report_machinery(model: Model) -> None:
@@ -149,7 +150,7 @@ def test_only_a_run_that_lasts_swaps_the_sigint_handler(model: Model, monkeypatc
 
     def counted(flag: object) -> int:
         go_on = arm(flag)
-        armed.append(signal.getsignal(signal.SIGINT) is runs._swallow_sigint)
+        armed.append(signal.getsignal(signal.SIGINT) is runs.swallow_sigint)
         return go_on
 
     monkeypatch.setattr(runs, "arm_interrupts", counted)
@@ -163,7 +164,7 @@ def test_only_a_run_that_lasts_swaps_the_sigint_handler(model: Model, monkeypatc
         assert long.success and armed == [True], method
         assert signal.getsignal(signal.SIGINT) is handler
         assert signal.set_wakeup_fd(-1) == -1
-        assert not runs._WATCH.guards and not runs._ARMED
+        assert not runs.WATCH.guards and not runs.ARMED
 
 
 def test_a_ctrl_c_before_the_guard_is_armed_ends_the_run(model: Model) -> None:
@@ -172,13 +173,13 @@ def test_a_ctrl_c_before_the_guard_is_armed_ends_the_run(model: Model) -> None:
     def interrupted(flag: object) -> int:
         raise KeyboardInterrupt
 
-    callback = model._ffi.callback("int(int *)", interrupted, error=0,
+    callback = model.compiled.ffi.callback("int(int *)", interrupted, error=0,
                                    onerror=runs.interrupted_while_arming)
-    flag = model._ffi.new("int *")
+    flag = model.compiled.ffi.new("int *")
     assert callback(flag) == 1
-    assert runs.arm_interrupts(flag) == 0 and len(runs._ARMED) == 1  # armed: watched
+    assert runs.arm_interrupts(flag) == 0 and len(runs.ARMED) == 1  # armed: watched
     runs.after_run(flag)
-    assert not runs._ARMED and not runs._WATCH.guards
+    assert not runs.ARMED and not runs.WATCH.guards
 
 
 def test_without_callbacks_a_run_is_watched_from_its_start(monkeypatch) -> None:
@@ -188,13 +189,13 @@ def test_without_callbacks_a_run_is_watched_from_its_start(monkeypatch) -> None:
 
     model = nemc.compile(COMPOUND)
     lazy = model.simulate((0.0, 50.0), method="nemc.DOP853", t_eval=[50.0])
-    model._arm_interrupts = None
+    model.compiled.arm_interrupts = None
     watched: list[bool] = []
     enter = runs.interrupt_flag.__enter__
 
     def entered(guard: runs.interrupt_flag) -> object:
         flag = enter(guard)
-        watched.append(signal.getsignal(signal.SIGINT) is runs._swallow_sigint)
+        watched.append(signal.getsignal(signal.SIGINT) is runs.swallow_sigint)
         return flag
 
     monkeypatch.setattr(runs.interrupt_flag, "__enter__", entered)
@@ -202,4 +203,4 @@ def test_without_callbacks_a_run_is_watched_from_its_start(monkeypatch) -> None:
     assert watched == [True]
     np.testing.assert_array_equal(eager.y, lazy.y)
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    assert not runs._WATCH.guards
+    assert not runs.WATCH.guards

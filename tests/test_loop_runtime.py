@@ -98,7 +98,7 @@ def test_rhs_off_the_constraints_is_the_rhs_on_them(fourbar) -> None:
     rng = np.random.default_rng(11)
     off = on + rng.normal(scale=1e-7, size=on.size)
     assert fourbar.constraint_residual(off)[0] > 1e-8
-    projected = fourbar._projected(np.array([0.0]), off.reshape(-1, 1),
+    projected = fourbar.loops.projected(np.array([0.0]), off.reshape(-1, 1),
                                   fourbar.parameter_vector())[:, 0]
     assert fourbar.constraint_residual(projected).max() < 1e-13
     np.testing.assert_allclose(fourbar.rhs(0.0, off), fourbar.rhs(0.0, projected),

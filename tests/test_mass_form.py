@@ -139,9 +139,10 @@ def test_a_singular_mass_form_names_its_pivot() -> None:
     p = model.parameter_vector()
     p[model.parameter_names.index("m2")] = 0.0
     y, dy = model.initial_state(), np.empty(model.n_state)
-    status = model._c["rhs"](0.0, model._buffer(y), model._buffer(p), model._buffer(dy))
+    c, buffer = model.compiled, model.compiled.buffer
+    status = c.functions["rhs"](0.0, buffer(y), buffer(p), buffer(dy))
     assert status == 2
-    failure = IntegrationFailure(0.0, y, status, model.state_names, model._status_cause(status))
+    failure = IntegrationFailure(0.0, y, status, model.state_names, c.status_cause(status))
     assert "pivot 2 of its LDL^T factorization is not positive" in str(failure)
     assert "articulated" not in str(failure)
 

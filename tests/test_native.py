@@ -11,7 +11,11 @@ from reference import random_mechanism_yaml
 from scipy.integrate import solve_ivp
 
 import nemc
+from nemc.runtime import runs
 from nemc.runtime.model import ModelError
+from nemc.runtime.native import simulate_native
+from nemc.runtime.outcome import RunSpec
+from nemc.runtime.scipy_run import integrator_jacobian
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"
@@ -38,14 +42,16 @@ simulation:
 def scipy_run(model, method: str, span, y0, **options):
     """scipy's solve_ivp on the model's compiled RHS (and Jacobian for Radau)."""
     p = model.parameter_vector()
-    jac = {"jac": model._jacobian_function(p)} if method == "Radau" else {}
-    return solve_ivp(model._rhs_function(p), span, y0, method=method, **jac, **options)
+    jac = {"jac": integrator_jacobian(model, p)} if method == "Radau" else {}
+    return solve_ivp(model.compiled.integrator_rhs(p), span, y0, method=method, **jac,
+                     **options)
 
 
 def native_steps(model, method: str, span, y0, rtol: float, atol: float):
     """A native run returning every accepted step (simulate returns the scene's t_eval)."""
     p = model.parameter_vector()
-    return model._simulate_native(method, span, y0, None, rtol, atol, p)
+    return simulate_native(model, RunSpec(method, span, y0, None, rtol, atol, p,
+                                          runs.DEFAULT_SETTINGS, []))
 
 
 def assert_same_steps(native, scipy, t_rtol: float, y_atol: float) -> None:

@@ -79,8 +79,9 @@ def test_the_package_loads_in_another_python_version(package: Path) -> None:
     code = ("import json, sys, double_pendulum as m\n"
             "res = m.simulate(method='nemc.DOP853', t_eval=[0, 2.5, 5])\n"
             "rhs = m.rhs(0.0, [0.1, 0.2, 0.3, 0.4]).tolist()\n"
+            "fast = m.model.compiled.fast_rhs(m.parameter_vector())\n"
             "print(json.dumps({'version': list(sys.version_info[:2]), 'so': m._native.__file__,"
-            " 'rhs': rhs, 'y': res.y.tolist(), 'fast': type(m.model._fast_rhs).__name__,"
+            " 'rhs': rhs, 'y': res.y.tolist(), 'fast': type(fast).__name__,"
             " 'fast_rhs': m.rhs(0.0, m.model.state_vector([0.1, 0.2, 0.3, 0.4])).tolist()}))")
     found = run_python(OTHER_PYTHON, package.parent, code)
     assert tuple(found["version"]) != sys.version_info[:2]

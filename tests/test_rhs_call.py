@@ -18,7 +18,8 @@ from reference import relative_chain_yaml
 
 import nemc
 from nemc.build.builder import CFLAGS, call_suffix, compiler, package_c_flags
-from nemc.runtime.model import IntegrationFailure, Model, _no_fast_call
+from nemc.runtime.compiled import no_fast_call
+from nemc.runtime.model import IntegrationFailure, Model
 
 ROOT = Path(__file__).resolve().parent.parent
 DOUBLE = ROOT / "examples" / "double_pendulum.yaml"  # state [q1, dot(q1), q2, dot(q2)]
@@ -30,8 +31,13 @@ def model() -> Model:
 
 
 def fast_call(model: Model):
-    model.rhs(0.0, np.zeros(model.n_state))  # makes the two ways
-    return model._fast_rhs
+    """Model.rhs's C call at the default parameters, through the build's _rhs_call."""
+    return model.compiled.fast_rhs(model.parameter_vector())
+
+
+def cffi_call(model: Model):
+    """Model.rhs's other way at the default parameters: cffi's, its arguments checked."""
+    return model.compiled.checked_rhs(model.parameter_vector())
 
 
 def test_the_c_call_gives_the_bits_of_the_cffi_call(model: Model) -> None:
@@ -41,7 +47,7 @@ def test_the_c_call_gives_the_bits_of_the_cffi_call(model: Model) -> None:
     for _ in range(50):
         t, y = float(rng.uniform(-10, 10)), rng.uniform(-4, 4, model.n_state)
         dy = fast(t, y)
-        np.testing.assert_array_equal(dy, model._default_rhs(t, y))  # cffi's
+        np.testing.assert_array_equal(dy, cffi_call(model)(t, y))  # cffi's
         np.testing.assert_array_equal(model.rhs(t, y), dy)
         assert dy.dtype == np.float64 and dy.shape == (model.n_state,) and dy.flags.writeable
     y = np.array([0.3, -0.2, 1.1, 0.5])
@@ -56,7 +62,7 @@ def test_a_long_model_without_the_gil_gives_the_same_bits() -> None:
     rng = np.random.default_rng(32)
     for _ in range(5):
         y = rng.uniform(-2, 2, chain.n_state)
-        np.testing.assert_array_equal(fast(0.3, y), chain._default_rhs(0.3, y))
+        np.testing.assert_array_equal(fast(0.3, y), cffi_call(chain)(0.3, y))
 
 
 def test_what_it_does_not_take_is_left_to_the_checked_way(model: Model) -> None:
@@ -83,7 +89,7 @@ def test_what_it_does_not_take_is_left_to_the_checked_way(model: Model) -> None:
 def test_it_keeps_no_reference_and_loses_none(model: Model) -> None:
     fast = fast_call(model)
     y, bad, strided = np.array([0.3, -0.2, 1.1, 0.5]), np.full(4, math.nan), np.zeros(8)[::2]
-    t, p = 0.25, model._default_p
+    t, p = 0.25, model.parameter_vector()
     before = [sys.getrefcount(x) for x in (y, bad, strided, t, p)]
     for _ in range(1000):
         fast(t, y)
@@ -93,35 +99,35 @@ def test_it_keeps_no_reference_and_loses_none(model: Model) -> None:
 
 
 def test_the_parameters_must_be_the_models(model: Model) -> None:
-    make = model._rhs_call.make
-    address = int(model._ffi.cast("uintptr_t", model._ffi.addressof(
-        model._lib, model.metadata["c_prefix"] + "rhs")))
+    c = model.compiled
+    make, defaults = c.rhs_call.make, model.parameter_vector()
+    address = int(c.ffi.cast("uintptr_t", c.ffi.addressof(c.lib, c.prefix + "rhs")))
     with pytest.raises(ValueError, match="N_PARAM"):
-        make(address, np.zeros(len(model._default_p) + 1), np.ndarray, np.empty)
+        make(address, np.zeros(len(defaults) + 1), np.ndarray, np.empty)
     with pytest.raises(ValueError, match="N_PARAM"):
-        make(address, model._default_p.astype(np.float32), np.ndarray, np.empty)
+        make(address, defaults.astype(np.float32), np.ndarray, np.empty)
 
 
 def test_without_it_rhs_goes_through_cffi_with_the_same_bits(model: Model) -> None:
     """A package whose _rhs_call cannot be imported (its stable-ABI build in CPython 3.10)."""
-    plain = Model(model.metadata, model._ffi, model._lib, rhs_call=None)
+    plain = Model(model.metadata, model.compiled.ffi, model.compiled.lib, rhs_call=None)
     y = np.array([0.3, -0.2, 1.1, 0.5])
     np.testing.assert_array_equal(plain.rhs(0.7, y), model.rhs(0.7, y))
-    assert plain._fast_rhs is _no_fast_call
+    assert fast_call(plain) is no_fast_call
     with pytest.raises(IntegrationFailure, match="the state is not finite"):
         plain.rhs(0.0, np.array([math.nan, 0.0, 0.1, 0.0]))
 
 
 def test_the_build_has_it_for_this_python(model: Model) -> None:
-    folder = Path(model._rhs_call.__file__).parent
-    assert Path(model._rhs_call.__file__).name == "_rhs_call" + call_suffix()
+    folder = Path(model.compiled.rhs_call.__file__).parent
+    assert Path(model.compiled.rhs_call.__file__).name == "_rhs_call" + call_suffix()
     assert (folder / "_rhs_call.c").is_file()  # its readable source, beside it
     if sys.version_info >= (3, 11):
         assert call_suffix() == ".abi3.so"
 
 
 def test_its_c_compiles_warning_free(model: Model, tmp_path: Path) -> None:
-    source = Path(model._rhs_call.__file__).with_name("_rhs_call.c")
+    source = Path(model.compiled.rhs_call.__file__).with_name("_rhs_call.c")
     done = subprocess.run(
         [*compiler(), *CFLAGS, *package_c_flags(source), "-Werror", "-c", str(source), "-o",
          str(tmp_path / "call.o")],

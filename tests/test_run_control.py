@@ -207,7 +207,7 @@ def test_steps_land_on_tstops_and_max_step_takes_scipys_steps(every_step) -> Non
     p, y0 = model.parameter_vector(), model.initial_state()
     native = model.simulate((0, 3), method="nemc.DOP853", max_step=0.01, rtol=1e-3,
                             atol=1e-6)
-    scipy = solve_ivp(model._rhs_function(p), (0, 3), y0, method="DOP853", max_step=0.01,
+    scipy = solve_ivp(model.compiled.integrator_rhs(p), (0, 3), y0, method="DOP853", max_step=0.01,
                       rtol=1e-3, atol=1e-6)
     assert native.nfev == scipy.nfev and native.t.size == scipy.t.size
     np.testing.assert_allclose(native.t, scipy.t, rtol=1e-12, atol=0)
@@ -337,7 +337,7 @@ def test_threads_take_runs_from_one_counter_and_show_it_as_progress() -> None:
     C's nemc_next_run does), and a thread's error is raised."""
     import threading
 
-    from nemc.runtime.model import run_threads
+    from nemc.runtime.ensemble import run_threads
     from nemc.runtime.runs import Progress
 
     total, counter, lock = 40, [0], threading.Lock()

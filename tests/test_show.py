@@ -56,7 +56,7 @@ def test_printed_equations_equal_the_compiled_model(name: str) -> None:
     parts = dict(sections(eqs))
     model = nemc.compile(EXAMPLES / f"{name}.yaml")
     state = eqs.state
-    values = dict(zip(eqs.parameters, model._default_p))
+    values = dict(zip(eqs.parameters, model.parameter_vector()))
     rng = np.random.default_rng(7)
     for _ in range(5):
         y = rng.uniform(-1.5, 1.5, len(state))

@@ -23,7 +23,10 @@ from nemc.derive.taylor import (
     written,
 )
 from nemc.emit.taylor_c import TAYLOR_MARGIN, TAYLOR_MIN_EXPONENT, StepCosts, taylor_rule
+from nemc.runtime import runs
 from nemc.runtime.model import ModelError
+from nemc.runtime.native import simulate_native
+from nemc.runtime.outcome import RunSpec
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"
@@ -134,8 +137,9 @@ def test_backwards_empty_interval_and_every_step(pendulum) -> None:
     np.testing.assert_allclose(back.y[:, -1], y0, atol=1e-9)
     empty = pendulum.simulate((1.0, 1.0), y0, method="nemc.Taylor", t_eval=[1.0])
     assert empty.success and np.array_equal(empty.y, y0.reshape(-1, 1))
-    steps = pendulum._simulate_native("nemc.Taylor", (0.0, 3.0), y0, None, 1e-9, 1e-12,
-                                      pendulum.parameter_vector())
+    steps = simulate_native(pendulum, RunSpec("nemc.Taylor", (0.0, 3.0), y0, None, 1e-9, 1e-12,
+                                              pendulum.parameter_vector(),
+                                              runs.DEFAULT_SETTINGS, []))
     assert steps.t[0] == 0.0 and steps.t[-1] == 3.0 and np.all(np.diff(steps.t) > 0)
     # one expansion per accepted step, each at the step's start, and one at t_end that
     # accepts the last step (a step stands once the expansion at its end is finite)
@@ -221,8 +225,8 @@ def test_the_c_rule_is_the_python_rule(pendulum) -> None:
     """The build's taylor_rule (C, <model>_taylor_order) chooses what emit.taylor_c.taylor_rule does
     with the build's costs."""
     costs = StepCosts(4 * 120.0, 27.0, 13.0)  # the double pendulum's program
-    exponent = pendulum._ffi.new("double *")
-    c_rule = getattr(pendulum._lib, pendulum.metadata["c_prefix"] + "taylor_order")
+    exponent = pendulum.compiled.ffi.new("double *")
+    c_rule = pendulum.compiled.function("taylor_order")
     for eps in [*np.logspace(-15, -1, 57), 1e-300, 0.0, 0.9]:
         order = c_rule(float(eps), exponent)
         assert (order, exponent[0]) == taylor_rule(float(eps), costs)

@@ -15,6 +15,8 @@ from nemc.emit.units import label
 from nemc.errors import InputError
 from nemc.front.mechanism import Units
 from nemc.front.validate import validate_text
+from nemc.runtime.model import Model
+from nemc.runtime.results import SimulationResult, model_html
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 ROBOT_ARM = (EXAMPLES / "robot_arm.yaml").read_text()
@@ -146,13 +148,15 @@ def test_to_pandas_holds_the_table_with_units() -> None:
 
 def test_models_and_results_display_as_html() -> None:
     model = model_of("double_pendulum")
-    page = model._repr_html_()
+    assert Model._repr_html_ is model_html  # what a notebook shows
+    page = model_html(model)
     assert "double_pendulum" in page and "<td>dot(q1)</td>" in page and "<td>m2</td>" in page
     assert "<td>N</td>" in page  # the reactions' unit
     res = model.simulate()
-    table = res._repr_html_()
+    assert SimulationResult._repr_html_ is SimulationResult.to_html
+    table = res.to_html()
     assert "RK45" in table and table.count("<tr>") == 1 + len(res.t)  # 11 rows: all shown
-    long = model.simulate(t_eval=np.linspace(0, 5, 50))._repr_html_()
+    long = model.simulate(t_eval=np.linspace(0, 5, 50)).to_html()
     assert long.count("<tr>") == 1 + 11 and "&hellip;" in long  # 5 first, ..., 5 last
 
 

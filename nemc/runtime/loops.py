@@ -3,80 +3,50 @@ partial one, the states a run returns brought onto the constraints, their residu
 kinematic analysis of a mechanism its drives leave without a degree of freedom.
 
 The model's C does the numerical work (templates/loops.c.tmpl: `assemble`, `project`,
-`constraint_residual`); this mixin of runtime.Model calls it and says, by name, which
-constraint cannot hold. Like runtime.py it needs only numpy: nemc/build.py copies it into every
-standalone package.
+`constraint_residual`); Loops calls it and says, by name, which constraint cannot hold.
+`Model.loops` is one, for tools and tests too.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from functools import cached_property
 from typing import Any
 
 import numpy as np
 
+from .compiled import Compiled
+from .failures import ModelError, loop_equation
+
 ASSEMBLY_TOLERANCE = 1e-10  # what an assembled or given state may leave of a constraint
 
 
-class LoopsMixin:
-    """Closed loops for runtime.Model (which provides _lib, _ffi, metadata, state names...)."""
+class Loops:
+    """The closed loops of one build (none for a tree: then every state is consistent)."""
 
-    metadata: dict
-    state_names: tuple[str, ...]
-    n_state: int
-
-    @cached_property  # read on every run: an attribute after the first (0.1 us a run)
-    def constraint_equations(self) -> tuple[str, ...]:
-        """The constraint owning each constraint equation (empty for a tree)."""
-        return tuple(self.metadata.get("constraint_equations", ()))
-
-    @cached_property
-    def has_loops(self) -> bool:
-        return bool(self.constraint_equations)
+    def __init__(self, metadata: Mapping[str, Any], compiled: Compiled):
+        self.metadata = metadata
+        self.compiled = compiled
+        self.state_names = compiled.state_names
+        self.n_state = compiled.n_state
+        # the constraint owning each constraint equation (empty for a tree)
+        self.constraint_equations: tuple[str, ...] = compiled.constraint_equations
+        self.has_loops = bool(self.constraint_equations)
 
     def _loop_c(self, name: str) -> Any:
-        return getattr(self._lib, self.metadata["c_prefix"] + name)  # type: ignore[attr-defined]
-
-    def _equation(self, status: int) -> str:
-        """The constraint of the equation a NEMC_PROJECTION_FAILED / NEMC_LOOP_SINGULAR status
-        names."""
-        index = (-status) % 1000
-        equations = self.constraint_equations
-        return equations[index] if index < len(equations) else f"equation {index}"
-
-    def _loop_failure(self, status: int) -> str | None:
-        """What a loop status of the model's C means, or None for other statuses."""
-        if -2000 < status <= -1000:
-            return (f"the state cannot be brought onto constraint {self._equation(status)!r} "
-                    "(the loop cannot close here: a configuration the mechanism cannot reach, "
-                    "or the motion left the branch it was on)")
-        if -3000 < status <= -2000:
-            return (f"constraint {self._equation(status)!r} cannot hold its acceleration here: "
-                    "a singular (locked) configuration of the loop")
-        return None
+        return getattr(self.compiled.lib, self.compiled.prefix + name)
 
     # -- residuals and projection -------------------------------------------------------------
 
-    def constraint_residual(self, y: Any, t: Any = 0.0,
-                            params: Mapping[str, float] | None = None) -> np.ndarray:
-        """|Phi(q, t)| and |Phi_q q' + Phi_t| (the largest entry of each) at a state, or for y of
-        shape (n_state, n_t) at each state (shape (2, n_t)). Zeros for a mechanism without
-        loops."""
-        array = np.asarray(y, dtype=float)
-        single = array.ndim == 1
-        ys = self._states(array.reshape(-1, 1) if single else array)  # type: ignore[attr-defined]
-        if not self.has_loops:
-            return np.zeros(2) if single else np.zeros((2, len(ys)))
-        ts = self._times_for(t, len(ys))  # type: ignore[attr-defined]
+    def residual(self, ts: np.ndarray, ys: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """|Phi(q, t)| and |Phi_q q' + Phi_t| (the largest entry of each) at the states YS
+        (n, n_state) and times TS (n,), shape (n, 2) (Model.constraint_residual)."""
         out = np.empty((len(ys), 2))
-        buffer = self._buffer  # type: ignore[attr-defined]
-        self._loop_c("constraint_residual")(len(ys), buffer(ts), buffer(ys),
-                                            buffer(self.parameter_vector(params)),  # type: ignore
+        buffer = self.compiled.buffer
+        self._loop_c("constraint_residual")(len(ys), buffer(ts), buffer(ys), buffer(p),
                                             buffer(out))
-        return out[0] if single else out.T
+        return out
 
-    def _projected(self, t: np.ndarray, y: np.ndarray, p: np.ndarray) -> np.ndarray:
+    def projected(self, t: np.ndarray, y: np.ndarray, p: np.ndarray) -> np.ndarray:
         """The states y (n_state, n_t) at times t brought onto the constraints (y itself for a
         tree). A state that cannot be is left as it is (its run reports why)."""
         if not self.has_loops or not y.size:
@@ -84,19 +54,19 @@ class LoopsMixin:
         ys = np.ascontiguousarray(y.T, dtype=float)
         ts = np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=float), (len(ys),)))
         out = ys.copy()
-        buffer, project = self._buffer, self._loop_c("project")  # type: ignore[attr-defined]
+        buffer, project = self.compiled.buffer, self._loop_c("project")
         for k in range(len(ys)):  # one by one: a state that fails keeps its value
             project(1, buffer(ts[k:k + 1]), buffer(ys[k]), buffer(p), buffer(out[k]))
         return out.T
 
-    def _singularity_note(self, t: float, y: np.ndarray, p: np.ndarray) -> str:
+    def singularity_note(self, t: float, y: np.ndarray, p: np.ndarray) -> str:
         """Where a run of a closed loop stopped, whether the constraints lose rank there (a
         singular configuration), naming the constraint most involved; '' if they do not."""
         if not self.has_loops or not np.all(np.isfinite(y)):
             return ""
         n = len(self.state_names) // 2
         jacobian = np.empty((len(self.constraint_equations), n))
-        buffer = self._buffer  # type: ignore[attr-defined]
+        buffer = self.compiled.buffer
         state = np.ascontiguousarray(y, dtype=float)
         self._loop_c("constraint_jacobian")(float(t), buffer(state), buffer(p), buffer(jacobian))
         left, values, _ = np.linalg.svd(jacobian)
@@ -113,7 +83,7 @@ class LoopsMixin:
 
     # -- assembly -------------------------------------------------------------------------
 
-    def _assembled(self, t0: float, y0: np.ndarray, given: np.ndarray, p: np.ndarray
+    def assembled(self, t0: float, y0: np.ndarray, given: np.ndarray, p: np.ndarray
                   ) -> tuple[np.ndarray, int]:
         """y0 made consistent at t0: the entries marked given kept, the others solved from the
         constraints starting from their values in y0 (the guess); and the number of degrees of
@@ -124,51 +94,52 @@ class LoopsMixin:
         state = np.ascontiguousarray(y0, dtype=float).copy()
         mask = np.ascontiguousarray(given, dtype=np.intc)
         info = np.zeros(5)
-        buffer = self._buffer  # type: ignore[attr-defined]
+        buffer = self.compiled.buffer
         status = self._loop_c("assemble")(float(t0), buffer(state),
-                                          self._ffi.from_buffer("int[]", mask),  # type: ignore
+                                          self.compiled.ffi.from_buffer("int[]", mask),
                                           buffer(p), buffer(info))
         if status:
-            raise self._model_error(self._assembly_failure(status, info, given))  # type: ignore
+            raise ModelError(self.assembly_failure(status, info, given))
         return state, len(self.state_names) // 2 - int(info[4])
 
-    def _assembly_failure(self, status: int, info: np.ndarray, given: np.ndarray) -> str:
+    def assembly_failure(self, status: int, info: np.ndarray, given: np.ndarray) -> str:
         named = [name for name, kept in zip(self.state_names, given) if kept]
+        constraint = loop_equation(self.constraint_equations, status)
         values = f" with {', '.join(named)} given" if named else ""
         if -2000 < status <= -1000:
             return (f"the mechanism cannot be assembled{values}: constraint "
-                    f"{self._equation(status)!r} is left {info[0]:.3g} from closing "
+                    f"{constraint!r} is left {info[0]:.3g} from closing "
                     f"(more than {ASSEMBLY_TOLERANCE:g}); change the initial values, the guess "
                     "(which picks the assembly's branch) or the geometry")
-        return (f"the given rates cannot satisfy constraint {self._equation(status)!r} "
+        return (f"the given rates cannot satisfy constraint {constraint!r} "
                 f"(residual {info[2]:.3g}){values}; give fewer rates, or consistent ones")
 
-    def _assembled_runs(self, t0: float, y0s: np.ndarray, given: np.ndarray, ps: np.ndarray
+    def assembled_runs(self, t0: float, y0s: np.ndarray, given: np.ndarray, ps: np.ndarray
                        ) -> np.ndarray:
         """An ensemble's initial states (k, n_state), each assembled at its parameters ps
         (k or 1 rows); an ensemble needs a degree of freedom."""
         states = np.empty_like(y0s)
         for run, y0 in enumerate(y0s):
-            states[run], freedom = self._assembled(t0, y0, given, ps[run % len(ps)])
+            states[run], freedom = self.assembled(t0, y0, given, ps[run % len(ps)])
             if freedom == 0:
-                raise self._model_error(  # type: ignore[attr-defined]
+                raise ModelError(
                     "simulate_many: this mechanism has no degree of freedom left by its drives "
                     "(a kinematic analysis): use simulate")
         return states
 
-    def _projected_runs(self, t: np.ndarray, y: np.ndarray, ps: np.ndarray) -> np.ndarray:
+    def projected_runs(self, t: np.ndarray, y: np.ndarray, ps: np.ndarray) -> np.ndarray:
         """An ensemble's states (k, n_t, n_state) brought onto the constraints (NaN rows of runs
         that stopped early stay NaN)."""
         out = y.copy()
         for run in range(len(y)):
             finite = np.all(np.isfinite(y[run]), axis=1)
-            out[run, finite] = self._projected(t[finite], y[run, finite].T,
+            out[run, finite] = self.projected(t[finite], y[run, finite].T,
                                               ps[run % len(ps)]).T
         return out
 
     # -- no degree of freedom: a kinematic analysis -----------------------------------------
 
-    def _kinematic_states(self, times: np.ndarray, y0: np.ndarray, p: np.ndarray
+    def kinematic_states(self, times: np.ndarray, y0: np.ndarray, p: np.ndarray
                          ) -> tuple[np.ndarray, np.ndarray, str | None]:
         """The states of a mechanism its drives leave without a degree of freedom, at each time:
         assembled from the previous one (the first from y0, assembled already), so the branch
@@ -178,14 +149,14 @@ class LoopsMixin:
         states, state = [], y0
         for t in times:
             try:
-                state, _ = self._assembled(float(t), state, nothing, p)
+                state, _ = self.assembled(float(t), state, nothing, p)
             except ValueError as error:
                 return (times[:len(states)], np.array(states).T.reshape(self.n_state, -1),
                         f"at t={float(t):.9g}: {error}")
             states.append(state)
         return times, np.array(states).T.reshape(self.n_state, -1), None
 
-    def _given_mask(self, y0: Any) -> np.ndarray:
+    def given_mask(self, y0: Any) -> np.ndarray:
         """Which entries of the initial state the caller (or the scene) gives: the scene's
         `initial` for y0 None, a dict's keys, every entry of an array."""
         if y0 is None:

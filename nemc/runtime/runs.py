@@ -235,8 +235,8 @@ class _InterruptWatch:
             guard.flag[0] = 1
 
 
-_WATCH = _InterruptWatch()
-os.register_at_fork(after_in_child=_WATCH.forget_after_fork)
+WATCH = _InterruptWatch()  # the process's one watch (public: tests look at its guards)
+os.register_at_fork(after_in_child=WATCH.forget_after_fork)
 _RAISING = threading.local()  # interrupts_raise() is active in this thread
 
 
@@ -253,10 +253,10 @@ def interrupts_raise() -> Iterator[None]:
         _RAISING.on = before
 
 
-def _swallow_sigint(signum: int, frame: Any) -> None:
+def swallow_sigint(signum: int, frame: Any) -> None:
     """SIGINT's Python handler during a guarded run: the runs' flags say it (set already by
     the watch thread; set here too for a signal the pipe missed), nothing is raised."""
-    _WATCH.set_flags()
+    WATCH.set_flags()
 
 
 class interrupt_flag:  # a class, not @contextmanager: 2 us less a run (issue 19)
@@ -277,10 +277,10 @@ class interrupt_flag:  # a class, not @contextmanager: 2 us less a run (issue 19
         if (threading.current_thread() is not threading.main_thread()
                 or _signals.getsignal(2) is not _signals.default_int_handler):
             return self.flag
-        _WATCH.guards.add(self)  # listed before the swap: a SIGINT from then on is seen
-        _signals.signal(2, _swallow_sigint)
+        WATCH.guards.add(self)  # listed before the swap: a SIGINT from then on is seen
+        _signals.signal(2, swallow_sigint)
         self.guarded = True
-        _WATCH.forward = _signals.set_wakeup_fd(_WATCH.start(), warn_on_full_buffer=False)
+        WATCH.forward = _signals.set_wakeup_fd(WATCH.start(), warn_on_full_buffer=False)
         return self.flag
 
     def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
@@ -293,10 +293,10 @@ class interrupt_flag:  # a class, not @contextmanager: 2 us less a run (issue 19
         """The handlers and the wakeup fd as they were before; the flag no longer set."""
         if self.guarded:
             self.guarded = False
-            _signals.set_wakeup_fd(_WATCH.forward)
-            _WATCH.forward = -1
+            _signals.set_wakeup_fd(WATCH.forward)
+            WATCH.forward = -1
             _signals.signal(2, _signals.default_int_handler)
-        _WATCH.guards.discard(self)
+        WATCH.guards.discard(self)
 
 
 def raise_if_interrupted(flag: Any) -> None:
@@ -312,14 +312,14 @@ def raise_if_interrupted(flag: Any) -> None:
 # restores the handlers. A Ctrl-C before arming raises KeyboardInterrupt when a short run
 # returns, as after any short call, or in the callback of a long one, which ends the run.
 
-_ARMED: list[interrupt_flag] = []  # guards armed by a run in C of the main thread
+ARMED: list[interrupt_flag] = []  # guards armed by a run in C of the main thread
 
 
 def arm_interrupts(flag: Any) -> int:
     """nemc_run.arm_interrupt: watch for Ctrl-C on the run's flag from now on. 0: go on."""
     if threading.current_thread() is threading.main_thread():
         guard = interrupt_flag(flag)
-        _ARMED.append(guard)
+        ARMED.append(guard)
         guard.__enter__()
     return 0
 
@@ -339,9 +339,9 @@ def interrupted_while_arming(kind: type[BaseException], error: BaseException,
 def after_run(flag: Any) -> None:
     """After a run in C given arm_interrupts: the guard it armed, if any, released (handlers
     restored); under interrupts_raise, KeyboardInterrupt if Ctrl-C stopped it."""
-    if _ARMED and threading.current_thread() is threading.main_thread():
-        while _ARMED:
-            guard = _ARMED.pop()
+    if ARMED and threading.current_thread() is threading.main_thread():
+        while ARMED:
+            guard = ARMED.pop()
             guard.flag = flag  # the owner of the int: the watch thread may still hold guard
             guard.release()
     if flag[0]:  # (raise_if_interrupted, its call saved in the usual case)

@@ -40,6 +40,7 @@ from ..runtime.model import (
     Model,
     ModelError,
 )
+from ..runtime.simulation import run_times
 from ..vocabulary import NEMC_VERSION as __version__
 from .sweep_store import NOT_RUN, ChunkOutput, Layout, SweepStoreError, open_store, require
 
@@ -72,7 +73,7 @@ class Settings:
         scene = model.scene
         span = tuple(float(v) for v in (t_span if t_span is not None else
                                         scene["t_span"] or DEFAULT_T_SPAN))
-        times = model._times(span, t_eval)  # the scene's t_eval rules, as simulate_many's
+        times = run_times(scene, span, t_eval)  # the scene's t_eval rules, as simulate_many's
         times = np.array(span if times is None else times, dtype=float).reshape(-1)
         return cls(
             t_span=(span[0], span[1]), t_eval=tuple(times.tolist()),
@@ -123,7 +124,7 @@ class Inputs:
                 raise ModelError(f"y0s must have shape (k, {model.n_state}), got {full.shape}")
         shared = {n: column(n, v) for n, v in (params or {}).items()}
         for name in shared:
-            model._parameter_index(name)  # unknown or derived: a clear ModelError now
+            model.parameter_table.index(name)  # unknown or derived: a clear ModelError now
         sizes = {len(v) for v in [*columns.values(), *shared.values()] if np.ndim(v)}
         sizes |= {full.shape[0]} if full is not None else set()
         if len(sizes) > 1:

@@ -1,0 +1,203 @@
+"""Ensembles (Model.simulate_many): many runs of a native method, the loop over runs in C,
+shared by threads; nemc.Taylor's runs NEMC_LANES at a time in SIMD lanes (templates/batch.c.tmpl)
+with the same results to the last bit as one after the other."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from ..vocabulary import (
+    AUTO,
+    AUTO_LANES_MIN_RUNS,
+    IMPLICIT_METHODS,
+    NATIVE_METHODS,
+    TAYLOR_METHODS,
+)
+from . import runs
+from .auto import checked_auto_choice
+from .built import DEFAULT_T_SPAN, BuiltModel
+from .checks import (
+    checked_max_events,
+    checked_span,
+    checked_threads,
+    ensemble_columns,
+    native_tolerances,
+    real_array,
+)
+from .failures import ModelError
+from .native import native_build, new_run
+from .results import EnsembleResult
+from .simulation import checked_settings, initial_state, run_times, tolerances
+
+
+@dataclass(frozen=True)
+class EnsembleCall:
+    """simulate_many's arguments, as the caller gave them (Model.simulate_many says what each
+    means)."""
+
+    y0s: Any = None
+    params: Mapping[str, Any] | None = None
+    t_span: Sequence[float] | None = None
+    t_eval: Sequence[float] | None = None
+    method: str | None = None
+    rtol: float | None = None
+    atol: float | None = None
+    threads: int | None = None
+    max_step: float | None = None
+    tstops: Sequence[float] | None = None
+    max_steps: int | None = None
+    max_events: int = runs.DEFAULT_MAX_EVENTS
+    progress: bool | None = None
+    lanes: bool = True
+
+
+def simulate_many(model: BuiltModel, call: EnsembleCall) -> EnsembleResult:
+    """The ensemble of CALL: its method chosen ("auto", or None: ensemble_method's), then run
+    by the build that has what the method needs (its lanes, its Jacobian, ...)."""
+    span = checked_span(model.scene["t_span"] or DEFAULT_T_SPAN if call.t_span is None
+                        else call.t_span)
+    method, lanes = call.method, call.lanes
+    inputs = None  # (parameters, starts), made once
+    if method is None or (isinstance(method, str) and method == AUTO):
+        inputs = ps, starts = ensemble_inputs(model, call.y0s, call.params)
+        method = ensemble_method(model, span, starts[0], ps[0], call.rtol, len(starts))
+        lanes = lanes and (len(starts) >= AUTO_LANES_MIN_RUNS or model.has_part("lanes"))
+    if not isinstance(method, str) or method not in NATIVE_METHODS:
+        raise ModelError(f"simulate_many: method must be one of {', '.join(NATIVE_METHODS)}"
+                         f" or auto, got {method!r}")
+    in_lanes = method in TAYLOR_METHODS and bool(lanes)
+    build = model.compiled_with("lanes") if in_lanes else model
+    in_lanes = in_lanes and build.has_part("lanes")
+    if not in_lanes:  # (a lanes build that could not have them says why Taylor cannot)
+        build = native_build(build, method)
+    if build is not model:  # a build with the method's part: it runs the ensemble
+        return simulate_many(build, replace(call, method=method, lanes=lanes))
+    return run_ensemble(model, call, span, method, in_lanes, inputs)
+
+
+def run_ensemble(model: BuiltModel, call: EnsembleCall, span: tuple[float, float],
+                 method: str, in_lanes: bool, inputs: tuple | None) -> EnsembleResult:
+    """The ensemble in the model's C: its inputs checked, every run's buffers made, the runs
+    shared by threads (run_threads), a closed loop's states brought onto its constraints."""
+    rtol, atol = tolerances(model.scene, call.rtol, call.atol)
+    threads = checked_threads(call.threads)
+    times = run_times(model.scene, span, call.t_eval)
+    times = np.array(sorted(set(span), reverse=span[1] < span[0]) if times is None else times,
+                     dtype=float)
+    given = model.loops.given_mask(call.y0s)
+    ps, y0s = inputs or ensemble_inputs(model, call.y0s, call.params)
+    if model.has_loops:  # each run from its assembled state
+        y0s = model.loops.assembled_runs(span[0], y0s, given, ps)
+    settings = checked_settings(model.scene, span, call.max_step, call.tstops, call.max_steps)
+    capacity = checked_max_events(call.max_events)
+    compiled = model.compiled
+    integrate_many = compiled.native(method, "integrate_lanes" if in_lanes else "integrate_many")
+    method_id = compiled.method_id(method)
+    rtol, atol = native_tolerances(rtol, atol)
+    run, keep = new_run(compiled, span, times, rtol, atol, settings)
+    run.event_capacity = capacity
+    k, n = len(y0s), model.n_state
+    y = np.empty((k, len(times), n))
+    statuses = np.empty(k, dtype=np.intc)
+    counts = np.empty((k, 4), dtype=np.int_)
+    event_t = np.full((k, max(capacity, 1)), np.nan)
+    event_which = np.full((k, max(capacity, 1)), -1, dtype=np.intc)
+    event_counts = np.zeros(k, dtype=np.int_)
+    p_stride = ps.shape[1] if ps.shape[0] > 1 else 0
+
+    ffi = compiled.ffi
+    f = ffi.from_buffer
+    arguments = (method_id, run, k, f("double[]", y0s), f("double[]", ps), p_stride,
+                 f("double[]", y), f("int[]", statuses), f("long[]", counts),
+                 f("double[]", event_t), f("int[]", event_which), f("long[]", event_counts))
+    run.next_run = next_run = ffi.new("long *")  # the runs' counter the threads share
+    lanes_each = model.metadata.get("lane_count", 1) if in_lanes else 1
+    workers = max(1, min(threads or os.cpu_count() or 1, -(-k // lanes_each)))
+    with runs.interrupt_flag(ffi.new(compiled.int_pointer)) as flag:
+        run.interrupt = flag
+        run_threads(lambda: integrate_many(*arguments), workers, lambda: next_run[0], k,
+                    runs.Progress(f"{model.name}: runs", k) if call.progress is not False
+                    else None, call.progress)
+    if model.has_loops:
+        y = model.loops.projected_runs(keep[0], y, ps)
+    return EnsembleResult(
+        t=keep[0], y=y.transpose(0, 2, 1), status=statuses.astype(int),
+        success=statuses >= 0, nfev=counts[:, 0].copy(), njev=counts[:, 1].copy(),
+        nlu=counts[:, 2].copy(), method=method, rtol=rtol, atol=atol,
+        event_names=tuple(e["name"] for e in model.metadata.get("events") or []),
+        event_t=event_t[:, :capacity], event_which=event_which[:, :capacity],
+        event_count=event_counts,
+    )
+
+
+def ensemble_method(model: BuiltModel, span: Sequence[float], y0: Any = None,
+                    params: Any = None, rtol: float | None = None, runs: int = 1) -> str:
+    """Model.ensemble_method: the scene's native method; nemc.Radau for an implicit scene;
+    else "auto"'s choice for a run from y0 (default the scene's) for RUNS runs."""
+    scene = model.scene["method"]
+    if scene in NATIVE_METHODS:
+        return scene
+    if scene in IMPLICIT_METHODS:
+        return "nemc.Radau"
+    p = params if isinstance(params, np.ndarray) else model.parameter_vector(params)
+    y0 = initial_state(model, None, params if isinstance(params, Mapping) else None) \
+        if y0 is None else y0
+    return checked_auto_choice(model, span, y0, tolerances(model.scene, rtol, None)[0], p, runs)
+
+
+def ensemble_inputs(model: BuiltModel, y0s: Any, params: Mapping[str, Any] | None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """(parameter vectors (k or 1, n_p), initial states (k, n_state)), checked."""
+    columns = ensemble_columns(params)
+    sizes = {len(v) for v in columns.values() if len(v) != 1}
+    if y0s is not None:
+        y0s = real_array(y0s, "y0s").astype(float)
+        if y0s.ndim != 2 or y0s.shape[1] != model.n_state or not len(y0s):
+            raise ModelError(f"y0s must have shape (k, {model.n_state}), got {y0s.shape}")
+        sizes.add(len(y0s))
+    if len(sizes) > 1:
+        raise ModelError(f"simulate_many: y0s and params disagree on the number of runs:"
+                         f" {sorted(sizes)}")
+    k = sizes.pop() if sizes else 1
+    if k == 0:
+        raise ModelError("simulate_many: no runs (params hold empty arrays)")
+    sets = [{name: v[i % len(v)] for name, v in columns.items()} for i in
+            range(k if any(len(v) > 1 for v in columns.values()) else 1)]
+    ps = np.array([model.parameter_vector(s) for s in sets])
+    if y0s is None:
+        y0s = np.array([model.initial_state(s) for s in sets])
+        y0s = np.broadcast_to(y0s, (k, model.n_state))
+    if not np.all(np.isfinite(y0s)):
+        raise ModelError("y0s must be finite")
+    return np.ascontiguousarray(ps), np.ascontiguousarray(y0s, dtype=float)
+
+
+def run_threads(work: Callable[[], None], workers: int, taken: Callable[[], int], total: int,
+                progress: runs.Progress | None, show: bool | None) -> None:
+    """WORK on WORKERS threads at once: each call takes the ensemble's runs one by one from the
+    counter they share (nemc_run's next_run) until none is left, so that no thread idles while
+    runs remain, and none of them ends a slice of runs with its SIMD lanes part-empty (cffi
+    releases the GIL during the C calls). taken: the counter's value (the runs begun: the
+    progress shown); results do not depend on which thread runs which run."""
+    from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
+
+    if progress is not None and show:
+        progress.delay = 0.0
+    with ThreadPoolExecutor(workers) as pool:
+        futures = [pool.submit(work) for _ in range(workers)]
+        try:
+            pending = futures
+            while pending:
+                finished, pending = wait(pending, timeout=0.1, return_when=FIRST_EXCEPTION)
+                for future in finished:
+                    future.result()  # a worker's error, raised here
+                if progress is not None:
+                    progress.update(min(taken(), total))
+        finally:
+            if progress is not None:
+                progress.close()

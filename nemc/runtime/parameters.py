@@ -1,0 +1,92 @@
+"""A model's parameters: the C parameter vector for a caller's overrides, checked (finite, known
+by name, masses and inertias positive), the latest one kept; and a vector back as a dict."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from .checks import finite_number
+from .compiled import Compiled
+from .failures import ModelError
+
+
+class Parameters:
+    """The parameters of one build: names, defaults, derived ones (which cannot be set), and
+    the checked vectors (Model.parameter_vector, parameters_at)."""
+
+    def __init__(self, metadata: Mapping[str, Any], compiled: Compiled):
+        self.names: tuple[str, ...] = tuple(metadata["parameter_names"])
+        self.derived: dict[str, str] = dict(metadata["derived_parameters"])
+        self.check_names: list[str] = metadata["check_names"]
+        self.compiled = compiled
+        self.defaults = np.array(metadata["parameter_defaults"], dtype=float)  # never written
+        self._checked: tuple[tuple, np.ndarray] = ((), self.defaults)  # the latest vector
+        # at(the defaults), copied for each result: never handed out itself
+        self._default_dict = dict(zip(self.names, self.defaults.tolist()))
+
+    def vector(self, params: Mapping[str, float] | None = None) -> np.ndarray:
+        """The C parameter array for these overrides, checked (finite, masses positive)."""
+        if params is None and not self._checked[0]:  # the defaults, as last time
+            return self._checked[1]
+        overrides = self.overrides(params)
+        key = tuple(sorted(overrides.items()))
+        if key == self._checked[0]:
+            return self._checked[1]
+        p = self.defaults.copy()
+        for name, value in overrides.items():
+            p[self.index(name)] = value
+        self.check_masses(p)
+        self._checked = (key, p)
+        return p
+
+    def at(self, p: np.ndarray) -> dict[str, float]:
+        """The parameter vector p as name -> value (a new dict)."""
+        if p is self.defaults:  # never written to (vector copies it)
+            return self._default_dict.copy()
+        return dict(zip(self.names, p.tolist()))
+
+    def overrides(self, params: Any) -> dict[str, float]:
+        """``params`` as name -> finite float; anything but a mapping of names is refused."""
+        if params is None:
+            return {}
+        if not isinstance(params, Mapping):
+            raise ModelError(f"params must be a mapping name -> value, got {type(params).__name__}")
+        for name in params:
+            if not isinstance(name, str):
+                raise ModelError(f"parameter names are strings, got {name!r}")
+        return {name: finite_number(name, value) for name, value in params.items()}
+
+    def index(self, name: str) -> int:
+        """The position of parameter NAME in the vector; an unknown or derived name is refused
+        (with the closest known name)."""
+        if name in self.names:
+            return self.names.index(name)
+        if name in self.derived:
+            raise ModelError(
+                f"parameter {name!r} is derived ({name} = {self.derived[name]}):"
+                " set its inputs instead"
+            )
+        import difflib
+
+        close = difflib.get_close_matches(name, self.names, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        raise ModelError(f"unknown parameter {name!r}{hint} (known: {list(self.names)})")
+
+    def check_masses(self, p: np.ndarray) -> None:
+        """Refuse p where a mass or inertia (the C's checks) is not positive and finite."""
+        values = np.empty(len(self.check_names))
+        buffer = self.compiled.buffer
+        self.compiled.functions["checks"](buffer(p), buffer(values))
+        for key, value in zip(self.check_names, values):
+            if not value > 0:
+                raise ModelError(f"{key} must be > 0 and finite, got {value:g} at these parameters")
+
+    def share_defaults(self, other: Parameters) -> None:
+        """Take the default vector of OTHER, the same mechanism's (a variant's build): a run that
+        one hands to the other then finds its defaults by identity (at, parameter_buffer)."""
+        if np.array_equal(self.defaults, other.defaults):
+            self.defaults = other.defaults
+            self._checked = ((), other.defaults)

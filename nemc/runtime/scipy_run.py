@@ -1,0 +1,61 @@
+"""Runs with scipy's solve_ivp (SCIPY_METHODS): the compiled right-hand side, Jacobian and events
+handed to it, under the same run settings and with the same messages as the native methods
+(runs.simulate_scipy)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..vocabulary import IMPLICIT_METHODS
+from . import runs
+from .built import BuiltModel
+from .failures import IntegrationFailure
+from .outcome import RunSpec, ended_early, failed, gave_up, lazy_outputs
+from .results import SimulationResult
+
+
+def simulate_scipy(model: BuiltModel, spec: RunSpec) -> SimulationResult:
+    """simulate() with scipy's solve_ivp, under the run settings and the events."""
+    from scipy.integrate import solve_ivp  # here: importing scipy costs more than a load
+
+    method, p, rtol, atol, settings = spec.method, spec.p, spec.rtol, spec.atol, spec.settings
+    rhs = model.compiled.integrator_rhs(p)
+    model_events = model.compiled.model_events(p)
+    try:
+        jac = integrator_jacobian(model, p) if method in IMPLICIT_METHODS else None
+        options = {"rtol": rtol, "atol": atol, **({"jac": jac} if jac is not None else {})}
+        with runs.interrupt_flag() as flag:
+            outcome, control = runs.simulate_scipy(
+                solve_ivp, rhs, method, spec.span, spec.state0,
+                None if spec.times is None else np.asarray(spec.times, dtype=float), options,
+                model_events, spec.user_events, settings, flag)
+    except IntegrationFailure as failure:
+        return failed(failure, method, rtol, atol, model.parameters_at(p))
+    status, message = outcome.status, outcome.message
+    if control.stop:  # the budget, the pace, the stiffness test or Ctrl-C ended it
+        status = control.stop
+        message = ended_early(model, runs.Ending(
+            status, control.t, spec.span, control.steps, method, settings.max_steps,
+            control.y, control.h_recent, control.stiff_from, control.stiffness), p)
+    elif status == -1 and rhs.last[1] is not None:  # scipy gave up
+        message = gave_up(model, message, *rhs.last, p)
+    elif status == runs.REACHED_END and not math.isnan(control.stiff_from):
+        message += runs.stiffness_note(control.stiff_from)
+    return SimulationResult(
+        t=outcome.t, y=outcome.y, outputs=lazy_outputs(model, outcome.t, outcome.y, p),
+        nfev=outcome.nfev, njev=outcome.njev, nlu=outcome.nlu, status=status,
+        message=message, success=status >= 0, method=method, rtol=rtol, atol=atol,
+        params=model.parameters_at(p), events=outcome.events,
+    )
+
+
+def integrator_jacobian(model: BuiltModel, p: np.ndarray):
+    """solve_ivp's jac at parameters p: the analytic Jacobian of the model's build with it
+    (compiled on first need), or None where there is none (a standalone package built
+    without it: scipy then differences)."""
+    source = model.compiled_with("jacobian")
+    if not source.has_part("jacobian"):
+        return None
+    return source.compiled.integrator_jacobian(p)

@@ -1,0 +1,222 @@
+"""One run of the scene (Model.simulate): its arguments resolved against the scene's and checked
+into a RunSpec, the method run (nemc's own, scipy's, or "auto": its choice, and the switch to
+nemc.Radau of a run that turns stiff), a closed loop's states kept on its constraints, and a
+mechanism without a degree of freedom analysed instead of integrated."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from ..vocabulary import (
+    AUTO,
+    AUTO_STIFF_STEPS,
+    DEFAULT_ATOL,
+    DEFAULT_METHOD,
+    DEFAULT_RTOL,
+    METHODS,
+    NATIVE_METHODS,
+    SCIPY_METHODS,
+)
+from . import runs
+from .auto import auto_choice
+from .built import DEFAULT_T_SPAN, BuiltModel
+from .checks import (
+    all_finite,
+    checked_method,
+    checked_span,
+    checked_times,
+    checked_tolerances,
+    real_array,
+    step_times,
+)
+from .failures import ModelError
+from .native import native_build, simulate_native
+from .outcome import RunSpec, at_start, lazy_outputs
+from .results import SimulationResult
+from .scipy_run import simulate_scipy
+
+KINEMATIC_POINTS = 201  # the default times of a kinematic analysis over t_span
+SOLVER_STEPS = "steps"  # simulate(t_eval="steps"): the solver's own steps, whatever the scene says
+# method "auto"'s explicit start under the default settings: it ends once the run turns stiff
+AUTO_SWITCH_SETTINGS = replace(runs.DEFAULT_SETTINGS, stiff_switch=AUTO_STIFF_STEPS)
+# simulate()'s arguments but t_eval, in the order of the tuple a result keeps of them
+# (SimulationResult.run_arguments: a plain tuple, 0.3 us less a run than a named one)
+RUN_ARGUMENTS = ("t_span", "y0", "method", "rtol", "atol", "params", "events", "max_step",
+                 "tstops", "max_steps")
+
+
+def simulate(model: BuiltModel, arguments: tuple, t_eval: Any) -> SimulationResult:
+    """The run of simulate()'s ARGUMENTS (as RUN_ARGUMENTS names them) at the times T_EVAL:
+    each resolved against the scene, then the defaults, and checked, in this order."""
+    t_span, y0, method, rtol, atol, params, events, max_step, tstops, max_steps = arguments
+    p = model.parameter_table.vector(params)  # Model.parameter_vector's, one call less
+    scene = model.scene
+    span = checked_span(scene["t_span"] or DEFAULT_T_SPAN if t_span is None else t_span)
+    method = checked_method(scene["method"] or DEFAULT_METHOD if method is None else method,
+                            METHODS)
+    rtol, atol = tolerances(scene, rtol, atol)
+    times = run_times(scene, span, t_eval)
+    state0 = initial_state(model, y0, params)
+    settings = checked_settings(scene, span, max_step, tstops, max_steps)
+    user_events = checked_events(events)
+    if not model.has_loops:
+        return integrate(model, RunSpec(method, span, state0, times, rtol, atol, p, settings,
+                                        user_events))
+    state0, freedom = model.loops.assembled(span[0], state0, model.loops.given_mask(y0), p)
+    spec = RunSpec(method, span, state0, times, rtol, atol, p, settings, user_events)
+    if freedom == 0:
+        return kinematic_run(model, spec)
+    result = integrate(model, spec)
+    result.y = model.loops.projected(result.t, result.y, p)
+    return result
+
+
+def integrate(model: BuiltModel, spec: RunSpec) -> SimulationResult:
+    """One run from spec.state0 with spec.method: nemc's own, scipy's solve_ivp, or "auto"."""
+    method = spec.method
+    if method == AUTO:
+        return integrate_auto(model, spec)
+    if method in NATIVE_METHODS:
+        if spec.user_events:
+            raise ModelError(
+                f"events= callables need one of scipy's methods ({', '.join(SCIPY_METHODS)})"
+                f": {method} runs in C and locates only the scene's events "
+                "(simulation.events in the YAML, compiled into the model)")
+        return simulate_native(native_build(model, method), spec)
+    if spec.span[0] == spec.span[1]:  # solve_ivp returns nothing; the native methods return y0
+        return at_start(model, spec)
+    return simulate_scipy(model, spec)
+
+
+def integrate_auto(model: BuiltModel, spec: RunSpec) -> SimulationResult:
+    """The method "auto" chooses (auto.auto_choice); an explicit start that turns stiff goes
+    on with nemc.Radau from where the stiffness test stopped it (as LSODA switches)."""
+    if spec.user_events:  # callables run in Python: scipy's LSODA switches by itself
+        return integrate(model, spec.but(method="LSODA"))
+    span, settings = spec.span, spec.settings
+    method = auto_choice(model, span, spec.state0, spec.rtol, spec.p)
+    if method not in ("nemc.DOP853", "nemc.Vern9"):
+        return integrate(model, spec.but(method=method))
+    switch = AUTO_SWITCH_SETTINGS if settings is runs.DEFAULT_SETTINGS else replace(
+        settings, stiff_switch=AUTO_STIFF_STEPS)
+    ending: list = []
+    first = simulate_native(native_build(model, method),
+                            spec.but(method=method, settings=switch), ending)
+    if first.status != model.compiled.lib.NEMC_STIFF or span[0] == span[1]:
+        return first
+    t_switch, y_switch, steps, stiff_from = ending[0]
+    rest_settings = replace(
+        settings, max_steps=max(settings.max_steps - steps, 1) if settings.max_steps else 0)
+    rest = integrate(model, RunSpec("nemc.Radau", (t_switch, span[1]), y_switch,
+                                    times_after(spec.times, t_switch, span), spec.rtol,
+                                    spec.atol, spec.p, rest_settings, []))
+    return joined_runs(model, first, rest, t_switch, stiff_from, spec.p)
+
+
+def joined_runs(model: BuiltModel, first: SimulationResult, rest: SimulationResult,
+                t_switch: float, stiff_from: float, p: np.ndarray) -> SimulationResult:
+    """One result of a run that switched method at t_switch: first's states before it,
+    rest's from it (the switch's state once), their events and counts together."""
+    t_rest, y_rest = rest.t, rest.y
+    if first.t.size and t_rest.size and t_rest[0] == first.t[-1]:
+        t_rest, y_rest = t_rest[1:], y_rest[:, 1:]
+    t, y = np.concatenate([first.t, t_rest]), np.concatenate([first.y, y_rest], axis=1)
+    events = {name: tuple(np.concatenate([part.events[name][k] for part in (first, rest)
+                                          if name in part.events]) for k in (0, 1))
+              for name in {**first.events, **rest.events}}
+    note = (f" {first.method} ran until t = {t_switch:.6g}, where the problem had turned"
+            f" stiff (Hairer's test held from t = {stiff_from:.6g}); {rest.method} went on"
+            " from there.")
+    return SimulationResult(
+        t=t, y=y, outputs=lazy_outputs(model, t, y, p), nfev=first.nfev + rest.nfev,
+        njev=first.njev + rest.njev, nlu=first.nlu + rest.nlu, status=rest.status,
+        message=rest.message + note, success=rest.success,
+        method=f"{first.method} then {rest.method}", rtol=first.rtol, atol=first.atol,
+        params=first.params, events=events)
+
+
+def times_after(times: Any, t_switch: float, span: tuple[float, ...]) -> Any:
+    """The requested times still ahead after a switch at t_switch."""
+    if times is None:
+        return None
+    times = np.asarray(times, dtype=float)
+    ahead = times > t_switch if span[1] >= span[0] else times < t_switch
+    return times[ahead]
+
+
+def kinematic_run(model: BuiltModel, spec: RunSpec) -> SimulationResult:
+    """A mechanism its drives leave without a degree of freedom: no integration, its
+    states computed from the constraints at each time of t_eval (default: 201 over
+    t_span), the outputs (drives, reactions) there."""
+    times = np.linspace(*spec.span, KINEMATIC_POINTS) if spec.times is None else np.asarray(
+        spec.times)
+    t, y, failure = model.loops.kinematic_states(times.astype(float), spec.state0, spec.p)
+    return SimulationResult(
+        t=t, y=y, outputs=lazy_outputs(model, t, y, spec.p), nfev=0, njev=0, nlu=0,
+        status=0 if failure is None else -1, success=failure is None,
+        message=failure or "Kinematic analysis: no degree of freedom left by the drives; "
+        "the states come from the constraints at each time.",
+        method="kinematic", rtol=spec.rtol, atol=spec.atol, params=model.parameters_at(spec.p))
+
+
+# -- the arguments, resolved and checked -------------------------------------------------------
+
+def run_times(scene: Mapping[str, Any], span: tuple[float, ...],
+              t_eval: Sequence[float] | str | None) -> np.ndarray | None:
+    """The checked times of the returned states: t_eval, else the scene's (its step from
+    t0 towards t1, or its list within t_span, in the span's direction), else None (the
+    solver's steps; also for t_eval SOLVER_STEPS)."""
+    if isinstance(t_eval, str) and t_eval == SOLVER_STEPS:  # the solver's own steps
+        return None
+    if t_eval is not None:
+        return checked_times(real_array(t_eval, "t_eval"), span)
+    if scene["t_eval_step"]:
+        return step_times(span, float(scene["t_eval_step"]))
+    if scene["t_eval"] is not None:
+        times = np.asarray(scene["t_eval"], dtype=float)
+        inside = times[(times >= min(span)) & (times <= max(span))]
+        if not inside.size:
+            raise ModelError(f"none of the scene's t_eval times lies in t_span {list(span)}:"
+                             " pass t_eval")
+        return inside if span[1] >= span[0] else inside[::-1].copy()
+    return None
+
+
+def tolerances(scene: Mapping[str, Any], rtol: Any, atol: Any) -> tuple[float, float]:
+    """rtol and atol, or the scene's, or the defaults; checked (see checked_tolerances)."""
+    return checked_tolerances(
+        rtol if rtol is not None else scene["rtol"] or DEFAULT_RTOL,
+        atol if atol is not None else scene["atol"] or DEFAULT_ATOL)
+
+
+def initial_state(model: BuiltModel, y0: Any, params: Mapping[str, float] | None) -> np.ndarray:
+    """The initial state of a run: finite, whatever gave it (y0, the scene, parameters)."""
+    state = model.state_vector(y0, params)
+    if not all_finite(state):
+        values = ", ".join(f"{n}={v:g}" for n, v in zip(model.state_names, state))
+        raise ModelError(f"the initial state must be finite, got {values}")
+    return state
+
+
+def checked_settings(scene: Mapping[str, Any], span: tuple[float, ...], max_step: Any,
+                     tstops: Any, max_steps: Any) -> runs.RunSettings:
+    """max_step, tstops and max_steps, or the scene's, checked (runs.run_settings)."""
+    try:
+        return runs.run_settings(scene, span, max_step, tstops, max_steps)
+    except runs.SettingsError as error:
+        raise ModelError(str(error)) from None
+
+
+def checked_events(events: Any) -> list[Callable]:
+    """simulate's events=: None, one callable or a sequence of them (as solve_ivp)."""
+    if events is None:
+        return []
+    listed = [events] if callable(events) else list(events)
+    for event in listed:
+        if not callable(event):
+            raise ModelError(f"events must be callables event(t, y), got {event!r}")
+    return listed
