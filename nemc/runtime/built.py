@@ -21,6 +21,7 @@ from .checks import (
 )
 from .compiled import Compiled
 from .failures import IntegrationFailure, ModelError
+from .inputs import InputLayout
 from .loops import Loops
 from .parameters import Parameters
 
@@ -46,6 +47,8 @@ class BuiltModel:
         self.compiled = Compiled(metadata, ffi, lib, rhs_call)
         self.parameter_table = Parameters(metadata, self.compiled)
         self.loops = Loops(metadata, self.compiled)
+        self.input_layout = InputLayout(metadata, self.state_names)
+        self.input_names: tuple[str, ...] = self.input_layout.names
         self.constraint_equations: tuple[str, ...] = self.loops.constraint_equations
         self.has_loops: bool = self.loops.has_loops
         # Compiles this mechanism with more parts (set by nemc's pipeline; None in a

@@ -184,9 +184,12 @@ class Compiled:
 
         return jacobian
 
-    def model_events(self, p: np.ndarray) -> runs.ModelEvents | None:
-        """The scene's events for scipy's methods at parameters p: the compiled functions
-        (every event's value at (t, y); an impact law's new state) and their table."""
+    def model_events(self, p: np.ndarray,
+                     p_at: Callable[[float, np.ndarray], np.ndarray] | None = None
+                     ) -> runs.ModelEvents | None:
+        """The scene's events for scipy's methods at parameters p (or p_at(t, y), where inputs
+        vary): the compiled functions (every event's value at (t, y); an impact law's new
+        state) and their table."""
         table = self.event_table
         if not table:
             return None
@@ -197,14 +200,16 @@ class Compiled:
         def values(t: float, y: np.ndarray) -> np.ndarray:
             y = np.ascontiguousarray(y, dtype=np.float64)
             g = np.empty(len(table))
-            status = c_values(t, buffer(y), p_buffer, buffer(g))
+            at = p_buffer if p_at is None else buffer(p_at(t, y))
+            status = c_values(t, buffer(y), at, buffer(g))
             if status:
                 raise IntegrationFailure(t, y, status, names, cause(status))
             return g
 
         def impact(k: int, t: float, y: np.ndarray) -> np.ndarray:
             new = np.array(y, dtype=np.float64)
-            status = c_impact(k, t, buffer(new), p_buffer)
+            at = p_buffer if p_at is None else buffer(p_at(t, new))
+            status = c_impact(k, t, buffer(new), at)
             if status:
                 raise IntegrationFailure(t, y, status, names, cause(status))
             return new

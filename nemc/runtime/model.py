@@ -63,6 +63,7 @@ class Model(BuiltModel):
         max_step: float | None = None,
         tstops: Sequence[float] | None = None,
         max_steps: int | None = None,
+        inputs: Any = None,
     ) -> SimulationResult:
         """Integrate the scene. Arguments left None take the YAML scene's values, then defaults
         (t_span (0, 10), method "auto", rtol 1e-6, atol 1e-9, t_eval: the solver's steps).
@@ -76,9 +77,14 @@ class Model(BuiltModel):
         max_step: the largest step; tstops: times the steps land on exactly (where a load
         switches); max_steps: the step budget (default 1,000,000 accepted steps; 0: none).
         A run that ends early (budget, stiffness, Ctrl-C, ...) returns what it has, success
-        False and a message saying why (docs/decisions.md, "Runs that end")."""
+        False and a message saying why (docs/decisions.md, "Runs that end").
+        inputs: the YAML's inputs (input_names), each a number, a table (times, values: linear
+        between samples, held beyond), nemc.feedback(K, y_ref, u_ref) (u = u_ref - K (y -
+        y_ref)), all evaluated in C by every method, or a function f(t, y) (scipy's methods);
+        or nemc.feedback(...) for every input at once. Those not given take the YAML's value
+        (the scene's simulation.inputs, else the default)."""
         arguments = (t_span, y0, method, rtol, atol, params, events, max_step, tstops,
-                     max_steps)  # as simulation.RUN_ARGUMENTS names them
+                     max_steps, inputs)  # as simulation.RUN_ARGUMENTS names them
         result = simulation.simulate(self, arguments, t_eval)
         result.model = self  # the result knows its model, and runs again at other times
         result.run_arguments = arguments

@@ -16,6 +16,7 @@ from .built import BuiltModel
 from .checks import native_tolerances
 from .compiled import Compiled
 from .failures import IntegrationFailure, ModelError
+from .inputs import RunInputs
 from .outcome import RunSpec, ended_early, failed, gave_up, lazy_outputs
 from .results import SUCCESS_MESSAGE, SimulationResult
 
@@ -90,6 +91,8 @@ def simulate_native(model: BuiltModel, spec: RunSpec, ending: list | None = None
     integrate, method_id = compiled.native_entry(method)
     rtol, atol = native_tolerances(spec.rtol, spec.atol)
     run, keep = new_run(compiled, spec.span, spec.times, rtol, atol, spec.settings)
+    if spec.inputs is not None and spec.inputs.tables:
+        keep.append(table_inputs(compiled, run, spec.inputs, p.size))
     n, buffer, times = model.n_state, compiled.buffer, spec.times
     n_eval = -1 if times is None else len(times)
     # the states at t_eval, then the state where a run failed: one buffer
@@ -127,8 +130,26 @@ def simulate_native(model: BuiltModel, spec: RunSpec, ending: list | None = None
         message = native_message(model, spec, run, out[-1])
     # positional, in the fields' order: keywords cost 0.4 us more (issue 19)
     return SimulationResult(
-        t, y, lazy_outputs(model, t, y, p), run.nfev, run.njev, run.nlu, status, message,
+        t, y, lazy_outputs(model, t, y, p, spec.inputs), run.nfev, run.njev, run.nlu, status,
+        message,
         status >= 0, method, rtol, atol, model.parameters_at(p), events)
+
+
+def table_inputs(compiled: Compiled, run: Any, inputs: RunInputs, n_parameters: int
+                 ) -> tuple[np.ndarray, ...]:
+    """The inputs given as tables into RUN (its laws' places in p, the samples; the C moves
+    each law from segment to segment: templates/run_control.c.tmpl), and the arrays it points
+    into, to keep while it runs."""
+    laws = np.array([index for index, _ in inputs.tables], dtype=np.intc)
+    sizes = np.array([table.times.size for _, table in inputs.tables], dtype=np.intc)
+    times = np.ascontiguousarray(np.concatenate([t.times for _, t in inputs.tables]))
+    values = np.ascontiguousarray(np.concatenate([t.values for _, t in inputs.tables]))
+    ints = compiled.ffi.typeof("int[]")
+    run.n_tables, run.n_parameters = len(laws), n_parameters
+    run.table_law = compiled.ffi.from_buffer(ints, laws)
+    run.table_size = compiled.ffi.from_buffer(ints, sizes)
+    run.table_t, run.table_u = compiled.buffer(times), compiled.buffer(values)
+    return laws, sizes, times, values
 
 
 def run_in_c(compiled: Compiled, integrate: Any, method_id: int, run: Any, y0: Any,

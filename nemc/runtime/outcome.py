@@ -13,6 +13,7 @@ import numpy as np
 from . import runs
 from .built import BuiltModel
 from .failures import IntegrationFailure
+from .inputs import RunInputs
 from .results import NO_OUTPUTS, SUCCESS_MESSAGE, LazyOutputs, SimulationResult
 
 
@@ -20,7 +21,8 @@ from .results import NO_OUTPUTS, SUCCESS_MESSAGE, LazyOutputs, SimulationResult
 class RunSpec:          # through object.__setattr__); never changed: dataclasses.replace
     """One run's settings, checked: the method (a name of METHODS), the span (t0, t1), the
     initial state, the times of the returned states (None: the solver's steps), the
-    tolerances, the parameter vector, the run settings and simulate(events=)'s callables."""
+    tolerances, the parameter vector (with the inputs' laws), the run settings,
+    simulate(events=)'s callables and the inputs that vary along the run."""
 
     method: str
     span: tuple[float, float]
@@ -31,19 +33,34 @@ class RunSpec:          # through object.__setattr__); never changed: dataclasse
     p: np.ndarray
     settings: runs.RunSettings
     user_events: Sequence[Callable]
+    inputs: RunInputs | None = None  # inputs that vary along the run (tables, functions)
 
     def but(self, method: str, settings: runs.RunSettings | None = None) -> RunSpec:
         """This run with another method (and settings): a new RunSpec (positional, 1 us less
         than dataclasses.replace)."""
         return RunSpec(method, self.span, self.state0, self.times, self.rtol, self.atol, self.p,
-                       self.settings if settings is None else settings, self.user_events)
+                       self.settings if settings is None else settings, self.user_events,
+                       self.inputs)
 
 
-def lazy_outputs(model: BuiltModel, t: np.ndarray, y: np.ndarray, p: np.ndarray) -> LazyOutputs:
-    """The outputs along (t, y) at parameter vector p, computed when first read."""
+def lazy_outputs(model: BuiltModel, t: np.ndarray, y: np.ndarray, p: np.ndarray,
+                 inputs: RunInputs | None = None) -> LazyOutputs:
+    """The outputs along (t, y) at parameter vector p (with inputs that vary: at each point's
+    values), computed when first read."""
     if not t.size or not model.output_names:
         return NO_OUTPUTS
+    if inputs is not None:
+        return LazyOutputs(outputs_along, model, t, y, inputs)
     return LazyOutputs(model.compiled.outputs_at, t, y, p)  # p: never written to
+
+
+def outputs_along(model: BuiltModel, t: np.ndarray, y: np.ndarray, inputs: RunInputs
+                  ) -> dict[str, np.ndarray]:
+    """The outputs at each (t, y), each at its inputs' values (a table's segment, a function's
+    value)."""
+    rows = [model.compiled.outputs_at(t[k], y[:, k], inputs.at(float(t[k]), y[:, k]))
+            for k in range(t.size)]
+    return {name: np.array([row[name] for row in rows]) for name in model.output_names}
 
 
 def at_start(model: BuiltModel, spec: RunSpec) -> SimulationResult:

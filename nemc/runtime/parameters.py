@@ -1,5 +1,6 @@
 """A model's parameters: the C parameter vector for a caller's overrides, checked (finite, known
-by name, masses and inertias positive), the latest one kept; and a vector back as a dict."""
+by name, masses and inertias positive), the latest one kept; and a vector back as a dict. The
+vector ends with the coefficients of the inputs' laws (inputs.py), at their defaults here."""
 
 from __future__ import annotations
 
@@ -22,7 +23,9 @@ class Parameters:
         self.derived: dict[str, str] = dict(metadata["derived_parameters"])
         self.check_names: list[str] = metadata["check_names"]
         self.compiled = compiled
-        self.defaults = np.array(metadata["parameter_defaults"], dtype=float)  # never written
+        # the parameters, then the inputs' laws' coefficients (inputs.py): never written
+        laws = (metadata.get("inputs") or {}).get("defaults", [])
+        self.defaults = np.array([*metadata["parameter_defaults"], *laws], dtype=float)
         self._checked: tuple[tuple, np.ndarray] = ((), self.defaults)  # the latest vector
         # at(the defaults), copied for each result: never handed out itself
         self._default_dict = dict(zip(self.names, self.defaults.tolist()))

@@ -12,6 +12,7 @@ from ..vocabulary import IMPLICIT_METHODS
 from . import runs
 from .built import BuiltModel
 from .failures import IntegrationFailure
+from .inputs import RunInputs
 from .outcome import RunSpec, ended_early, failed, gave_up, lazy_outputs
 from .results import SimulationResult
 
@@ -21,8 +22,12 @@ def simulate_scipy(model: BuiltModel, spec: RunSpec) -> SimulationResult:
     from scipy.integrate import solve_ivp  # here: importing scipy costs more than a load
 
     method, p, rtol, atol, settings = spec.method, spec.p, spec.rtol, spec.atol, spec.settings
-    rhs = model.compiled.integrator_rhs(p)
-    model_events = model.compiled.model_events(p)
+    if spec.inputs is None:
+        rhs = model.compiled.integrator_rhs(p)
+        model_events = model.compiled.model_events(p)
+    else:  # inputs that vary (a table, a function): p at each (t, y)
+        rhs = varying_rhs(model, spec.inputs)
+        model_events = model.compiled.model_events(p, spec.inputs.at)
     try:
         jac = integrator_jacobian(model, p) if method in IMPLICIT_METHODS else None
         options = {"rtol": rtol, "atol": atol, **({"jac": jac} if jac is not None else {})}
@@ -44,11 +49,34 @@ def simulate_scipy(model: BuiltModel, spec: RunSpec) -> SimulationResult:
     elif status == runs.REACHED_END and not math.isnan(control.stiff_from):
         message += runs.stiffness_note(control.stiff_from)
     return SimulationResult(
-        t=outcome.t, y=outcome.y, outputs=lazy_outputs(model, outcome.t, outcome.y, p),
+        t=outcome.t, y=outcome.y,
+        outputs=lazy_outputs(model, outcome.t, outcome.y, p, spec.inputs),
         nfev=outcome.nfev, njev=outcome.njev, nlu=outcome.nlu, status=status,
         message=message, success=status >= 0, method=method, rtol=rtol, atol=atol,
         params=model.parameters_at(p), events=outcome.events,
     )
+
+
+def varying_rhs(model: BuiltModel, inputs: RunInputs):
+    """solve_ivp's fun where inputs vary: the C right-hand side at the parameter vector with
+    the inputs' values at (t, y) (a table's segment, a function's value); its attribute `last`
+    holds the latest [t, y], as integrator_rhs's."""
+    compiled = model.compiled
+    c_rhs, buffer, n, names = compiled.functions["rhs"], compiled.buffer, model.n_state, \
+        model.state_names
+    last: list = [0.0, None]
+
+    def rhs(t: float, y: np.ndarray) -> np.ndarray:
+        y = np.ascontiguousarray(y, dtype=np.float64)
+        last[0], last[1] = t, y
+        dy = np.empty(n)
+        status = c_rhs(t, buffer(y), buffer(inputs.at(t, y)), buffer(dy))
+        if status:
+            raise IntegrationFailure(t, y, status, names, compiled.status_cause(status))
+        return dy
+
+    rhs.last = last  # type: ignore[attr-defined]
+    return rhs
 
 
 def integrator_jacobian(model: BuiltModel, p: np.ndarray):

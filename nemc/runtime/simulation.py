@@ -34,6 +34,7 @@ from .checks import (
     step_times,
 )
 from .failures import ModelError
+from .inputs import RunInputs
 from .native import native_build, simulate_native
 from .outcome import RunSpec, at_start, lazy_outputs
 from .results import SimulationResult
@@ -46,14 +47,19 @@ AUTO_SWITCH_SETTINGS = replace(runs.DEFAULT_SETTINGS, stiff_switch=AUTO_STIFF_ST
 # simulate()'s arguments but t_eval, in the order of the tuple a result keeps of them
 # (SimulationResult.run_arguments: a plain tuple, 0.3 us less a run than a named one)
 RUN_ARGUMENTS = ("t_span", "y0", "method", "rtol", "atol", "params", "events", "max_step",
-                 "tstops", "max_steps")
+                 "tstops", "max_steps", "inputs")
 
 
 def simulate(model: BuiltModel, arguments: tuple, t_eval: Any) -> SimulationResult:
     """The run of simulate()'s ARGUMENTS (as RUN_ARGUMENTS names them) at the times T_EVAL:
     each resolved against the scene, then the defaults, and checked, in this order."""
-    t_span, y0, method, rtol, atol, params, events, max_step, tstops, max_steps = arguments
+    t_span, y0, method, rtol, atol, params, events, max_step, tstops, max_steps, inputs = \
+        arguments
     p = model.parameter_table.vector(params)  # Model.parameter_vector's, one call less
+    varying = None
+    if inputs is not None:  # the inputs' laws set in a copy of p (inputs.py)
+        given = model.input_layout.resolve(p, inputs)
+        p, varying = given.p, given if given.tables or given.callables else None
     scene = model.scene
     span = checked_span(scene["t_span"] or DEFAULT_T_SPAN if t_span is None else t_span)
     method = checked_method(scene["method"] or DEFAULT_METHOD if method is None else method,
@@ -62,12 +68,14 @@ def simulate(model: BuiltModel, arguments: tuple, t_eval: Any) -> SimulationResu
     times = run_times(scene, span, t_eval)
     state0 = initial_state(model, y0, params)
     settings = checked_settings(scene, span, max_step, tstops, max_steps)
+    if varying is not None and varying.tables:  # every step lands on the tables' samples
+        settings = with_tstops(settings, varying.tstops, span)
     user_events = checked_events(events)
     if not model.has_loops:
         return integrate(model, RunSpec(method, span, state0, times, rtol, atol, p, settings,
-                                        user_events))
+                                        user_events, varying))
     state0, freedom = model.loops.assembled(span[0], state0, model.loops.given_mask(y0), p)
-    spec = RunSpec(method, span, state0, times, rtol, atol, p, settings, user_events)
+    spec = RunSpec(method, span, state0, times, rtol, atol, p, settings, user_events, varying)
     if freedom == 0:
         return kinematic_run(model, spec)
     result = integrate(model, spec)
@@ -80,6 +88,10 @@ def integrate(model: BuiltModel, spec: RunSpec) -> SimulationResult:
     method = spec.method
     if method == AUTO:
         return integrate_auto(model, spec)
+    if method in NATIVE_METHODS and spec.inputs is not None and spec.inputs.callables:
+        raise ModelError(f"an input given as a Python function runs with scipy's methods "
+                         f"({', '.join(SCIPY_METHODS)}): {method} runs in C, where inputs are "
+                         "numbers, tables (times, values) or nemc.feedback(K, y_ref, u_ref)")
     if method in NATIVE_METHODS:
         if spec.user_events:
             raise ModelError(
@@ -95,8 +107,9 @@ def integrate(model: BuiltModel, spec: RunSpec) -> SimulationResult:
 def integrate_auto(model: BuiltModel, spec: RunSpec) -> SimulationResult:
     """The method "auto" chooses (auto.auto_choice); an explicit start that turns stiff goes
     on with nemc.Radau from where the stiffness test stopped it (as LSODA switches)."""
-    if spec.user_events:  # callables run in Python: scipy's LSODA switches by itself
-        return integrate(model, spec.but(method="LSODA"))
+    if spec.user_events or spec.inputs is not None and spec.inputs.callables:
+        return integrate(model, spec.but(method="LSODA"))  # Python in the loop: scipy's
+        #                                                    LSODA switches by itself
     span, settings = spec.span, spec.settings
     method = auto_choice(model, span, spec.state0, spec.rtol, spec.p)
     if method not in ("nemc.DOP853", "nemc.Vern9"):
@@ -113,12 +126,13 @@ def integrate_auto(model: BuiltModel, spec: RunSpec) -> SimulationResult:
         settings, max_steps=max(settings.max_steps - steps, 1) if settings.max_steps else 0)
     rest = integrate(model, RunSpec("nemc.Radau", (t_switch, span[1]), y_switch,
                                     times_after(spec.times, t_switch, span), spec.rtol,
-                                    spec.atol, spec.p, rest_settings, []))
-    return joined_runs(model, first, rest, t_switch, stiff_from, spec.p)
+                                    spec.atol, spec.p, rest_settings, [], spec.inputs))
+    return joined_runs(model, first, rest, t_switch, stiff_from, spec.p, spec.inputs)
 
 
 def joined_runs(model: BuiltModel, first: SimulationResult, rest: SimulationResult,
-                t_switch: float, stiff_from: float, p: np.ndarray) -> SimulationResult:
+                t_switch: float, stiff_from: float, p: np.ndarray,
+                inputs: RunInputs | None = None) -> SimulationResult:
     """One result of a run that switched method at t_switch: first's states before it,
     rest's from it (the switch's state once), their events and counts together."""
     t_rest, y_rest = rest.t, rest.y
@@ -132,7 +146,7 @@ def joined_runs(model: BuiltModel, first: SimulationResult, rest: SimulationResu
             f" stiff (Hairer's test held from t = {stiff_from:.6g}); {rest.method} went on"
             " from there.")
     return SimulationResult(
-        t=t, y=y, outputs=lazy_outputs(model, t, y, p), nfev=first.nfev + rest.nfev,
+        t=t, y=y, outputs=lazy_outputs(model, t, y, p, inputs), nfev=first.nfev + rest.nfev,
         njev=first.njev + rest.njev, nlu=first.nlu + rest.nlu, status=rest.status,
         message=rest.message + note, success=rest.success,
         method=f"{first.method} then {rest.method}", rtol=first.rtol, atol=first.atol,
@@ -156,7 +170,8 @@ def kinematic_run(model: BuiltModel, spec: RunSpec) -> SimulationResult:
         spec.times)
     t, y, failure = model.loops.kinematic_states(times.astype(float), spec.state0, spec.p)
     return SimulationResult(
-        t=t, y=y, outputs=lazy_outputs(model, t, y, spec.p), nfev=0, njev=0, nlu=0,
+        t=t, y=y, outputs=lazy_outputs(model, t, y, spec.p, spec.inputs), nfev=0, njev=0,
+        nlu=0,
         status=0 if failure is None else -1, success=failure is None,
         message=failure or "Kinematic analysis: no degree of freedom left by the drives; "
         "the states come from the constraints at each time.",
@@ -209,6 +224,14 @@ def checked_settings(scene: Mapping[str, Any], span: tuple[float, ...], max_step
         return runs.run_settings(scene, span, max_step, tstops, max_steps)
     except runs.SettingsError as error:
         raise ModelError(str(error)) from None
+
+
+def with_tstops(settings: runs.RunSettings, times: np.ndarray, span: tuple[float, ...]
+                ) -> runs.RunSettings:
+    """SETTINGS with TIMES among its tstops (those inside the span, in its direction)."""
+    inside = times[(times > min(span)) & (times < max(span))]
+    merged = np.unique(np.concatenate([settings.tstops, inside]))
+    return replace(settings, tstops=merged if span[1] >= span[0] else merged[::-1].copy())
 
 
 def checked_events(events: Any) -> list[Callable]:
