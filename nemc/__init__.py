@@ -44,6 +44,15 @@ def compile(  # noqa: A001
     return compile_mechanism(path, jacobian, taylor=taylor).model
 
 
+def feedback(K: Any, y_ref: Any = None, u_ref: Any = None, states: Any = None) -> Any:
+    """A linear state feedback u = u_ref - K (y - y_ref) for simulate's inputs, evaluated in C
+    by every method: inputs={"F": nemc.feedback(K)} (K a row, a column per entry of the state,
+    or of STATES), or inputs=nemc.feedback(K) for every input (K a row per input)."""
+    from .runtime.inputs import feedback as make
+
+    return make(K, y_ref, u_ref, states)
+
+
 def sweep(model: Model, y0s: Any = None, **options: Any) -> SweepResult:
     """Run MODEL over many initial states and parameter sets, on this machine's cores or a Dask
     cluster (client=...), into one xarray dataset (out=None, or a .zarr, .nc or .npz file).
@@ -53,4 +62,4 @@ def sweep(model: Model, y0s: Any = None, **options: Any) -> SweepResult:
     return run_sweep(model, y0s, **options)
 
 
-__all__ = ["compile", "sweep", "__version__"]
+__all__ = ["compile", "feedback", "sweep", "__version__"]

@@ -47,7 +47,10 @@ def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
         check_names=comment_text(", ".join(key for key, _ in eqs.checks)),
         checks=body(printer, block, indexed("out", block.groups["checks"])),
         initial=body(printer, block, indexed("y0", block.groups["initial"])),
-        outputs_section=outputs_section(eqs, block, printer, prefix),
+        outputs_section=outputs_section(eqs, block, printer, prefix)
+        + template("input_values.c.tmpl").substitute(
+            prefix=prefix, input_names=comment_text(", ".join(eqs.inputs.names)),
+            values=body(printer, block, indexed("u", block.groups["inputs"]))),
         jacobian_section=jacobian,
         loops_absent="" if eqs.loops is not None else
         template("loops_absent.c.tmpl").substitute(prefix=prefix),

@@ -105,6 +105,7 @@ def optimize_equations(eqs: Equations) -> Block:
         "outputs": tuple(expr for _, expr in eqs.outputs),
         "checks": tuple(expr for _, expr in eqs.checks),
         "initial": eqs.initial_state,
+        "inputs": eqs.inputs.laws,
         "constraints": () if loops is None else
         (*loops.values, *(v for row in loops.jacobian for v in row), *loops.rate),
         **event_groups(eqs),

@@ -4,15 +4,20 @@ extension, imports nothing of nemc but the vocabulary and never sympy: an export
 a copy of this folder (nemc/build/builder.py, runtime_files).
 
 Its modules, lowest first: failures (what it raises), checks (a call's arguments), results,
-compiled (one build's C through cffi), parameters, loops (closed loops), built (a build's
-names and evaluation), outcome (a run's RunSpec and result pieces), native, scipy_run and auto
-(the ways of running and the choice among them), simulation (one run), ensemble (many), model
-(the Model), load (a built package's Model); runs holds how runs end (settings, messages,
-Ctrl-C, progress), for native and scipy runs alike.
+compiled (one build's C through cffi), inputs (a run's inputs as their laws' coefficients),
+parameters, loops (closed loops), built (a build's names and evaluation), outcome (a run's
+RunSpec and result pieces), native, scipy_run and auto (the ways of running and the choice
+among them), simulation (one run), ensemble (many), linear and plant (the model as a plant:
+linearization, modes, trim, Floquet), model (the Model), load (a built package's Model); runs
+holds how runs end (settings, messages, Ctrl-C, progress), for native and scipy runs alike.
 """
 
 from .failures import ModelError
+from .inputs import feedback
+from .linear import Linearization, Modes
 from .model import Model, read_metadata
+from .plant import Floquet, OperatingPoint
 from .results import EnsembleResult, SimulationResult
 
-__all__ = ["EnsembleResult", "Model", "ModelError", "SimulationResult", "read_metadata"]
+__all__ = ["EnsembleResult", "Floquet", "Linearization", "Model", "ModelError", "Modes",
+           "OperatingPoint", "SimulationResult", "feedback", "read_metadata"]

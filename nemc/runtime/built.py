@@ -26,7 +26,8 @@ from .loops import Loops
 from .parameters import Parameters
 
 DEFAULT_T_SPAN = (0.0, 10.0)
-OPTIONAL_PARTS = frozenset({"jacobian", "mass_matrix", "taylor", "lanes"})  # C built when asked
+OPTIONAL_PARTS = frozenset({"jacobian", "mass_matrix", "taylor", "lanes",  # C built when asked
+                            "linearization"})
 
 
 class BuiltModel:

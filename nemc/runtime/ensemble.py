@@ -30,9 +30,10 @@ from .checks import (
     real_array,
 )
 from .failures import ModelError
-from .native import native_build, new_run
+from .inputs import RunInputs
+from .native import native_build, new_run, table_inputs
 from .results import EnsembleResult
-from .simulation import checked_settings, initial_state, run_times, tolerances
+from .simulation import checked_settings, initial_state, run_times, tolerances, with_tstops
 
 
 @dataclass(frozen=True)
@@ -54,6 +55,7 @@ class EnsembleCall:
     max_events: int = runs.DEFAULT_MAX_EVENTS
     progress: bool | None = None
     lanes: bool = True
+    inputs: Any = None
 
 
 def simulate_many(model: BuiltModel, call: EnsembleCall) -> EnsembleResult:
@@ -62,15 +64,15 @@ def simulate_many(model: BuiltModel, call: EnsembleCall) -> EnsembleResult:
     span = checked_span(model.scene["t_span"] or DEFAULT_T_SPAN if call.t_span is None
                         else call.t_span)
     method, lanes = call.method, call.lanes
-    inputs = None  # (parameters, starts), made once
+    inputs = None  # (parameters, starts, tables), made once
     if method is None or (isinstance(method, str) and method == AUTO):
-        inputs = ps, starts = ensemble_inputs(model, call.y0s, call.params)
+        inputs = ps, starts, _ = ensemble_inputs(model, call.y0s, call.params, call.inputs)
         method = ensemble_method(model, span, starts[0], ps[0], call.rtol, len(starts))
         lanes = lanes and (len(starts) >= AUTO_LANES_MIN_RUNS or model.has_part("lanes"))
     if not isinstance(method, str) or method not in NATIVE_METHODS:
         raise ModelError(f"simulate_many: method must be one of {', '.join(NATIVE_METHODS)}"
                          f" or auto, got {method!r}")
-    in_lanes = method in TAYLOR_METHODS and bool(lanes)
+    in_lanes = method in TAYLOR_METHODS and bool(lanes) and not has_tables(call.inputs)
     build = model.compiled_with("lanes") if in_lanes else model
     in_lanes = in_lanes and build.has_part("lanes")
     if not in_lanes:  # (a lanes build that could not have them says why Taylor cannot)
@@ -90,16 +92,20 @@ def run_ensemble(model: BuiltModel, call: EnsembleCall, span: tuple[float, float
     times = np.array(sorted(set(span), reverse=span[1] < span[0]) if times is None else times,
                      dtype=float)
     given = model.loops.given_mask(call.y0s)
-    ps, y0s = inputs or ensemble_inputs(model, call.y0s, call.params)
+    ps, y0s, tables = inputs or ensemble_inputs(model, call.y0s, call.params, call.inputs)
     if model.has_loops:  # each run from its assembled state
         y0s = model.loops.assembled_runs(span[0], y0s, given, ps)
     settings = checked_settings(model.scene, span, call.max_step, call.tstops, call.max_steps)
+    if tables is not None:  # every step lands on the tables' samples
+        settings = with_tstops(settings, tables.tstops, span)
     capacity = checked_max_events(call.max_events)
     compiled = model.compiled
     integrate_many = compiled.native(method, "integrate_lanes" if in_lanes else "integrate_many")
     method_id = compiled.method_id(method)
     rtol, atol = native_tolerances(rtol, atol)
     run, keep = new_run(compiled, span, times, rtol, atol, settings)
+    if tables is not None:
+        keep.append(table_inputs(compiled, run, tables, ps.shape[1]))
     run.event_capacity = capacity
     k, n = len(y0s), model.n_state
     y = np.empty((k, len(times), n))
@@ -150,11 +156,29 @@ def ensemble_method(model: BuiltModel, span: Sequence[float], y0: Any = None,
     return checked_auto_choice(model, span, y0, tolerances(model.scene, rtol, None)[0], p, runs)
 
 
-def ensemble_inputs(model: BuiltModel, y0s: Any, params: Mapping[str, Any] | None
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """(parameter vectors (k or 1, n_p), initial states (k, n_state)), checked."""
+def has_tables(inputs: Any) -> bool:
+    """Whether simulate_many's inputs hold a table (runs one after the other: not in lanes)."""
+    return isinstance(inputs, Mapping) and any(
+        isinstance(v, tuple | list) and len(v) == 2 and not np.isscalar(v[0])
+        for v in inputs.values())
+
+
+def per_run(value: Any) -> bool:
+    """An input's value given run by run: a 1-D array of numbers (a table is a pair of
+    arrays, a feedback an object)."""
+    return isinstance(value, np.ndarray | list) and np.ndim(value) == 1 and all(
+        np.isscalar(v) for v in value)
+
+
+def ensemble_inputs(model: BuiltModel, y0s: Any, params: Mapping[str, Any] | None,
+                    inputs: Any = None) -> tuple[np.ndarray, np.ndarray, RunInputs | None]:
+    """(parameter vectors (k or 1, n_p) with the inputs' laws, initial states (k, n_state),
+    the tables the runs share or None), checked. An input's value may be given run by run (an
+    array of k numbers), else shared: a number, a table, nemc.feedback(...)."""
     columns = ensemble_columns(params)
     sizes = {len(v) for v in columns.values() if len(v) != 1}
+    if isinstance(inputs, Mapping):
+        sizes |= {len(v) for v in inputs.values() if per_run(v) and len(v) != 1}
     if y0s is not None:
         y0s = real_array(y0s, "y0s").astype(float)
         if y0s.ndim != 2 or y0s.shape[1] != model.n_state or not len(y0s):
@@ -169,12 +193,35 @@ def ensemble_inputs(model: BuiltModel, y0s: Any, params: Mapping[str, Any] | Non
     sets = [{name: v[i % len(v)] for name, v in columns.items()} for i in
             range(k if any(len(v) > 1 for v in columns.values()) else 1)]
     ps = np.array([model.parameter_vector(s) for s in sets])
+    tables = None
+    if inputs is not None:
+        ps, tables = with_run_inputs(model, ps, inputs, k)
     if y0s is None:
         y0s = np.array([model.initial_state(s) for s in sets])
         y0s = np.broadcast_to(y0s, (k, model.n_state))
     if not np.all(np.isfinite(y0s)):
         raise ModelError("y0s must be finite")
-    return np.ascontiguousarray(ps), np.ascontiguousarray(y0s, dtype=float)
+    return np.ascontiguousarray(ps), np.ascontiguousarray(y0s, dtype=float), tables
+
+
+def with_run_inputs(model: BuiltModel, ps: np.ndarray, inputs: Any, k: int
+                    ) -> tuple[np.ndarray, RunInputs | None]:
+    """The parameter vectors with each run's inputs' laws set (k rows where an input or a
+    parameter varies by run), and the tables they share."""
+    varying = isinstance(inputs, Mapping) and any(per_run(v) and len(v) > 1
+                                                  for v in inputs.values())
+    rows = k if varying or len(ps) > 1 else 1
+    laid, last = [], None
+    for i in range(rows):
+        given = {name: (v[i % len(v)] if per_run(v) else v) for name, v in inputs.items()} \
+            if isinstance(inputs, Mapping) else inputs
+        last = model.input_layout.resolve(ps[i % len(ps)], given)
+        if last.callables:
+            raise ModelError("simulate_many runs in C: inputs are numbers (per run or "
+                             "shared), tables (times, values) or nemc.feedback(...), not "
+                             "Python functions")
+        laid.append(last.p)
+    return np.array(laid), last if last is not None and last.tables else None
 
 
 def run_threads(work: Callable[[], None], workers: int, taken: Callable[[], int], total: int,

@@ -47,7 +47,7 @@ def feedback(K: Any, y_ref: Any = None, u_ref: Any = None,
     default 0). K: a row per input it sets, a column per entry of the state (or of STATES)."""
     gain = real_matrix(K, "feedback gain K")
     y = None if y_ref is None else real_vector(y_ref, "feedback y_ref")
-    u = None if u_ref is None else real_vector(u_ref, "feedback u_ref")
+    u = None if u_ref is None else real_vector(np.atleast_1d(u_ref), "feedback u_ref")
     return Feedback(gain, y, u, None if states is None else tuple(states))
 
 

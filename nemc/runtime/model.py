@@ -33,10 +33,11 @@ from ..vocabulary import (  # noqa: F401 (re-exported: the runtime's public name
     auto_method,
     auto_takes_taylor,
 )
-from . import ensemble, runs, simulation
+from . import ensemble, plant, runs, simulation
 from .auto import checked_auto_choice
 from .built import DEFAULT_T_SPAN, BuiltModel  # noqa: F401 (re-exported)
 from .failures import IntegrationFailure, ModelError  # noqa: F401 (re-exported)
+from .linear import Linearization
 from .results import EnsembleResult, SimulationResult, model_html
 from .simulation import SOLVER_STEPS  # noqa: F401 (re-exported)
 
@@ -112,6 +113,7 @@ class Model(BuiltModel):
         max_events: int = runs.DEFAULT_MAX_EVENTS,
         progress: bool | None = None,
         lanes: bool = True,
+        inputs: Any = None,
     ) -> EnsembleResult:
         """Integrate an ensemble with a native method, the loop over runs in C.
 
@@ -129,10 +131,12 @@ class Model(BuiltModel):
         lanes: nemc.Taylor integrates NEMC_LANES runs at once in SIMD lanes (the part "lanes",
         compiled on first use; templates/batch.c.tmpl), with every setting above and the same
         results to the last bit as one run after the other (lanes=False); the other methods
-        always run one after the other."""
+        always run one after the other.
+        inputs: as simulate's, each input's value also run by run (an array of k numbers);
+        tables and feedbacks shared; no Python functions (the runs are in C)."""
         return ensemble.simulate_many(self, ensemble.EnsembleCall(
             y0s, params, t_span, t_eval, method, rtol, atol, threads, max_step, tstops,
-            max_steps, max_events, progress, lanes))
+            max_steps, max_events, progress, lanes, inputs))
 
     def auto_method(self, span: Sequence[float], y0: Any, rtol: float,
                     params: Any = None, runs: int = 1) -> str:
@@ -152,5 +156,41 @@ class Model(BuiltModel):
         runs in SIMD lanes for ensembles of AUTO_LANES_MIN_RUNS runs or more (the lanes are
         a build of seconds), or when the build has them."""
         return ensemble.ensemble_method(self, span, y0, params, rtol, runs)
+
+    # -- the model as a plant (plant.py) -------------------------------------------------------
+
+    def linearize(self, y: Any = None, u: Any = None, *, t: float = 0.0,
+                  params: Mapping[str, float] | None = None,
+                  independent: Sequence[str] | None = None) -> Linearization:
+        """The exact linearization about (t, y, u): dx/dt = A x + B u, out = C x + D u, from
+        the derivation's forward-mode derivative in C (the part "linearization", compiled on
+        first need; no finite differences). y: a state (array or dict; default the scene's
+        initial state); u: the inputs' values (a mapping or a vector; default their YAML
+        values at (t, y)). A closed loop's in independent coordinates (lin.state_names), the
+        others following from the constraints: INDEPENDENT names them (default: those QR with
+        column pivoting leaves, the dependent ones best conditioned). With driven joints A, B
+        depend on t. lin.modes(), lin.to_scipy(), lin.to_control(), lin.feedback(K)."""
+        return plant.linearize(self, y, u, t=t, params=params, independent=independent)
+
+    def trim(self, y: Any = None, u: Any = None, *, fix: Mapping[str, float] | None = None,
+             free: Sequence[str] | None = None, t: float = 0.0,
+             params: Mapping[str, float] | None = None) -> plant.OperatingPoint:
+        """An equilibrium, dy/dt = 0, by Newton with the exact Jacobian [A B] (scipy's
+        least_squares): FREE names the state entries and inputs solved for (default every
+        coordinate; a closed loop's independent ones), the rest held at y, u (default the
+        scene's initial state at rest and the YAML's inputs) and FIX's values. An
+        equilibrium not reached is an error naming the rate that stays away from 0; what the
+        equations do not fix there is left at its start (op.undetermined), an error when
+        named in FREE."""
+        return plant.trim(self, y, u, fix=fix, free=free, t=t, params=params)
+
+    def floquet(self, period: float, y: Any = None, *, t0: float = 0.0,
+                params: Mapping[str, float] | None = None, u: Any = None,
+                rtol: float = 1e-11, atol: float = 1e-13) -> plant.Floquet:
+        """The Floquet multipliers of the motion from y (default the scene's initial state) at
+        t0 over one PERIOD of a periodic drive: the monodromy matrix dy(t0 + T)/dy(t0) from
+        the variational equations (the exact Jacobian), integrated with the motion."""
+        return plant.floquet(self, period, y, t0=t0, params=params, u=u, rtol=rtol,
+                             atol=atol)
 
     _repr_html_ = model_html  # IPython's display protocol: the model's names in a table
