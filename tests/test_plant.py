@@ -80,7 +80,7 @@ def test_bad_inputs_are_refused_with_their_line(text: str, where: str, message: 
     with pytest.raises(InputError) as caught:
         validate_text(text.encode(), "cart_pole.yaml")
     found = str(caught.value)
-    assert f"cart_pole.yaml:" in found and where in found and message in found, found
+    assert "cart_pole.yaml:" in found and where in found and message in found, found
 
 
 # ---- runs with inputs ----------------------------------------------------------------------
