@@ -347,3 +347,33 @@ def test_a_python_input_needs_scipys_methods(cart_pole) -> None:
     with pytest.raises(ModelError, match="runs with scipy's methods"):
         cart_pole.simulate((0, 1), method="nemc.DOP853", inputs={"F": lambda t, y: 1.0})
     assert cart_pole.simulate((0, 1), inputs={"F": lambda t, y: 1.0}).method == "LSODA"
+
+
+def test_a_sweep_takes_inputs_as_simulate_many(cart_pole) -> None:
+    pytest.importorskip("xarray")
+    forces = np.array([0.0, 0.5, -0.5, 1.0])
+    swept = nemc.sweep(cart_pole, params={"c": 0.1}, t_span=(0, 1), t_eval=[1.0],
+                       method="nemc.DOP853", inputs={"F": forces})
+    many = cart_pole.simulate_many(np.tile(cart_pole.initial_state(), (4, 1)), t_span=(0, 1),
+                                   t_eval=[1.0], method="nemc.DOP853", inputs={"F": forces})
+    np.testing.assert_array_equal(swept.dataset["y"].values[:, :, -1], many.y[:, :, -1])
+    np.testing.assert_array_equal(swept.dataset["F"].values, forces)
+
+
+def test_the_command_line_linearizes(tmp_path: Path, capsys) -> None:
+    from nemc.tools.cli import main
+
+    path = tmp_path / "cart_pole.yaml"
+    path.write_text(CART_POLE)
+    out = tmp_path / "lin.npz"
+    assert main(["linearize", str(path), "--at", "th=1.5707963267948966", "--input", "F=0",
+                 "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "A = d(dy/dt)/dy (4 x 4)" in printed and "B = d(dy/dt)/du (4 x 1)" in printed
+    saved = np.load(out)
+    model = nemc.compile(path)
+    lin = model.linearize({"th": np.pi / 2}, {"F": 0.0})
+    np.testing.assert_array_equal(saved["A"], lin.A)
+    np.testing.assert_array_equal(saved["B"], lin.B)
+    assert main(["linearize", str(path), "--input", "G=1"]) == 2
+    assert "unknown inputs ['G']" in capsys.readouterr().err

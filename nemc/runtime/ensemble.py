@@ -70,8 +70,9 @@ def simulate_many(model: BuiltModel, call: EnsembleCall) -> EnsembleResult:
         method = ensemble_method(model, span, starts[0], ps[0], call.rtol, len(starts))
         lanes = lanes and (len(starts) >= AUTO_LANES_MIN_RUNS or model.has_part("lanes"))
     if not isinstance(method, str) or method not in NATIVE_METHODS:
+        got = repr(method) if isinstance(method, str) else type(method).__name__
         raise ModelError(f"simulate_many: method must be one of {', '.join(NATIVE_METHODS)}"
-                         f" or auto, got {method!r}")
+                         f" or auto, got {got}")
     in_lanes = method in TAYLOR_METHODS and bool(lanes) and not has_tables(call.inputs)
     build = model.compiled_with("lanes") if in_lanes else model
     in_lanes = in_lanes and build.has_part("lanes")

@@ -113,7 +113,7 @@ class InputLayout:
         run = RunInputs(p)
         if given is None:
             return run
-        if isinstance(given, Feedback):
+        if is_feedback(given):
             self._feedback(p, self.names, given)
             return run
         if not isinstance(given, Mapping):
@@ -130,7 +130,7 @@ class InputLayout:
     def _one(self, run: RunInputs, name: str, value: Any) -> None:
         law = self.law(self.names.index(name))
         run.p[law: law + self.stride] = 0.0
-        if isinstance(value, Feedback):
+        if is_feedback(value):
             self._feedback(run.p, (name,), value)
         elif callable(value):
             run.callables.append((law + VALUE, value))
@@ -141,7 +141,7 @@ class InputLayout:
         else:
             run.p[law + VALUE] = input_number(name, value)
 
-    def _feedback(self, p: np.ndarray, names: Sequence[str], rule: Feedback) -> None:
+    def _feedback(self, p: np.ndarray, names: Sequence[str], rule: Any) -> None:
         columns = self._columns(rule)
         gain = rule.gain.reshape(1, -1) if rule.gain.ndim == 1 else rule.gain
         if gain.shape != (len(names), len(columns)):
@@ -171,6 +171,13 @@ class InputLayout:
             raise ModelError(f"feedback states {unknown} are not in the state "
                              f"{list(self.state_names)}")
         return [self.state_names.index(name) for name in rule.states]
+
+
+def is_feedback(value: Any) -> bool:
+    """A Feedback, nemc's or the copy's in an exported package (another class of the same
+    fields: a package's model takes nemc.feedback's too)."""
+    return isinstance(value, Feedback) or type(value).__name__ == "Feedback" and all(
+        hasattr(value, name) for name in ("gain", "y_ref", "u_ref", "states"))
 
 
 def segment_law(table: Table, t: float) -> tuple[float, float, float]:

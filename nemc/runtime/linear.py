@@ -50,7 +50,7 @@ def modes_of(a: np.ndarray, state_names: Sequence[str]) -> Modes:
     values, vectors = np.linalg.eig(a)
     frequency = np.abs(values)
     with np.errstate(invalid="ignore", divide="ignore"):
-        damping = np.where(frequency > 0, -values.real / frequency, np.nan)
+        damping = np.where(frequency > 0, -values.real / frequency, np.nan) + 0.0  # no -0
     order = np.lexsort((values.imag, frequency))
     shapes = vectors[:, order]
     biggest = shapes[np.abs(shapes).argmax(axis=0), np.arange(shapes.shape[1])]
@@ -89,14 +89,16 @@ class Linearization:
         return signal.StateSpace(self.A, self.B, self.C, self.D)
 
     def to_control(self) -> Any:
-        """python-control's StateSpace with the states', inputs' and outputs' names."""
+        """python-control's StateSpace with the states', inputs' and outputs' names (signal
+        names there cannot hold '.', '(' or ')': A.Fx is A_Fx, dot(q1) is dot_q1)."""
         try:
             import control
         except ImportError:
             raise ImportError("to_control needs python-control (pip install control); "
                               "to_scipy() needs only scipy") from None
-        return control.ss(self.A, self.B, self.C, self.D, states=list(self.state_names),
-                          inputs=list(self.input_names), outputs=list(self.output_names))
+        return control.ss(self.A, self.B, self.C, self.D, states=signal_names(self.state_names),
+                          inputs=signal_names(self.input_names),
+                          outputs=signal_names(self.output_names))
 
     def feedback(self, K: Any) -> Any:
         """nemc.feedback(K) about this operating point, for simulate's inputs: u = u0 - K (x -
@@ -105,6 +107,11 @@ class Linearization:
 
         columns = [self.full_state_names.index(name) for name in self.state_names]
         return feedback(K, self.y[columns], self.u, states=self.state_names)
+
+
+def signal_names(names: Sequence[str]) -> list[str]:
+    """NAMES as python-control takes them: '.' and parentheses become '_' (ddot(q1) ddot_q1)."""
+    return [name.replace(".", "_").replace("(", "_").replace(")", "") for name in names]
 
 
 # ---- a tree: one call ------------------------------------------------------------------------

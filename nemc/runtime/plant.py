@@ -62,13 +62,11 @@ def linearize(model: BuiltModel, y: Any = None, u: Any = None, *, t: float = 0.0
     """A, B, C, D at (t, y, u), exact (see Model.linearize)."""
     t = checked_time(t)
     p = with_inputs(model, model.parameter_vector(params), u)
-    state = model.state_vector(y, params).copy()
+    state = point_state(model, y, t, p, params)
     build = model.compiled_with("linearization")
     if not build.has_part("linearization"):
         raise ModelError("this standalone package was built without its linearization: "
                          "compile it with nemc (the part \"linearization\")")
-    if model.has_loops:
-        state = model.loops.projected(np.array([t]), state.reshape(-1, 1), p)[:, 0]
     inputs = input_vector(model, p, t, state)
     names = (model.state_names, model.input_names, model.output_names)
     if not model.has_loops:
@@ -77,6 +75,23 @@ def linearize(model: BuiltModel, y: Any = None, u: Any = None, *, t: float = 0.0
                                    build.compiled.buffer)
         return Linearization(a, b, c, d, *names, t, state, inputs, model.state_names)
     return loop_linearization(model, build, t, state, p, inputs, independent)
+
+
+def point_state(model: BuiltModel, y: Any, t: float, p: np.ndarray,
+                params: Mapping[str, float] | None) -> np.ndarray:
+    """The state a linearization is taken at: Y (an array; a mapping of named values, the
+    rates it does not name 0, the coordinates the scene's), a closed loop's on its
+    constraints (the named values kept, the others solved; an array's nearest consistent
+    state)."""
+    state = model.state_vector(y, params).copy()
+    if isinstance(y, Mapping):
+        rates = [i for i in range(1, model.n_state, 2) if model.state_names[i] not in y]
+        state[rates] = 0.0
+    if not model.has_loops:
+        return state
+    if isinstance(y, Mapping):  # the rates it does not name solved from 0 (none: at rest)
+        return model.loops.assembled(t, state, model.loops.given_mask(y), p)[0]
+    return model.loops.projected(np.array([t]), state.reshape(-1, 1), p)[:, 0]
 
 
 def loop_linearization(model: BuiltModel, build: BuiltModel, t: float, y: np.ndarray,

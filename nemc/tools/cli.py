@@ -1,4 +1,5 @@
-"""The `nemc` command: compile, simulate, show, check, bench, stress.
+"""The `nemc` command: compile, simulate, show, check, bench, stress, animate, sweep, linearize
+(plant_cli.py).
 
 Exit status: 0 success; 2 bad input (`FILE:LINE: key.path: what is wrong`, no traceback);
 1 any other failure (e.g. the C compiler failed: the message names the C file and its error);
@@ -18,6 +19,7 @@ from contextlib import contextmanager, suppress
 from pathlib import Path
 
 from ..errors import BuildError, InputError, OutputRefused
+from .plant_cli import add_linearize_parser, cmd_linearize
 
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
 
@@ -82,6 +84,8 @@ def make_parser() -> argparse.ArgumentParser:
                       "model.jacobian, model.mass_matrix)")
     comp.add_argument("--taylor", action="store_true", default=None,
                       help="also build nemc.Taylor's coefficient code")
+    comp.add_argument("--linearization", action="store_true",
+                      help="also build the exact linearization (model.linearize, trim)")
     sim = commands.add_parser("simulate", help="run the scene and print the table")
     sim.add_argument("mechanism")
     add_run_options(sim)
@@ -114,6 +118,7 @@ def make_parser() -> argparse.ArgumentParser:
     add_stress_parser(commands)
     add_animate_parser(commands)
     add_sweep_parser(commands)
+    add_linearize_parser(commands, parse_assignment, parse_initial)
     return parser
 
 
@@ -159,7 +164,8 @@ def cmd_animate(args: argparse.Namespace) -> int:
     try:
         run = run_settings(model, args)
         result = model.simulate(run["t_span"], run["y0"], method=args.method, rtol=args.rtol,
-                                atol=args.atol, params=dict(args.params))
+                                atol=args.atol, params=dict(args.params),
+                                inputs=dict(args.inputs) or None)
         out.parent.mkdir(parents=True, exist_ok=True)
         animate_result(result, out, fps=args.fps, speed=args.speed, traces=args.trace)
     except (ModelError, ValueError) as error:
@@ -291,7 +297,8 @@ def cmd_compile(args: argparse.Namespace) -> int:
     from ..pipeline import compile_mechanism
 
     compiled = compile_mechanism(args.mechanism, args.jacobian, taylor=args.taylor,
-                                 mass_matrix=bool(args.jacobian))
+                                 mass_matrix=bool(args.jacobian),
+                                 linearization=args.linearization)
     target = export(compiled.package, Path(args.output), compiled.model.name)
     print(target)
     state = "cached build loaded" if compiled.cached else "built"
@@ -316,7 +323,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         run = run_settings(model, args)
         outputs = chosen_outputs(model, args.outputs)
         result = model.simulate(run["t_span"], run["y0"], method=args.method, rtol=args.rtol,
-                                atol=args.atol, params=params, t_eval=run["t_eval"])
+                                atol=args.atol, params=params, t_eval=run["t_eval"],
+                                inputs=dict(args.inputs) or None)
     except (ModelError, ValueError) as error:
         print(f"{args.mechanism}: --set/options: {error}", file=sys.stderr)
         return 2
@@ -360,6 +368,9 @@ def add_run_options(command: argparse.ArgumentParser) -> None:
     command.add_argument("--initial", type=parse_initial, action="append", default=[],
                          metavar="NAME=VALUE", help="an initial coordinate or rate, e.g. "
                          "theta=0 or 'dot(q1)=0.5' (repeatable; the others: the scene's)")
+    command.add_argument("--input", dest="inputs", type=parse_assignment, action="append",
+                         default=[], metavar="NAME=VALUE",
+                         help="an input held at a value (repeatable; the others: the YAML's)")
 
 
 def parse_initial(text: str) -> tuple[str, float]:
@@ -567,6 +578,7 @@ COMMANDS = {
     "stress": cmd_stress,
     "animate": cmd_animate,
     "sweep": cmd_sweep,
+    "linearize": cmd_linearize,
 }
 
 

@@ -83,10 +83,12 @@ class Settings:
             atol=float(atol if atol is not None else scene["atol"] or DEFAULT_ATOL),
         )
 
-    def run(self, model: Model, y0s: np.ndarray, params: Mapping[str, Any]) -> Any:
+    def run(self, model: Model, y0s: np.ndarray, params: Mapping[str, Any],
+            controls: Mapping[str, Any] | None = None) -> Any:
         return model.simulate_many(y0s, params=params, t_span=self.t_span,
                                    t_eval=np.array(self.t_eval), method=self.method,
-                                   rtol=self.rtol, atol=self.atol, threads=1)
+                                   rtol=self.rtol, atol=self.atol, threads=1,
+                                   inputs=dict(controls) if controls else None)
 
 
 # -- the runs' inputs -------------------------------------------------------------------------
@@ -100,6 +102,8 @@ class ChunkInputs:
     y0s: np.ndarray | None  # (n, n_state), or None: from the scene and y0_columns
     y0_columns: dict[str, Any]  # state name -> number or (n,) values
     params: dict[str, Any]  # parameter -> number or (n,) values
+    controls: dict[str, Any] = field(default_factory=dict)  # the model's inputs: per run
+    #                                       (n,) values, or shared (a number, a table, a feedback)
 
 
 @dataclass
@@ -110,9 +114,11 @@ class Inputs:
     y0s: Any  # (runs, n_state) array-like (sliced per chunk), or None
     y0_columns: dict[str, Any]
     params: dict[str, Any]
+    controls: dict[str, Any] = field(default_factory=dict)  # the model's inputs (ChunkInputs')
 
     @classmethod
-    def of(cls, model: Model, y0s: Any, params: Mapping[str, Any] | None) -> Inputs:
+    def of(cls, model: Model, y0s: Any, params: Mapping[str, Any] | None,
+           controls: Mapping[str, Any] | None = None) -> Inputs:
         columns: dict[str, Any] = {}
         full = None
         if isinstance(y0s, Mapping):
@@ -125,37 +131,57 @@ class Inputs:
         shared = {n: column(n, v) for n, v in (params or {}).items()}
         for name in shared:
             model.parameter_table.index(name)  # unknown or derived: a clear ModelError now
-        sizes = {len(v) for v in [*columns.values(), *shared.values()] if np.ndim(v)}
+        controls = dict(controls or {})
+        for name in controls:
+            if name not in model.input_names:
+                raise ModelError(f"sweep: unknown input {name!r}; the model's inputs: "
+                                 f"{list(model.input_names)}")
+        controls = {n: column(n, v) if np.isscalar(v) or isinstance(v, np.ndarray | list)
+                    and np.ndim(v) == 1 and all(np.isscalar(x) for x in v) else v
+                    for n, v in controls.items()}
+        per_run = [v for v in controls.values() if isinstance(v, np.ndarray) and v.ndim == 1]
+        sizes = {len(v) for v in [*columns.values(), *shared.values(), *per_run] if np.ndim(v)}
         sizes |= {full.shape[0]} if full is not None else set()
         if len(sizes) > 1:
             raise ModelError(f"sweep: the inputs disagree on the number of runs: {sorted(sizes)}")
         runs = sizes.pop() if sizes else 1
         if runs < 1:
             raise ModelError("sweep: no runs (the inputs are empty)")
-        return cls(runs, full, columns, shared)
+        return cls(runs, full, columns, shared, controls)
 
     def chunk(self, start: int, stop: int) -> ChunkInputs:
         def part(values: dict[str, Any]) -> dict[str, Any]:
             return {n: v[start:stop] if np.ndim(v) else v for n, v in values.items()}
 
         y0s = None if self.y0s is None else np.asarray(self.y0s[start:stop], dtype=float)
-        return ChunkInputs(start, stop, y0s, part(self.y0_columns), part(self.params))
+        controls = {n: v[start:stop] if isinstance(v, np.ndarray) else v
+                    for n, v in self.controls.items()}
+        return ChunkInputs(start, stop, y0s, part(self.y0_columns), part(self.params),
+                           controls)
 
     def varying(self) -> dict[str, np.ndarray]:
         """The inputs that differ between runs (the dataset's coordinates along run)."""
-        return {n: v for n, v in {**self.params, **self.y0_columns}.items() if np.ndim(v)}
+        numbers = {**self.params, **self.y0_columns, **self.numeric_controls()}
+        return {n: v for n, v in numbers.items() if np.ndim(v)}
 
     def shared(self) -> dict[str, float]:
-        return {n: float(v) for n, v in {**self.params, **self.y0_columns}.items()
-                if not np.ndim(v)}
+        numbers = {**self.params, **self.y0_columns, **self.numeric_controls()}
+        return {n: float(v) for n, v in numbers.items() if not np.ndim(v)}
+
+    def numeric_controls(self) -> dict[str, Any]:
+        """The model's inputs given as numbers (shared or per run), not tables or feedbacks."""
+        return {n: v for n, v in self.controls.items() if isinstance(v, float | np.ndarray)}
 
     def digest(self) -> str:
         """A hash of every input value (part of the sweep's fingerprint)."""
         digest = hashlib.sha256()
-        for tag, values in (("p", self.params), ("c", self.y0_columns)):
+        for tag, values in (("p", self.params), ("c", self.y0_columns),
+                            ("u", self.numeric_controls())):
             for name in sorted(values):
                 digest.update(f"{tag}:{name}:".encode())
                 digest.update(np.ascontiguousarray(values[name], dtype=float).tobytes())
+        for name in sorted(set(self.controls) - set(self.numeric_controls())):
+            digest.update(f"u:{name}:{self.controls[name]!r}".encode())  # tables, feedbacks
         if self.y0s is not None:
             for a in range(0, self.runs, 100_000):  # array-likes (zarr, memmap) a part at a time
                 part = np.asarray(self.y0s[a:a + 100_000], dtype=float)
@@ -192,7 +218,7 @@ def run_chunk(model_or_ref: Model | ModelRef, settings: Settings,
     reasons: dict[int, str] = {}
     try:
         y0s = initial_states(model, chunk, n)
-        result = settings.run(model, y0s, chunk.params)
+        result = settings.run(model, y0s, chunk.params, chunk.controls)
         status, y, nfev = result.status.astype(np.int32), result.y, result.nfev
     except ModelError:
         reasons = refused_runs(model, chunk, n)
@@ -248,10 +274,13 @@ def run_valid(model: Model, settings: Settings, chunk: ChunkInputs, n: int,
     status = np.full(n, INPUTS_REFUSED, dtype=np.int32)
     nfev = np.zeros(n, dtype=np.int64)
     if len(valid):
+        controls = {n: v[valid] if isinstance(v, np.ndarray) else v
+                    for n, v in chunk.controls.items()}
         sub = ChunkInputs(0, len(valid), None if chunk.y0s is None else chunk.y0s[valid],
-                          subset(chunk.y0_columns, valid), subset(chunk.params, valid))
+                          subset(chunk.y0_columns, valid), subset(chunk.params, valid),
+                          controls)
         y0s[valid] = initial_states(model, sub, len(valid))
-        result = settings.run(model, y0s[valid], sub.params)
+        result = settings.run(model, y0s[valid], sub.params, sub.controls)
         y[valid], status[valid], nfev[valid] = result.y, result.status, result.nfev
     return y0s, status, y, nfev
 
@@ -424,6 +453,7 @@ def sweep(
     progress: bool | None = None,
     attrs: Mapping[str, Any] | None = None,
     on_chunk: Callable[[ChunkReport], None] | None = None,
+    inputs: Mapping[str, Any] | None = None,
 ) -> SweepResult:
     """Run MODEL over many initial states and parameter sets; the results as one dataset.
 
@@ -437,10 +467,13 @@ def sweep(
     requires one. chunk_runs: runs per task (default_chunk_runs). retries: re-runs of a task
     that raised (a lost worker's tasks are re-run by Dask itself). progress: a bar on stderr
     (None: when stderr is a terminal). attrs: extra dataset attributes. on_chunk: called with
-    a ChunkReport after each chunk is stored.
+    a ChunkReport after each chunk is stored. inputs: the model's inputs, each a number or
+    (k,) values (a coordinate of the dataset, as a parameter's), or shared by every run: a
+    table (times, values) or nemc.feedback(...) (simulate_many's).
     """
     started = time.perf_counter()
-    inputs = Inputs.of(model, y0s, params)
+    controls = inputs
+    inputs = Inputs.of(model, y0s, params, controls)
     settings = Settings.resolve(model, t_span, t_eval, method, rtol, atol, inputs.runs)
     run_chunk(model, settings, inputs.chunk(0, 1))  # settings errors here, before any output
     ref = model_ref(model) if client is not None else None
