@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import select
 import shutil
 import signal
 import subprocess
@@ -14,6 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from children import HANG
 
 from nemc.build import builder as build
 from nemc.build.builder import COMPLETE, build_key, cached_package, is_intact
@@ -86,8 +88,9 @@ def test_concurrent_builds_of_the_same_and_of_different_models(cache: Path,
 
 FAKE_CC = """\
 #!/bin/sh
-# a C compiler that, while the file SLOW exists, announces itself and hangs before compiling
-if [ -e "{slow}" ]; then touch "{started}"; sleep 120; fi
+# a C compiler that, while the file SLOW exists, says so into the FIFO STARTED (a write that
+# waits for the test to read it) and hangs before compiling
+if [ -e "{slow}" ]; then echo started > "{started}"; sleep 1000; fi
 exec gcc "$@"
 """
 
@@ -96,14 +99,21 @@ def fake_compiler(folder: Path) -> tuple[Path, Path, Path]:
     slow, started, script = folder / "SLOW", folder / "STARTED", folder / "slowcc"
     script.write_text(FAKE_CC.format(slow=slow, started=started))
     script.chmod(0o755)
+    os.mkfifo(started)
     return script, slow, started
 
 
-def wait_for(condition: Callable[[], bool], seconds: float) -> None:
-    deadline = time.monotonic() + seconds
-    while not condition():
-        assert time.monotonic() < deadline, "timed out"
-        time.sleep(0.05)
+def compiler_started(started: Path, process: subprocess.Popen) -> bool:
+    """Wait until the fake compiler says it started (True) or PROCESS ends first (False); the
+    timeout only guards against a hang."""
+    fifo = os.open(started, os.O_RDONLY | os.O_NONBLOCK)  # no writer yet: not readable
+    try:
+        assert process.stdout is not None  # at its end (EOF) once the process has ended
+        ready, _, _ = select.select([fifo, process.stdout], [], [], HANG)
+        assert ready, "hung: neither the compiler nor the build said anything"
+        return fifo in ready and os.read(fifo, 100) == b"started\n"
+    finally:
+        os.close(fifo)
 
 
 def test_a_build_killed_during_gcc_leaves_the_cache_usable(cache: Path, tmp_path: Path) -> None:
@@ -111,10 +121,10 @@ def test_a_build_killed_during_gcc_leaves_the_cache_usable(cache: Path, tmp_path
     slow.touch()
     env = environment(cache, CC=str(script))
     victim = start_compile(COMPOUND, env)
-    wait_for(lambda: started.exists() or victim.poll() is not None, 120)
+    assert compiler_started(started, victim), victim.communicate()
     assert victim.poll() is None, victim.communicate()
     os.killpg(victim.pid, signal.SIGKILL)  # the process and its compilers, mid-build
-    victim.communicate(timeout=30)
+    victim.communicate(timeout=HANG)
     assert entries(cache) == [] and len(leftovers(cache)) == 1  # only its scratch folder
 
     slow.unlink()
