@@ -82,6 +82,8 @@ def test_an_ensemble_is_its_single_runs(scenario: Scenario, method_mode: tuple[s
     ensemble = model.simulate_many(y0s, params=params, t_span=scenario.span, progress=False,
                                    **options, **events, **MODES[mode])
     np.testing.assert_array_equal(ensemble.t, scenario.times)
+    assert ensemble.y.shape == (ENSEMBLE_RUNS, model.n_state, len(scenario.times))
+    assert ensemble.success.all(), ensemble.status
     for r, y0 in enumerate(y0s):
         single = model.simulate(scenario.span, y0, params=table.row(params, r), **options)
         assert_the_run(ensemble, r, single)
