@@ -188,17 +188,37 @@ def model_for(name: str, method: str) -> nemc.Model:
 
 
 @functools.cache
-def reference(name: str) -> Any:
-    """The independent reference: ReferenceModel or LoopReference (.rhs, .initial_state)."""
+def reference(name: str, params: tuple[tuple[str, float], ...] = ()) -> Any:
+    """The independent reference at PARAMS (the file's values but these): its rhs(t, y) and
+    initial_state() (ReferenceModel or LoopReference)."""
     mechanism = load_mechanism(SCENARIOS[name].source())
-    return LoopReference(mechanism) if SCENARIOS[name].reference == "loops" else \
-        ReferenceModel(mechanism)
+    if SCENARIOS[name].reference == "loops":
+        return LoopReference(mechanism, dict(params))
+    model = ReferenceModel(mechanism)
+    if params:
+        return _At(model, dict(params))
+    return model
+
+
+@dataclass(frozen=True)
+class _At:
+    """A ReferenceModel at parameters of its own."""
+
+    model: ReferenceModel
+    params: dict[str, float]
+
+    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        return self.model.rhs(t, y, self.params)
+
+    def initial_state(self) -> np.ndarray:
+        return self.model.initial_state(self.params)
 
 
 @functools.cache
-def truth(name: str) -> np.ndarray:
-    """The reference's tight solution from the scene's initial state, at the scenario's times."""
-    scenario, ref = SCENARIOS[name], reference(name)
+def truth(name: str, params: tuple[tuple[str, float], ...] = ()) -> np.ndarray:
+    """The reference's tight solution from the scene's initial state, at the scenario's times
+    (at PARAMS: the file's values but these)."""
+    scenario, ref = SCENARIOS[name], reference(name, params)
     solution = solve_ivp(ref.rhs, scenario.span, ref.initial_state(), method="DOP853",
                          t_eval=scenario.times, rtol=1e-13, atol=1e-14)
     assert solution.success, solution.message

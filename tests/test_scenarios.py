@@ -4,7 +4,8 @@ models x independent references x options):
 (a) every method, nemc's and scipy's, follows the independent reference (Lagrange's equations,
     or the loop reference's multipliers, solved tight) at the scenario's times, within about
     1e3 of its rtol (1e4 for the multistep methods, whose error must also fall with rtol); on a
-    closed loop every returned state satisfies the constraints to the run's atol;
+    closed loop every returned state satisfies the constraints to the run's atol; and "auto",
+    the default, at other parameters: the reference at those;
 (b) an ensemble (simulate_many: one run after the other, on two threads, and nemc.Taylor's SIMD
     lanes, alone and on two threads) is its single runs (simulate) bit for bit: states,
     statuses, counts and event times, with initial states and a parameter per run;
@@ -49,6 +50,21 @@ def test_every_method_follows_the_reference(scenario: Scenario, method: str) -> 
         tighter = model.simulate(scenario.span, method=method, t_eval=scenario.times,
                                  rtol=tolerance.rtol / 100, atol=tolerance.rtol / 1e4)
         assert scaled_error(tighter.y, truth) < error / 10
+
+
+@pytest.mark.parametrize("scenario", table.where(lambda s: not s.events), ids=str)
+def test_auto_follows_the_reference_at_other_parameters(scenario: Scenario) -> None:
+    """The default method, its choice and switches included, with the scenario's parameter
+    (if any) at 1.2 times its value: the reference at that value."""
+    model = table.model(scenario.name)
+    params = {} if scenario.parameter is None else \
+        {scenario.parameter: 1.2 * model.parameters[scenario.parameter]}
+    truth = table.truth(scenario.name, tuple(params.items()))
+    result = model.simulate(scenario.span, method="auto", t_eval=scenario.times, rtol=1e-10,
+                            atol=1e-12, params=params)
+    assert result.success, result.message
+    np.testing.assert_array_equal(result.t, scenario.times)
+    assert scaled_error(result.y, truth) <= 1e-7
 
 
 def scaled_error(y: np.ndarray, truth: np.ndarray) -> float:
