@@ -24,13 +24,7 @@ from nemc.tools.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 COMPOUND = ROOT / "examples" / "compound_pendulum.yaml"
-TINY = """\
-name: tiny
-parameters: {m: 2, L: 0.5}
-gravity: [0, -9.81]
-bodies: {rod: {mass: m, inertia: m*L**2/12, com: [L/2, 0]}}
-joints: {O: {type: revolute, parent: ground, child: rod, coordinate: q}}
-"""
+TINY = (ROOT / "tests" / "models" / "tiny.yaml").read_text()  # one rod on a pin
 
 
 @pytest.fixture
@@ -111,9 +105,16 @@ def compiler_started(started: Path, process: subprocess.Popen) -> bool:
         assert process.stdout is not None  # at its end (EOF) once the process has ended
         ready, _, _ = select.select([fifo, process.stdout], [], [], HANG)
         assert ready, "hung: neither the compiler nor the build said anything"
-        return fifo in ready and os.read(fifo, 100) == b"started\n"
+        # (the build runs compilers in parallel: two may say it at once)
+        return fifo in ready and os.read(fifo, 100).startswith(b"started\n")
     finally:
         os.close(fifo)
+
+
+def stopped(process: subprocess.Popen) -> tuple[str, str]:
+    """PROCESS and its compilers killed; its output (for a failing test's message)."""
+    os.killpg(process.pid, signal.SIGKILL)
+    return process.communicate(timeout=HANG)
 
 
 def test_a_build_killed_during_gcc_leaves_the_cache_usable(cache: Path, tmp_path: Path) -> None:
@@ -121,8 +122,8 @@ def test_a_build_killed_during_gcc_leaves_the_cache_usable(cache: Path, tmp_path
     slow.touch()
     env = environment(cache, CC=str(script))
     victim = start_compile(COMPOUND, env)
-    assert compiler_started(started, victim), victim.communicate()
-    assert victim.poll() is None, victim.communicate()
+    assert compiler_started(started, victim), stopped(victim)
+    assert victim.poll() is None, stopped(victim)
     os.killpg(victim.pid, signal.SIGKILL)  # the process and its compilers, mid-build
     victim.communicate(timeout=HANG)
     assert entries(cache) == [] and len(leftovers(cache)) == 1  # only its scratch folder

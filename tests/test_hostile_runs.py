@@ -50,13 +50,7 @@ ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"  # state [q1, dot(q1), q2, dot(q2)], t_eval step 0.5
 COMPOUND = EXAMPLES / "compound_pendulum.yaml"
-TINY = """\
-name: tiny
-parameters: {m: 2, L: 0.5}
-gravity: [0, -9.81]
-bodies: {rod: {mass: m, inertia: m*L**2/12, com: [L/2, 0]}}
-joints: {O: {type: revolute, parent: ground, child: rod, coordinate: q}}
-"""
+TINY = (ROOT / "tests" / "models" / "tiny.yaml").read_text()  # one rod on a pin
 NAN, INF = math.nan, math.inf
 SLOW = settings(derandomize=True, deadline=None, database=None,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
