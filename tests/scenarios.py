@@ -82,6 +82,7 @@ class Scenario:
     parameter: str | None = None  # an ensemble's parameter, varied per run (x 0.6 .. 1.4)
     spread: float = 0.5  # an ensemble's initial states: the scene's + uniform(-spread, spread)
     events: bool = False  # the scene has events: ensembles compare their times too
+    stops: bool = False  # some runs of its ensembles end early (their states NaN after)
 
     @property
     def span(self) -> tuple[float, float]:
@@ -154,8 +155,9 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
     # events, and impacts
     Scenario("double_pendulum_events", example("double_pendulum_events"), "lagrange",
              linspace(0, 5, 11), NATIVE, events=True, spread=0.2),
+    # (restitutions 0.48 to 0.61 chatter before t = 2: those runs end early, the others not)
     Scenario("bouncing_ball", example("bouncing_ball"), "lagrange", linspace(0, 2, 5),
-             NATIVE, "e", spread=0.0, events=True),
+             NATIVE, "e", spread=0.0, events=True, stops=True),
 )}
 
 
