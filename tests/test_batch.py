@@ -1,8 +1,9 @@
 """nemc.Taylor's ensembles in SIMD lanes (templates/batch.c.tmpl, the part "lanes"): the same
-results to the last bit as the runs one after the other (simulate_many(lanes=False), and
-simulate(method="nemc.Taylor") run by run), on several models, with per-run parameters, runs of
-different lengths, failures in one lane, ensembles whose size is not a multiple of the lanes,
-events with impacts, tstops, max_step and step budgets; the generated C warning-free."""
+results to the last bit as the runs one after the other (simulate_many(lanes=False)), with
+per-run parameters, runs of different lengths, ensembles of 1 to 19 runs, at several orders,
+either lane count, failures in one lane, tstops, max_step and step budgets, Ctrl-C; the
+generated C warning-free. (Lanes against simulate() run by run on every scenario, alone and on
+two threads, with events and impacts, backwards and over empty intervals: test_scenarios.py.)"""
 
 from __future__ import annotations
 
@@ -14,9 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from children import child_process, interrupted_output
-from reference import random_mechanism_yaml
-from test_taylor import FUNCTIONS, OVERFLOW
+from children import child_process, interrupted
 
 import nemc
 from nemc.build.builder import Source, fma_available, lane_count
@@ -25,6 +24,9 @@ from nemc.runtime.model import EnsembleResult, ModelError
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 LANE_COUNTS = (4, 8)  # nemc.emit.taylor_c.LANE_TARGETS: AVX2 and AVX-512
+MODELS = Path(__file__).resolve().parent / "models"
+FUNCTIONS = (MODELS / "functions.yaml").read_text()  # every Taylor recurrence, t, a real power
+OVERFLOW = (MODELS / "overflow_slider.yaml").read_text()
 
 # The overflowing slider of test_taylor with the growth rate a parameter: c = 1000 fails near
 # t = 0.71, c = 1 runs to the end.
@@ -41,17 +43,6 @@ def compiled(tmp_path_factory: pytest.TempPathFactory, name: str, text: str) -> 
 @pytest.fixture(scope="module")
 def pendulum() -> nemc.Model:
     return nemc.compile(EXAMPLES / "double_pendulum.yaml")
-
-
-@pytest.fixture(scope="module")
-def chain(tmp_path_factory: pytest.TempPathFactory) -> nemc.Model:
-    return compiled(tmp_path_factory, "chain",
-                    random_mechanism_yaml(np.random.default_rng(7), 4, False, "chain"))
-
-
-@pytest.fixture(scope="module")
-def functions(tmp_path_factory: pytest.TempPathFactory) -> nemc.Model:
-    return compiled(tmp_path_factory, "functions", FUNCTIONS)
 
 
 @pytest.fixture(scope="module")
@@ -199,28 +190,6 @@ def test_lanes_equal_the_scalar_runs_at_several_orders(pendulum: nemc.Model) -> 
         assert lanes.success.all()
 
 
-def test_single_runs_equal_the_lanes(pendulum: nemc.Model) -> None:
-    y0s, times = random_states(pendulum, 6, seed=3), np.linspace(0, 2, 9)
-    masses = np.linspace(0.5, 2.0, 6)
-    lanes = pendulum.simulate_many(y0s, params={"m2": masses}, t_span=(0, 2), t_eval=times,
-                                   method="nemc.Taylor", rtol=1e-8, atol=1e-8, threads=1)
-    for r in (0, 4, 5):
-        single = pendulum.simulate((0, 2), y0s[r], method="nemc.Taylor", t_eval=times,
-                                   rtol=1e-8, atol=1e-8, params={"m2": masses[r]})
-        np.testing.assert_array_equal(lanes.y[r], single.y)
-        assert lanes.nfev[r] == single.nfev
-
-
-@pytest.mark.parametrize("case", ["chain", "functions"])
-def test_other_models_equal_the_scalar_runs(case: str, request: pytest.FixtureRequest) -> None:
-    model = request.getfixturevalue(case)
-    y0s = random_states(model, 7, seed=11, spread=0.3)
-    lanes, one_by_one = both(model, y0s, t_span=(0, 2), t_eval=np.linspace(0, 2, 5),
-                             rtol=1e-9, atol=1e-9)
-    assert_same(lanes, one_by_one)
-    assert lanes.success.all()
-
-
 def test_a_lane_fails_alone(overflow: nemc.Model) -> None:
     """Runs 1 and 4 overflow near t = 0.71; the runs beside them in the lanes go on."""
     rates = np.array([1.0, 1000.0, 1.0, 2.0, 1000.0, 1.0])
@@ -243,31 +212,6 @@ def test_run_settings_in_lanes(pendulum: nemc.Model) -> None:
     assert (lanes.status == -7).all()  # the step budget ended every run, in lanes too
 
 
-def test_events_with_impacts_in_lanes() -> None:
-    ball = nemc.compile(EXAMPLES / "bouncing_ball.yaml")
-    restitution = np.array([0.5, 0.6, 0.7, 0.8, 0.9])
-    y0s = np.tile(ball.initial_state(), (5, 1))
-    lanes, one_by_one = both(ball, y0s, params={"e": restitution}, t_span=(0, 2))
-    assert_same(lanes, one_by_one)
-    assert (lanes.event_count > 2).all()
-
-
-def test_backwards_and_empty_intervals(pendulum: nemc.Model) -> None:
-    y0s = random_states(pendulum, 3, seed=2)
-    for span in ((2.0, 0.0), (1.0, 1.0)):
-        lanes, one_by_one = both(pendulum, y0s, t_span=span, rtol=1e-8, atol=1e-8)
-        assert_same(lanes, one_by_one)
-
-
-def test_threads_share_the_lanes(pendulum: nemc.Model) -> None:
-    y0s = random_states(pendulum, 37, seed=9)
-    options = {"t_span": (0, 2), "rtol": 1e-8, "atol": 1e-8, "method": "nemc.Taylor",
-               "progress": False}
-    two = pendulum.simulate_many(y0s, threads=2, **options)
-    one = pendulum.simulate_many(y0s, threads=1, lanes=False, **options)
-    assert_same(two, one)
-
-
 def test_ctrl_c_stops_the_lanes_with_their_runs(tmp_path: Path) -> None:
     """Every run in lanes stops between steps with the status interrupted and its states so far."""
     # built here from a model fresh as the child's (the fixture's variants, made by the tests
@@ -275,9 +219,9 @@ def test_ctrl_c_stops_the_lanes_with_their_runs(tmp_path: Path) -> None:
     nemc.compile(EXAMPLES / "double_pendulum.yaml").compiled_with("lanes")
     script = tmp_path / "lanes.py"
     script.write_text(textwrap.dedent(f"""\
-        import numpy as np, nemc
+        import numpy as np, children, nemc
         model = nemc.compile({str(EXAMPLES / "double_pendulum.yaml")!r})
-        print("started", flush=True)
+        children.announce_when_watching()  # the ensemble watches from its start
         runs = model.simulate_many(np.tile(model.initial_state(), (9, 1)), t_span=(0, 1e6),
                                    t_eval=[0, 1e6], method="nemc.Taylor", rtol=1e-12,
                                    atol=1e-12, max_steps=0, threads=1)
@@ -288,8 +232,8 @@ def test_ctrl_c_stops_the_lanes_with_their_runs(tmp_path: Path) -> None:
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
     with child_process([sys.executable, str(script)], stdout=subprocess.PIPE, text=True,
                        env=env) as child:
-        out = interrupted_output(child)
-    assert out.split("]")[0] == "[-11" and out.split()[-1] == "9"
+        out, _ = interrupted(child)
+    assert out.split() == ["[-11]", "9"]
 
 
 def test_a_lane_whose_last_coefficients_vanish_equals_its_run() -> None:

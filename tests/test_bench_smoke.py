@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from children import HANG
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -20,7 +21,7 @@ def run_script(script: str, tmp_path: Path) -> Path:
     out = tmp_path / "results"
     done = subprocess.run(
         [sys.executable, str(ROOT / "benchmarks" / script), "--smoke", "--out", str(out)],
-        capture_output=True, text=True, env=env, timeout=300,
+        capture_output=True, text=True, env=env, timeout=HANG,
     )
     assert done.returncode == 0, done.stderr[-3000:]
     return out
@@ -146,7 +147,7 @@ def test_overhead_reports_every_row() -> None:
            "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
     done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "overhead.py"),
                            "--rounds", "1"], capture_output=True, text=True, env=env,
-                          timeout=300)
+                          timeout=HANG)
     assert done.returncode == 0, done.stderr[-3000:]
     for row in ("| model.rhs(t, y) |", "| simulate over [0, 0], nemc.Taylor |",
                 "| simulate over [0, 0], auto (chose nemc.", "at the run's states",

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import select
 import shutil
 import signal
 import subprocess
@@ -14,6 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from children import HANG
 
 from nemc.build import builder as build
 from nemc.build.builder import COMPLETE, build_key, cached_package, is_intact
@@ -22,13 +24,7 @@ from nemc.tools.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 COMPOUND = ROOT / "examples" / "compound_pendulum.yaml"
-TINY = """\
-name: tiny
-parameters: {m: 2, L: 0.5}
-gravity: [0, -9.81]
-bodies: {rod: {mass: m, inertia: m*L**2/12, com: [L/2, 0]}}
-joints: {O: {type: revolute, parent: ground, child: rod, coordinate: q}}
-"""
+TINY = (ROOT / "tests" / "models" / "tiny.yaml").read_text()  # one rod on a pin
 
 
 @pytest.fixture
@@ -86,8 +82,9 @@ def test_concurrent_builds_of_the_same_and_of_different_models(cache: Path,
 
 FAKE_CC = """\
 #!/bin/sh
-# a C compiler that, while the file SLOW exists, announces itself and hangs before compiling
-if [ -e "{slow}" ]; then touch "{started}"; sleep 120; fi
+# a C compiler that, while the file SLOW exists, says so into the FIFO STARTED (a write that
+# waits for the test to read it) and hangs before compiling
+if [ -e "{slow}" ]; then echo started > "{started}"; sleep 1000; fi
 exec gcc "$@"
 """
 
@@ -96,14 +93,28 @@ def fake_compiler(folder: Path) -> tuple[Path, Path, Path]:
     slow, started, script = folder / "SLOW", folder / "STARTED", folder / "slowcc"
     script.write_text(FAKE_CC.format(slow=slow, started=started))
     script.chmod(0o755)
+    os.mkfifo(started)
     return script, slow, started
 
 
-def wait_for(condition: Callable[[], bool], seconds: float) -> None:
-    deadline = time.monotonic() + seconds
-    while not condition():
-        assert time.monotonic() < deadline, "timed out"
-        time.sleep(0.05)
+def compiler_started(started: Path, process: subprocess.Popen) -> bool:
+    """Wait until the fake compiler says it started (True) or PROCESS ends first (False); the
+    timeout only guards against a hang."""
+    fifo = os.open(started, os.O_RDONLY | os.O_NONBLOCK)  # no writer yet: not readable
+    try:
+        assert process.stdout is not None  # at its end (EOF) once the process has ended
+        ready, _, _ = select.select([fifo, process.stdout], [], [], HANG)
+        assert ready, "hung: neither the compiler nor the build said anything"
+        # (the build runs compilers in parallel: two may say it at once)
+        return fifo in ready and os.read(fifo, 100).startswith(b"started\n")
+    finally:
+        os.close(fifo)
+
+
+def stopped(process: subprocess.Popen) -> tuple[str, str]:
+    """PROCESS and its compilers killed; its output (for a failing test's message)."""
+    os.killpg(process.pid, signal.SIGKILL)
+    return process.communicate(timeout=HANG)
 
 
 def test_a_build_killed_during_gcc_leaves_the_cache_usable(cache: Path, tmp_path: Path) -> None:
@@ -111,10 +122,10 @@ def test_a_build_killed_during_gcc_leaves_the_cache_usable(cache: Path, tmp_path
     slow.touch()
     env = environment(cache, CC=str(script))
     victim = start_compile(COMPOUND, env)
-    wait_for(lambda: started.exists() or victim.poll() is not None, 120)
-    assert victim.poll() is None, victim.communicate()
+    assert compiler_started(started, victim), stopped(victim)
+    assert victim.poll() is None, stopped(victim)
     os.killpg(victim.pid, signal.SIGKILL)  # the process and its compilers, mid-build
-    victim.communicate(timeout=30)
+    victim.communicate(timeout=HANG)
     assert entries(cache) == [] and len(leftovers(cache)) == 1  # only its scratch folder
 
     slow.unlink()

@@ -2,8 +2,9 @@
 
 Every example and seeded random chains and trees: ``model.rhs`` equals the reference at seeded
 random states, with and without parameter overrides. The book's 5.1 and 5.3 against its closed
-forms; energy conservation of the conservative examples; the book systems' trajectories against
-a tight DOP853 solution of the reference at the book's output times.
+forms; energy conservation of the conservative examples; the book's scenes at the book's output
+times. (The book systems' runs, every method, against a tight solution of the reference at the
+book's output times: tests/test_scenarios.py.)
 """
 
 from __future__ import annotations
@@ -22,7 +23,6 @@ from reference import (
     random_mechanism_yaml,
     tree_example_names,
 )
-from scipy.integrate import solve_ivp
 
 import nemc
 from nemc.front.validate import load_mechanism
@@ -222,7 +222,8 @@ def test_energy_is_conserved(name: str, params: dict | None) -> None:
 
 
 # ---------------------------------------------------------------------------------------------
-# The book's runs against an independent solution
+# The book's scenes at the book's times (their runs with every method against the reference's
+# tight solution: test_scenarios.py)
 
 BOOK_RUNS = {
     "compound_pendulum": np.linspace(0.0, 10.0, 21),  # 0:0.5:10
@@ -230,21 +231,6 @@ BOOK_RUNS = {
     "robot_arm": np.linspace(0.0, 10.0, 11),  # 0:1:10
     "two_link_robot_arm": np.linspace(0.0, 5.0, 6),  # 0:1:5
 }
-
-
-@pytest.mark.parametrize("name", list(BOOK_RUNS))
-def test_book_trajectory_matches_reference_solution(name: str) -> None:
-    model, ref = example(name)
-    times = BOOK_RUNS[name]
-    span = (float(times[0]), float(times[-1]))
-    res = model.simulate(t_span=span, t_eval=times, rtol=1e-10, atol=1e-12)
-    assert res.success, res.message
-    y0 = ref.initial_state()
-    exact = solve_ivp(ref.rhs, span, y0, method="DOP853", t_eval=times, rtol=1e-12, atol=1e-12)
-    assert exact.success
-    np.testing.assert_allclose(res.t, times, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(res.y[:, 0], y0, rtol=0, atol=1e-14)
-    np.testing.assert_allclose(res.y, exact.y, rtol=1e-6, atol=1e-6)
 
 
 @pytest.mark.parametrize("name", ["compound_pendulum", "robot_arm"])

@@ -1,6 +1,7 @@
 """Events (format v2, simulation.events): located by every method against analytic times,
 a tight reference and scipy's own event location on an independent expression; impacts,
-stops, several events in one step, an event at t0, chattering, ensembles, the CLI table."""
+stops, several events in one step, an event at t0, chattering, the CLI table. (Ensembles' event
+times against single runs, every native method: tests/test_scenarios.py.)"""
 
 from __future__ import annotations
 
@@ -251,19 +252,6 @@ def test_users_events_with_scipy_and_refused_with_native(swinging, scipy_tip_eve
     assert stopped.status == 1 and stopped.t[-1] <= 1.0
     with pytest.raises(ModelError, match="events= callables need one of scipy's methods"):
         swinging.simulate(method="nemc.DOP853", events=low)
-
-
-def test_ensemble_event_times_equal_single_runs(swinging) -> None:
-    y0s = swinging.initial_state() + np.outer(np.linspace(0, 0.2, 5), [1, 0, 0, 0])
-    runs = swinging.simulate_many(y0s, method="nemc.DOP853", max_events=8, threads=2)
-    assert list(runs.event_names) == ["tip_low", "tip_up", "swing"]
-    for r, y0 in enumerate(y0s):
-        single = swinging.simulate(y0=y0, method="nemc.DOP853")
-        fired = sum(len(times) for times, _ in single.events.values())
-        assert runs.event_count[r] == fired > 8  # all counted, the first 8 kept
-        kept = runs.event_t[r][runs.event_which[r] == 2]
-        np.testing.assert_array_equal(kept, single.events["swing"][0][: kept.size])
-        assert np.all(np.diff(runs.event_t[r]) >= 0)
 
 
 def test_the_cli_table_marks_event_rows(capsys: pytest.CaptureFixture[str]) -> None:

@@ -3,7 +3,8 @@ satisfy the constraints to rounding, the right-hand side of a state off the cons
 one of the state brought onto them, a parallelogram linkage passes its flat (singular)
 positions on its own branch or stops saying where and why, and bad initial states are refused
 by name. (The dynamics themselves are checked against an independent Lagrange-multiplier
-derivation in tests/test_loops.py.)"""
+derivation in tests/test_loops.py and tests/test_scenarios.py, which also checks ensembles
+against single runs.)"""
 
 from __future__ import annotations
 
@@ -157,18 +158,6 @@ def test_partial_initial_values_are_assembled(fourbar) -> None:
     start = fourbar.simulate((0, 0), y0={"q1": 0.3, "dot(q1)": 1.5}, t_eval=[0.0]).y[:, 0]
     assert start[0] == pytest.approx(0.3, abs=1e-15) and start[1] == pytest.approx(1.5, abs=1e-14)
     assert fourbar.constraint_residual(start).max() < 1e-10
-
-
-def test_ensembles_equal_single_runs(fourbar) -> None:
-    starts = np.array([fourbar.simulate((0, 0), y0={"q1": 1.0, "dot(q1)": v},
-                                        t_eval=[0.0]).y[:, 0] for v in (0.0, 1.0, 2.0)])
-    times = np.linspace(0, 3, 7)
-    runs = fourbar.simulate_many(starts, t_span=(0, 3), t_eval=times, method="nemc.Vern9",
-                                 rtol=1e-10, atol=1e-12)
-    for k, start in enumerate(starts):
-        one = fourbar.simulate((0, 3), start, method="nemc.Vern9", rtol=1e-10, atol=1e-12,
-                               t_eval=times)
-        np.testing.assert_array_equal(runs.y[k], one.y)
 
 
 def test_taylor_is_refused_by_name(fourbar) -> None:

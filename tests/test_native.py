@@ -1,5 +1,7 @@
 """The native integrators (nemc.DOP853, nemc.Radau, nemc.Vern9) against scipy's solve_ivp, step
-for step, against tight references, and the ensemble call against single runs."""
+for step, against tight references, and the ensemble call's failures and checks. (Every method
+against the independent reference, ensembles against single runs, backwards and empty
+intervals: tests/test_scenarios.py.)"""
 
 from __future__ import annotations
 
@@ -7,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from reference import random_mechanism_yaml
+import scenarios
 from scipy.integrate import solve_ivp
 
 import nemc
@@ -67,10 +69,8 @@ def pendulum():
 
 
 @pytest.fixture(scope="module")
-def chain(tmp_path_factory: pytest.TempPathFactory):
-    path = tmp_path_factory.mktemp("native") / "chain.yaml"
-    path.write_text(random_mechanism_yaml(np.random.default_rng(7), 4, False, "chain"))
-    return nemc.compile(path)
+def chain():
+    return scenarios.model("chain")  # the table's random chain (seed 7, 4 bodies)
 
 
 # The error estimate is a sum that cancels to a small fraction of its terms, and numpy's BLAS
@@ -104,27 +104,12 @@ def test_dop853_dense_output_at_t_eval(pendulum) -> None:
     assert native.success and native.message == reference.message and native.status == 0
 
 
-def test_dop853_against_a_tight_reference(pendulum) -> None:
-    """At rtol 1e-10 the C solution is as close to a 1e-13 run as scipy's own is."""
-    times, y0 = np.linspace(0, 10, 11), pendulum.initial_state()
-    tight = pendulum.simulate((0, 10), method="nemc.DOP853", t_eval=times, rtol=1e-13,
-                              atol=1e-13)
-    native = pendulum.simulate((0, 10), method="nemc.DOP853", t_eval=times, rtol=1e-10,
-                               atol=1e-12)
-    reference = scipy_run(pendulum, "DOP853", (0, 10), y0, t_eval=times, rtol=1e-13,
-                          atol=1e-13)
-    np.testing.assert_allclose(tight.y, reference.y, rtol=0, atol=1e-10)
-    assert np.abs(native.y - tight.y).max() < 1e-7
-
-
-def test_dop853_backwards_and_empty_interval(pendulum) -> None:
+def test_dop853_takes_scipys_steps_backwards(pendulum) -> None:
+    """(Back to the start and the empty interval, every method: test_scenarios.py.)"""
     y0 = pendulum.initial_state()
     back = native_steps(pendulum, "nemc.DOP853", (2.0, 0.0), y0, 1e-3, 1e-6)
     assert_same_steps(back, scipy_run(pendulum, "DOP853", (2.0, 0.0), y0, rtol=1e-3,
                                       atol=1e-6), t_rtol=1e-9, y_atol=1e-8)
-    empty = pendulum.simulate((1.0, 1.0), y0, method="nemc.DOP853", t_eval=[1.0])
-    np.testing.assert_array_equal(empty.y[:, 0], y0)
-    assert empty.success
 
 
 def test_vern9_converges_with_order_9() -> None:
@@ -152,7 +137,7 @@ def test_vern9_at_tight_tolerance_beats_dop853(pendulum) -> None:
     assert vern9.nfev < 0.85 * dop853.nfev
 
 
-def test_vern9_dense_output_and_backwards(pendulum) -> None:
+def test_vern9_dense_output(pendulum) -> None:
     """Points inside steps (Verner's interpolant) are as accurate as the steps' ends."""
     y0, times = pendulum.initial_state(), np.linspace(0.0, 3.0, 31)
     tight = pendulum.simulate((0, 3), y0, method="nemc.DOP853", t_eval=times, rtol=1e-13,
@@ -166,9 +151,6 @@ def test_vern9_dense_output_and_backwards(pendulum) -> None:
     interior = ~np.isin(times, steps.t)
     holding = np.unique(np.searchsorted(steps.t, times[interior]))  # steps holding a point
     assert native.nfev == steps.nfev + 4 * len(holding)  # the interpolant: 4 stages a step
-    back = pendulum.simulate((3, 0), tight.y[:, -1], method="nemc.Vern9", t_eval=[0.0],
-                             rtol=1e-10, atol=1e-13)
-    assert np.abs(back.y[:, 0] - y0).max() < 1e-7
 
 
 @pytest.mark.parametrize("rtol", [1e-6, 1e-9, 1e-12])
@@ -282,26 +264,6 @@ def test_default_method_is_native_when_the_scene_names_none(tmp_path: Path) -> N
     assert model.simulate().method == "nemc.Taylor"  # auto's choice (tests/test_auto.py)
 
 
-def test_ensemble_equals_single_runs(pendulum) -> None:
-    rng = np.random.default_rng(3)
-    y0s = np.zeros((6, 4))
-    y0s[:, 0], y0s[:, 2] = rng.uniform(-1, 1, 6), rng.uniform(-1, 1, 6)
-    lengths = np.linspace(0.3, 1.0, 6)
-    times = np.linspace(0, 3, 7)
-    ensemble = pendulum.simulate_many(y0s, params={"L2": lengths}, t_span=(0, 3), t_eval=times,
-                                      method="nemc.DOP853", rtol=1e-8, atol=1e-10, threads=2)
-    assert ensemble.y.shape == (6, 4, 7) and ensemble.success.all()
-    for i in range(6):
-        single = pendulum.simulate((0, 3), y0s[i], method="nemc.DOP853", t_eval=times,
-                                   rtol=1e-8, atol=1e-10, params={"L2": lengths[i]})
-        np.testing.assert_array_equal(ensemble.y[i], single.y)  # same C, same arithmetic
-        assert ensemble.nfev[i] == single.nfev
-    one_thread = pendulum.simulate_many(y0s, params={"L2": lengths}, t_span=(0, 3),
-                                        t_eval=times, method="nemc.DOP853", rtol=1e-8,
-                                        atol=1e-10, threads=1)
-    np.testing.assert_array_equal(one_thread.y, ensemble.y)
-
-
 def test_ensemble_failures_and_checks(tmp_path: Path, pendulum) -> None:
     path = tmp_path / "overflow.yaml"
     path.write_text(OVERFLOW)
@@ -315,13 +277,3 @@ def test_ensemble_failures_and_checks(tmp_path: Path, pendulum) -> None:
         pendulum.simulate_many(np.zeros((3, 4)), params={"L2": [0.5, 0.6]})
     with pytest.raises(ModelError, match="method must be one of"):
         pendulum.simulate_many(np.zeros((3, 4)), method="RK45")
-
-
-def test_vern9_ensemble_equals_single_runs(pendulum) -> None:
-    y0s = np.array([[0.3, 0.0, -0.2, 0.0], [1.0, 0.5, 0.0, 0.0]])
-    runs = pendulum.simulate_many(y0s, method="nemc.Vern9", t_span=(0, 2), t_eval=[1.0, 2.0],
-                                  rtol=1e-10, atol=1e-12)
-    for i in range(2):
-        single = pendulum.simulate((0, 2), y0s[i], method="nemc.Vern9", t_eval=[1.0, 2.0],
-                                   rtol=1e-10, atol=1e-12)
-        np.testing.assert_array_equal(runs.y[i], single.y)

@@ -9,12 +9,11 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
-from children import child_process
+from children import child_process, interrupted
 
 import nemc
 from nemc.runtime.model import ModelError
@@ -298,21 +297,40 @@ def test_cli_refuses_bad_input_with_status_2(tmp_path):
     assert foreign.read_bytes() == b"keep me" and not (tmp_path / "x.zarr").exists()
 
 
+# `nemc sweep` whose sweep says when 200 runs are stored, then waits for the Ctrl-C there.
+SWEEP_CHILD = """\
+import signal
+import sys
+import children
+from nemc.tools import sweeps
+from nemc.tools.cli import main
+
+sweep = sweeps.sweep
+
+
+def said_at_200(report):
+    if report.done >= 200:
+        children.announce("200 runs stored")
+        signal.pause()  # until SIGINT: KeyboardInterrupt here, with the sweep's pool at work
+
+
+sweeps.sweep = lambda *args, **options: sweep(*args, on_chunk=said_at_200, **options)
+sys.exit(main(sys.argv[1:]))
+"""
+
+
 def test_cli_ctrl_c_keeps_finished_chunks_exits_130_and_the_same_command_resumes(tmp_path):
+    """SIGINT once 200 runs are stored (a handshake): exactly those are kept."""
     out = tmp_path / "long.zarr"
     args = ["--grid", "q1=-3:3:100", "--grid", "q2=-3:3:100", "--t-end", "4", "--times", "1",
             "--chunk", "100", "--threads", "1", "--out", str(out)]
-    with child_process([*NEMC, "sweep", str(EXAMPLE), *args], stdout=subprocess.PIPE,
-                       stderr=subprocess.PIPE, text=True) as process:
-        deadline = time.monotonic() + 120
-        while finished_runs(out) < 200 and time.monotonic() < deadline:
-            time.sleep(0.05)
-        process.send_signal(signal.SIGINT)
-        stdout, stderr = process.communicate(timeout=120)
+    with child_process([sys.executable, "-c", SWEEP_CHILD, "sweep", str(EXAMPLE), *args],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as process:
+        stdout, stderr = interrupted(process, "200 runs stored")
         kept = finished_runs(out)
         assert process.returncode == 130, stderr
         assert "interrupted" in stderr and "run the same command again" in stderr
-        assert 200 <= kept < 10_000
+        assert kept == 200
         again = cli(*args)
         assert again.returncode == 0, again.stderr
         assert f"10000 runs ({kept} done before)" in again.stdout

@@ -1,6 +1,8 @@
-"""nemc.Taylor (Taylor's method with coefficients from the program in Taylor arithmetic) against
-tight references from another method, its dense output, its recurrences for every supported
-function, failures, what it refuses, and the ensemble call."""
+"""nemc.Taylor (Taylor's method with coefficients from the program in Taylor arithmetic): its error
+against a tight reference from another method as the tolerance falls, its steps, its rule for
+the order and the step, its generated loop, failures and what it refuses. (Against the
+independent reference on random mechanisms and on every recurrence, its ensembles, backwards
+and empty intervals: tests/test_scenarios.py.)"""
 
 from __future__ import annotations
 
@@ -9,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from reference import random_mechanism_yaml
 
 import nemc
 from nemc.derive.taylor import (
@@ -31,47 +32,15 @@ from nemc.runtime.outcome import RunSpec
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUM = EXAMPLES / "double_pendulum.yaml"
 
-# A pendulum driven by a torque using every function with a Taylor recurrence, of the state
-# and of time: sin/cos, sinh/cosh, exp, log, sqrt, a real and integer powers, a quotient.
-FUNCTIONS = """\
-name: functions
-parameters: {m: 1, L: 1, g: 9.81}
-gravity: [0, -g]
-bodies:
-  rod: {mass: m, inertia: m*L**2/12, com: [L/2, 0]}
-joints:
-  O: {type: revolute, parent: ground, child: rod, at: [0, 0], coordinate: q}
-loads:
-  - torque: >-
-      -0.3*sinh(dot(q))/cosh(q) + 0.2*exp(-t)*sqrt(2 + cos(q)) + 0.1*log(2 + sin(q))
-      - 0.05*dot(q)**3 + 0.1*(1 + q**2)**(-1.5) + 0.2*cos(3*t)/(2 + sin(q))
-    body: rod
-    reaction: ground
-simulation:
-  t_span: [0, 5]
-  initial: {q: 0.8, dot(q): -0.5}
-"""
+MODELS = Path(__file__).resolve().parent / "models"
+# A pendulum driven by a torque using every function with a Taylor recurrence (of the state and
+# of time), and a slider pushed by a force that overflows near t = 0.71.
+FUNCTIONS = (MODELS / "functions.yaml").read_text()
+OVERFLOW = (MODELS / "overflow_slider.yaml").read_text()
 
 # abs() has no Taylor recurrence (it is not smooth where its argument changes sign).
 NOT_SMOOTH = FUNCTIONS.replace("0.05*dot(q)**3", "0.05*abs(dot(q))").replace(
     "name: functions", "name: not_smooth")
-
-# A slider pushed by a force that overflows to inf near t = 0.71: the equations fail there.
-# (A pendulum under that torque spins ever faster first, which Taylor's method follows
-# faithfully, in ever shorter steps, where the Runge-Kutta methods stop.)
-OVERFLOW = """\
-name: overflow
-parameters: {m: 1}
-bodies:
-  slider: {mass: m, inertia: m}
-joints:
-  rail: {type: prismatic, parent: ground, child: slider, at: [0, 0], axis: [1, 0], coordinate: s}
-loads:
-  - {force: [exp(1000*t), 0], body: slider}
-simulation:
-  t_span: [0, 2]
-  initial: {s: 0.5}
-"""
 
 
 def tight(model, span, y0, t_eval):
@@ -104,39 +73,9 @@ def test_error_follows_the_tolerance(pendulum, rtol: float) -> None:
     assert error < 200 * rtol
 
 
-def test_random_chain_and_tree_against_vern9(tmp_path: Path) -> None:
-    """Random mechanisms (prismatic and free joints, springs, loads in t and dot(q))."""
-    rng = np.random.default_rng(11)
-    for tree in (False, True):
-        model = compiled(tmp_path, random_mechanism_yaml(rng, 5, tree, f"mech{tree:d}"),
-                         f"mech{tree:d}")
-        y0, t_eval = model.initial_state(), np.linspace(0.0, 2.0, 9)
-        result = model.simulate((0.0, 2.0), y0, method="nemc.Taylor", rtol=1e-11,
-                                atol=1e-13, t_eval=t_eval)
-        assert result.success, result.message
-        reference = tight(model, (0.0, 2.0), y0, t_eval)
-        assert np.abs(result.y - reference).max() < 1e-8 * max(1.0, np.abs(reference).max())
-
-
-def test_every_recurrence_against_vern9(tmp_path: Path) -> None:
-    model = compiled(tmp_path, FUNCTIONS, "functions")
-    y0, t_eval = model.initial_state(), np.linspace(0.0, 5.0, 11)
-    result = model.simulate((0.0, 5.0), y0, method="nemc.Taylor", rtol=1e-12, atol=1e-14,
-                            t_eval=t_eval)
-    assert result.success, result.message
-    np.testing.assert_allclose(result.y, tight(model, (0.0, 5.0), y0, t_eval), rtol=0,
-                               atol=1e-10)
-
-
-def test_backwards_empty_interval_and_every_step(pendulum) -> None:
+def test_every_step_is_one_expansion(pendulum) -> None:
+    """(Backwards and the empty interval: test_scenarios.py.)"""
     y0 = pendulum.initial_state()
-    forward = pendulum.simulate((0.0, 3.0), y0, method="nemc.Taylor", rtol=1e-12, atol=1e-15,
-                                t_eval=[3.0])
-    back = pendulum.simulate((3.0, 0.0), forward.y[:, -1], method="nemc.Taylor", rtol=1e-12,
-                             atol=1e-15, t_eval=[3.0, 1.5, 0.0])
-    np.testing.assert_allclose(back.y[:, -1], y0, atol=1e-9)
-    empty = pendulum.simulate((1.0, 1.0), y0, method="nemc.Taylor", t_eval=[1.0])
-    assert empty.success and np.array_equal(empty.y, y0.reshape(-1, 1))
     steps = simulate_native(pendulum, RunSpec("nemc.Taylor", (0.0, 3.0), y0, None, 1e-9, 1e-12,
                                               pendulum.parameter_vector(),
                                               runs.DEFAULT_SETTINGS, []))
@@ -166,7 +105,7 @@ def test_scene_method_builds_it(tmp_path: Path) -> None:
 
 def test_not_smooth_loads_are_refused_by_name(tmp_path: Path) -> None:
     model = compiled(tmp_path, NOT_SMOOTH, "not_smooth")
-    where = re.escape(f"{tmp_path / 'not_smooth.yaml'}:9: loads[0].torque: abs of a "
+    where = re.escape(f"{tmp_path / 'not_smooth.yaml'}:11: loads[0].torque: abs of a "
                       "time-varying value has no Taylor recurrence")
     with pytest.raises(ModelError, match=r"nemc.Taylor is not available for not_smooth: " + where):
         model.simulate(method="nemc.Taylor")
@@ -179,19 +118,6 @@ def test_failure_is_reported_with_time_and_state(tmp_path: Path) -> None:
     assert (result.success, result.status) == (False, -1)
     assert result.message.startswith("integration failed: at t=0.6")  # coefficients overflow
     assert "not finite" in result.message and "; state: s=" in result.message
-
-
-def test_ensemble_equals_single_runs(pendulum) -> None:
-    rng = np.random.default_rng(5)
-    y0s = np.zeros((4, 4))
-    y0s[:, 0], y0s[:, 2] = rng.uniform(-1, 1, 4), rng.uniform(-1, 1, 4)
-    t_eval = np.linspace(0.0, 2.0, 5)
-    many = pendulum.simulate_many(y0s, t_span=(0.0, 2.0), t_eval=t_eval, method="nemc.Taylor",
-                                  rtol=1e-10, atol=1e-12)
-    for k in range(4):
-        one = pendulum.simulate((0.0, 2.0), y0s[k], method="nemc.Taylor", rtol=1e-10,
-                                atol=1e-12, t_eval=t_eval)
-        np.testing.assert_array_equal(many.y[k], one.y)
 
 
 def jorba_zou_order(eps: float) -> int:
