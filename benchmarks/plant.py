@@ -1,5 +1,7 @@
-"""The model as a plant (issue 46): what A and B, the Jacobian, params= and nemc.feedback cost,
-against sympy's Linearizer and Pinocchio, measured in one run, interleaved and repeated.
+"""The model as a plant (issue 46): A and B, the Jacobian, params= and nemc.feedback timed.
+
+What they cost against sympy's Linearizer and Pinocchio, measured in one run, interleaved and
+repeated.
 
 1. **A and B of a pendulum on a cart** (a cart on a prismatic rail, a chain of uniform rods,
    a force input F on the cart; 4 links in full mode: A 10x10, B 10x1): the build's C function
