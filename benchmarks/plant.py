@@ -211,8 +211,24 @@ def c_size(model: Any) -> int | None:
     return None if folder is None else sum(p.stat().st_size for p in folder.glob("*.c"))
 
 
-def rows_of(states: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(states)
+def jacobian_machine_code(model: Any) -> int | None:
+    """Bytes of machine code in the build's Jacobian functions (its own and its parts': the
+    primal and the tangent run once per column), from `nm` of the build's extension; None
+    without nm."""
+    folder = package_folder(model)
+    library = next(iter(folder.glob("_native*.so")), None) if folder else None
+    tool = shutil.which("nm")
+    if library is None or tool is None:
+        return None
+    listed = subprocess.run([tool, "--size-sort", "-S", "-t", "d", str(library)],
+                            capture_output=True, text=True).stdout.splitlines()
+    total = 0
+    for line in listed:
+        fields = line.split()
+        if (len(fields) == 4 and fields[2] in "tT" and "jacobian" in fields[3]
+                and "_cffi_" not in fields[3] and "constraint_jacobian" not in fields[3]):
+            total += int(fields[1])
+    return total
 
 
 def random_rows(n_state: int, count: int, seed: int, bound: float = 1.5) -> np.ndarray:
@@ -686,6 +702,7 @@ def chain_section(config: Config, folder: Path, loops: CLoops,
         states = random_rows(n_state, STATES, seed=n)
         p = model.parameter_vector()
         row: dict[str, Any] = {"builds": builds, "c_bytes": c_size(build),
+                               "jacobian_machine_code": jacobian_machine_code(build),
                                "program": program_profile(text), "checks": {}, "notes": []}
         jac, ab, dy = (np.empty((n_state, n_state)), np.empty((n_state, n_state + n)),
                        np.empty(n_state))
@@ -772,6 +789,8 @@ def chain_section(config: Config, folder: Path, loops: CLoops,
     fits["tangent program steps"] = power_fit(ns, [rows_out[n]["program"]["jacobian"]["steps"]
                                                    for n in ns])
     fits["C bytes"] = power_fit(ns, [rows_out[n]["c_bytes"] for n in ns])
+    fits["the Jacobian's machine code"] = power_fit(
+        ns, [rows_out[n]["jacobian_machine_code"] for n in ns])
     return {"rows": rows_out, "fits": fits, "harness": record}
 
 
@@ -1020,19 +1039,20 @@ def chains_markdown(chains: dict[str, Any]) -> list[str]:
     lines += ["", "Profile: the build's C, the accelerations' program and its tangent (run once "
               "per column: 2n for the Jacobian, 3n with the inputs), nemc's cost estimate "
               "(nemc/derive/c_cost.py), and the Jacobian's time against them.", "",
-              "| n | C bytes | program steps | tangent steps | tangent estimate | Jacobian / (2n "
-              "RHS) | Jacobian / (2n tangent estimates) | linearization / Jacobian | checks "
-              "(relative) |", "| --- " * 9 + "|"]
+              "| n | C bytes | the Jacobian's machine code | program steps | tangent steps | "
+              "tangent estimate | Jacobian / (2n RHS) | Jacobian / (2n tangent estimates) | "
+              "linearization / Jacobian | checks (relative) |", "| --- " * 10 + "|"]
     for n, row in rows.items():
         program, profile = row["program"], row["profile"]
         checks = "; ".join(f"{k}: {v:.1e}" for k, v in row["checks"].items()) or "—"
         lines.append(
-            f"| {n} | {row['c_bytes']} | {program['dynamics']['steps']} | "
+            f"| {n} | {row['c_bytes']} | {row['jacobian_machine_code']} bytes | "
+            f"{program['dynamics']['steps']} | "
             f"{program['jacobian']['steps']} | {program['jacobian']['estimated_ns']:.0f} ns | "
             f"{profile['jacobian / (2n RHS)']:.2f} | "
             f"{profile['jacobian / (2n x tangent estimate)']:.2f} | "
             f"{profile['linearization / jacobian (3n vs 2n columns)']:.2f} | {checks} |")
-    lines += ["", "Power-law fits, time ~ c n^p over the sizes measured:", ""]
+    lines += ["", "Power-law fits, time (or size) ~ c n^p over the sizes measured:", ""]
     for name, fit in chains["fits"].items():
         if fit:
             lines.append(f"- {name}: p = {fit['exponent']:.2f} (n = {fit['n']}, rms log "
