@@ -15,12 +15,12 @@ from children import HANG
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def run_script(script: str, tmp_path: Path) -> Path:
+def run_script(script: str, tmp_path: Path, mode: str = "--smoke") -> Path:
     env = {**os.environ, "NEMC_CACHE": str(tmp_path / "cache"),
            "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
     out = tmp_path / "results"
     done = subprocess.run(
-        [sys.executable, str(ROOT / "benchmarks" / script), "--smoke", "--out", str(out)],
+        [sys.executable, str(ROOT / "benchmarks" / script), mode, "--out", str(out)],
         capture_output=True, text=True, env=env, timeout=HANG,
     )
     assert done.returncode == 0, done.stderr[-3000:]
@@ -153,3 +153,28 @@ def test_overhead_reports_every_row() -> None:
                 "| simulate over [0, 0], auto (chose nemc.", "at the run's states",
                 "- nemc.DOP853: the driver adds "):
         assert row in done.stdout, (row, done.stdout)
+
+
+def test_plant_quick_mode_measures_every_section(tmp_path: Path) -> None:
+    """benchmarks/plant.py --quick (issue 46): sympy's A and B agree with nemc's, Pinocchio's
+    derivatives too where it is installed (else it is absent, not failed), every contender is
+    timed, and the zero-gain feedback takes the open loop's very steps."""
+    out = run_script("plant.py", tmp_path, "--quick")
+    result = json.loads((out / "plant-latest.json").read_text())
+    cart = result["cart"]
+    assert all(t["median"] > 0 for t in cart["times"].values()), cart["times"]
+    if cart["sympy"]["why_not"] is None:
+        assert cart["sympy"]["agreement"] < 1e-10, cart["sympy"]
+        assert any(name.startswith("sympy") for name in cart["times"])
+    for n, row in result["chains"]["rows"].items():
+        assert {"nemc: Jacobian d/dy in C", "nemc: linearization d/d(y, u) in C"} <= set(
+            row["times"]), (n, row["times"])
+        assert all(v < 1e-10 for v in row["checks"].values()), (n, row["checks"])
+        assert row["program"]["jacobian"]["steps"] > 0
+    params = result["params"]["times"]
+    assert {"model.rhs, no params", "model.rhs, the same dict of 25"} <= set(params)
+    for system in result["feedback"].values():
+        for method, found in system["methods"].items():
+            assert found["zero_gain_same_steps"], (method, found["steps"])
+            assert found["held_upright_within"] < 0.05, (method, found["held_upright_within"])
+    assert (out / "plant-latest.md").read_text().startswith("# The model as a plant")

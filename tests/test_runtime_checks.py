@@ -198,3 +198,42 @@ def test_a_refused_override_leaves_the_next_call_right(model: Model) -> None:
         model.rhs(0.0, Y, params={"W": -1.0})
     np.testing.assert_array_equal(model.rhs(0.0, Y, params={"W": np.float32(24.0)}), expected)
     np.testing.assert_array_equal(model.rhs(0.0, Y, params={"W": 24}), expected)
+
+
+def test_a_params_dict_passed_again_is_checked_again_once_changed(model: Model) -> None:
+    """The latest params dict is kept by its names and value objects (a repeated dict costs
+    nothing): the same dict with a value replaced, even by an equal value of another kind, a
+    name added, or a mutable value changed in place under the same object, is checked in full,
+    refused as a fresh dict would be, and otherwise gives a fresh dict's numbers bit for bit."""
+    calls = single_calls(model)
+    params = {"W": 24.0}
+    expected = {name: call(Y, params={"W": 24.0}) for name, call in calls.items()}
+    for _ in range(2):  # checked, then kept
+        for name, call in calls.items():
+            np.testing.assert_array_equal(call(Y, params=params), expected[name])
+    for bad, message in [(-1.0, "bodies.rod.mass must be > 0"), (float("nan"), "finite"),
+                         (24 + 0j, "expected a real number"), ("24", "expected a real number"),
+                         (np.array([24.0, 1.0]), "expected a number")]:
+        params["W"] = bad
+        for call in calls.values():
+            with pytest.raises(ModelError, match=message):
+                call(Y, params=params)
+        params["W"] = 24.0
+        for name, call in calls.items():  # and the dict as it was is right again
+            np.testing.assert_array_equal(call(Y, params=params), expected[name])
+    params["Wx"] = 1.0
+    with pytest.raises(ModelError, match="did you mean 'W'"):
+        model.rhs(0.0, Y, params=params)
+    del params["Wx"]
+    params["W"] = 36.0
+    np.testing.assert_array_equal(model.rhs(0.5, Y, params=params),
+                                  model.rhs(0.5, Y, params={"W": 36.0}))
+    value = np.array(24.0)  # a mutable value: the same object, another number
+    held = {"W": value}
+    np.testing.assert_array_equal(model.rhs(0.5, Y, params=held), expected["rhs"])
+    value[...] = -1.0
+    with pytest.raises(ModelError, match="bodies.rod.mass must be > 0"):
+        model.rhs(0.5, Y, params=held)
+    value[...] = 36.0
+    np.testing.assert_array_equal(model.rhs(0.5, Y, params=held),
+                                  model.rhs(0.5, Y, params={"W": 36.0}))

@@ -58,7 +58,7 @@ class BuiltModel:
         self._variants: dict[str, BuiltModel] = {}  # compiled_with's, by the part asked for
         self._native_builds: dict[str, BuiltModel] = {}  # native.native_build's, by method
         self._stiffness_build: tuple[int, BuiltModel | None] = (-1, None)  # auto.stiffness_build's
-        self._rhs_cache: tuple[Any, Any] = (None, None)  # rhs(): (p, its closure)
+        self._rhs_cache: tuple[Any, Any, Any] = (None, None, None)  # rhs(): (p, its ways)
         # rhs(t, y) at the default parameters: through the build's _rhs_call (None: not made
         # yet), else through cffi with the checks (Compiled.fast_rhs, checked_rhs)
         self._fast_rhs: Callable[[Any, Any], np.ndarray | None] | None = None
@@ -121,9 +121,14 @@ class BuiltModel:
             dy = fast(t, y)  # a float t and a float64 array y: the C call, else None
             return dy if dy is not None else self._default_rhs(t, y)  # type: ignore[misc]
         p = self.parameter_vector(params)
-        if self._rhs_cache[0] is not p:  # the closure of the latest parameters, kept
-            self._rhs_cache = (p, self.compiled.integrator_rhs(p))
-        return self._rhs_cache[1](checked_time(t), checked_state(y, self.n_state))
+        if p is self.parameter_table.defaults:
+            return self.rhs(t, y)
+        kept = self._rhs_cache
+        if kept[0] is not p:  # the two ways at the latest parameters, kept
+            kept = self._rhs_cache = (p, self.compiled.fast_rhs(p),
+                                      self.compiled.checked_rhs(p))
+        dy = kept[1](t, y)  # as at the defaults: the C call, else None
+        return dy if dy is not None else kept[2](t, y)
 
     def _prepare_default_rhs(self) -> Callable[[Any, Any], np.ndarray | None]:
         """rhs(t, y)'s two ways at the default parameters: the build's _rhs_call, and cffi's,
