@@ -371,6 +371,22 @@ def test_cosimulation_takes_inputs_methods_and_tolerances(fmus) -> None:
     fmu.freeInstance()
 
 
+def test_settings_set_as_start_values_outrank_the_experiments_tolerance(fmus) -> None:
+    """FMPy's simulate_fmu passes the default experiment's tolerance to the FMU (which takes it
+    as rtol), but nemc.rtol set as a start value stays; its runs are nemc's, bit for bit."""
+    model, path = fmus("cart_pole", 3, "cs")
+    result = simulate_fmu(path, output_interval=0.5, output=list(model.state_names),
+                          start_values={"nemc.method": 2, "nemc.rtol": 1e-10,
+                                        "nemc.atol": 1e-12})
+    times = result["time"]
+    y = model.initial_state()
+    for k, (t0, t1) in enumerate(zip(times[:-1], times[1:])):
+        end = t0 + (t1 - t0)  # fmi3DoStep's end: the communication point plus the step size
+        y = model.simulate((t0, end), y, method="nemc.Vern9", rtol=1e-10, atol=1e-12,
+                           t_eval=[end]).y[:, -1]
+        assert list(y) == [result[name][k + 1] for name in model.state_names]
+
+
 def test_two_instances_at_once_are_independent(fmus) -> None:
     model, path = fmus("double_pendulum", 2, "cs")
     a, vr = slave(path, 2, name="a")
