@@ -136,7 +136,19 @@ def compile_source(
                               mass_matrix="mass_matrix" in parts,
                               linearization="linearization" in parts).model
 
+    def export_fmu(target: Path, fmi: int, kind: str) -> Path:
+        """This mechanism as an FMU (Model.export_fmu): its build with the Jacobian (nemc.Radau
+        in co-simulation) and the linearization (directional derivatives), what the runtime
+        knows of it (runtime/fmu.py), then the wrapper, gcc and the archive (build/fmu.py)."""
+        from .build.fmu import write_fmu
+        from .runtime.fmu import fmu_facts
+
+        built = compile_source(source, True, energy=energy, taylor=taylor,
+                               chunk_steps=chunk_steps, linearization=True)
+        return write_fmu(built.package, target, fmi, kind, fmu_facts(built.model))
+
     model.part_compiler = compile_parts
+    model.fmu_exporter = export_fmu
     model.recipe = Recipe(source, jacobian, taylor, energy, chunk_steps,
                           tuple(model.metadata["generated"]), mass_matrix, linearization)
     return Compiled(model, package, cached, timings)

@@ -55,6 +55,9 @@ class BuiltModel:
         # Compiles this mechanism with more parts (set by nemc's pipeline; None in a
         # standalone package, which has only the parts it was built with): see compiled_with.
         self.part_compiler: Callable[[frozenset[str]], BuiltModel] | None = None
+        # Writes this mechanism's FMU (set by nemc's pipeline; None in a standalone package):
+        # Model.export_fmu, nemc/runtime/fmu.py.
+        self.fmu_exporter: Callable[..., Any] | None = None
         self._variants: dict[str, BuiltModel] = {}  # compiled_with's, by the part asked for
         self._native_builds: dict[str, BuiltModel] = {}  # native.native_build's, by method
         self._stiffness_build: tuple[int, BuiltModel | None] = (-1, None)  # auto.stiffness_build's

@@ -33,7 +33,7 @@ from ..vocabulary import (  # noqa: F401 (re-exported: the runtime's public name
     auto_method,
     auto_takes_taylor,
 )
-from . import ensemble, plant, runs, simulation
+from . import ensemble, fmu, plant, runs, simulation
 from .auto import checked_auto_choice
 from .built import DEFAULT_T_SPAN, BuiltModel  # noqa: F401 (re-exported)
 from .failures import IntegrationFailure, ModelError  # noqa: F401 (re-exported)
@@ -192,5 +192,12 @@ class Model(BuiltModel):
         the variational equations (the exact Jacobian), integrated with the motion."""
         return plant.floquet(self, period, y, t0=t0, params=params, u=u, rtol=rtol,
                              atol=atol)
+
+    def export_fmu(self, path: str | Path, fmi: int = 2, kind: str = "me") -> Path:
+        """This mechanism as an FMU at PATH (a .fmu file): FMI 2 or 3, model exchange ("me")
+        or co-simulation ("cs"), from the same C with no Python in it; its build with the
+        Jacobian and the linearization compiled first where the cache lacks it. A file at
+        PATH is replaced only if nemc wrote it (docs/fmu.md)."""
+        return fmu.export_fmu(self, path, fmi, kind)
 
     _repr_html_ = model_html  # IPython's display protocol: the model's names in a table

@@ -1,5 +1,5 @@
 """The `nemc` command: compile, simulate, show, check, bench, stress, animate, sweep, linearize
-(plant_cli.py).
+(plant_cli.py), export (fmu_cli.py).
 
 Exit status: 0 success; 2 bad input (`FILE:LINE: key.path: what is wrong`, no traceback);
 1 any other failure (e.g. the C compiler failed: the message names the C file and its error);
@@ -19,6 +19,7 @@ from contextlib import contextmanager, suppress
 from pathlib import Path
 
 from ..errors import BuildError, InputError, OutputRefused
+from .fmu_cli import add_export_parser, cmd_export
 from .plant_cli import add_linearize_parser, cmd_linearize
 
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
@@ -119,6 +120,7 @@ def make_parser() -> argparse.ArgumentParser:
     add_animate_parser(commands)
     add_sweep_parser(commands)
     add_linearize_parser(commands, parse_assignment, parse_initial)
+    add_export_parser(commands)
     return parser
 
 
@@ -579,6 +581,7 @@ COMMANDS = {
     "animate": cmd_animate,
     "sweep": cmd_sweep,
     "linearize": cmd_linearize,
+    "export": cmd_export,
 }
 
 
