@@ -27,7 +27,7 @@ from .parameters import Parameters
 
 DEFAULT_T_SPAN = (0.0, 10.0)
 OPTIONAL_PARTS = frozenset({"jacobian", "mass_matrix", "taylor", "lanes",  # C built when asked
-                            "linearization"})
+                            "linearization", "sensitivities"})
 
 
 class BuiltModel:
