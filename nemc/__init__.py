@@ -61,10 +61,11 @@ def fit(model: Model, t: Any = None, data: Any = None, fit: Any = (), observed: 
     scipy's least_squares with the exact Jacobian from the run's sensitivities. WEIGHTS: 1 /
     sigma (a number, one per observed, or the data's shape). Options: experiments= (a list of
     nemc.Experiment sharing the parameters, instead of t and data), bounds= (name -> (low,
-    high)), start=, params= (the others' values), inputs=, method=, rtol= (1e-10), atol=
-    (1e-12), absolute_sigma= (False: the errors scaled by the residuals' variance),
-    max_nfev= (100). Returns a FitResult (values, stderr, covariance, correlation, residual,
-    success, runs); a fit that cannot identify a name, or does not converge, raises
+    high)), start=, params= (the others' values), inputs=, method= ("auto": nemc.Vern9 or
+    nemc.DOP853 in C; scipy's methods too), rtol= (1e-10), atol= (1e-12), absolute_sigma=
+    (False: the errors scaled by the residuals' variance), max_nfev= (100). Returns a
+    FitResult (values, stderr, covariance, correlation, residual, success, runs); a fit that
+    cannot identify a name, or does not converge, raises
     nemc.FitError saying which."""
     from .runtime.fitting import fit as run_fit
 

@@ -13,7 +13,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from .build.builder import Source, build_key, cached_package, fma_available, is_intact, lane_count
 from .runtime.load import load_package
@@ -144,10 +144,20 @@ def compile_source(
                               sensitivities="sensitivities" in parts).model
 
     model.part_compiler = compile_parts
+    model.system_drivers = system_drivers
     model.recipe = Recipe(source, jacobian, taylor, energy, chunk_steps,
                           tuple(model.metadata["generated"]), mass_matrix, linearization,
                           sensitivities)
     return Compiled(model, package, cached, timings)
+
+
+def system_drivers(n_state: int) -> Any:
+    """The native integrators for systems of N_STATE states (a model's sensitivity system):
+    built once per size into the cache (nemc/build/systems.py), then loaded."""
+    from .build.systems import system_extension
+    from .runtime.load import load_system
+
+    return load_system(system_extension(n_state))
 
 
 def generate_and_build(

@@ -217,9 +217,58 @@ def test_bad_names_get_one_clear_error(damped, names, message: str) -> None:
     assert message in str(error.value)
 
 
+@pytest.mark.parametrize("method", ["nemc.DOP853", "nemc.Vern9"])
+def test_the_native_methods_integrate_the_system_in_c(double_pendulum, method: str) -> None:
+    """The same sensitivities as scipy's tight run, and the same states as the plain native
+    run to the tolerance (the error control now holds the columns too)."""
+    names = ["y0", *double_pendulum.parameter_names]
+    t_eval = np.linspace(0, 5, 51)
+    reference = double_pendulum.simulate((0, 5), t_eval=t_eval, sensitivities=names,
+                                         method="DOP853", rtol=1e-12, atol=1e-14)
+    res = double_pendulum.simulate((0, 5), t_eval=t_eval, sensitivities=names, method=method,
+                                   rtol=1e-10, atol=1e-12)
+    assert res.success and res.method == method
+    for name in names:
+        assert relative_error(res.sensitivities[name], reference.sensitivities[name]) < 1e-7
+    plain = double_pendulum.simulate((0, 5), t_eval=t_eval, method=method, rtol=1e-10,
+                                     atol=1e-12)
+    assert np.abs(res.y - plain.y).max() < 1e-7
+    steps = double_pendulum.simulate((0, 5), sensitivities=["m2"], method=method)
+    assert steps.t.size == steps.sensitivities["m2"].shape[1] > 2  # the solver's own steps
+
+
+def test_auto_takes_a_native_method_and_events_are_located() -> None:
+    model = nemc.compile(EXAMPLES / "double_pendulum_events.yaml")
+    plain = model.simulate((0, 4), method="nemc.Vern9", rtol=1e-11, atol=1e-13)
+    res = model.simulate((0, 4), method="auto", rtol=1e-11, atol=1e-13,
+                         sensitivities=["m2"])
+    assert res.method == "nemc.Vern9"
+    for name, (times, states) in plain.events.items():
+        assert np.allclose(res.events[name][0], times, atol=1e-8)
+        assert res.events[name][1].shape == states.shape
+    scipy = model.simulate((0, 4), method="DOP853", rtol=1e-11, atol=1e-13,
+                           sensitivities=["m2"], t_eval=res.t)
+    assert relative_error(res.sensitivities["m2"], scipy.sensitivities["m2"]) < 1e-6
+
+
+def test_a_table_input_runs_natively_too(tmp_path: Path) -> None:
+    path = tmp_path / "pushed.yaml"
+    path.write_text(DAMPED_PENDULUM.replace("name: damped_pendulum", "name: pushed_table")
+                    .replace("loads:\n", "inputs: {T: 0}\nloads:\n  - {torque: T, body: rod}\n"))
+    model = nemc.compile(path)
+    table = ([0, 1, 2, 4], [0.0, 2.0, -1.0, 0.5])
+    native = model.simulate(inputs={"T": table}, sensitivities=["T", "c"], rtol=1e-11,
+                            atol=1e-13, method="nemc.Vern9")
+    scipy = model.simulate(inputs={"T": table}, sensitivities=["T", "c"], rtol=1e-12,
+                           atol=1e-14, method="DOP853")
+    for name in ("T", "c"):
+        assert relative_error(native.sensitivities[name], scipy.sensitivities[name]) < 1e-7
+
+
 def test_what_has_no_sensitivities_yet_is_refused_by_name(damped) -> None:
-    with pytest.raises(ModelError, match="nemc.Vern9 does not integrate the variational"):
-        damped.simulate(sensitivities=["c"], method="nemc.Vern9")
+    for method in ("nemc.Radau", "nemc.Taylor"):
+        with pytest.raises(ModelError, match=f"{method} does not integrate the variational"):
+            damped.simulate(sensitivities=["c"], method=method)
     with pytest.raises(ModelError, match="closed loop"):
         nemc.compile(EXAMPLES / "fourbar.yaml").simulate(sensitivities=["y0"])
     with pytest.raises(ModelError, match=r"impact events \['bounce'\]"):

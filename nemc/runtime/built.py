@@ -55,6 +55,10 @@ class BuiltModel:
         # Compiles this mechanism with more parts (set by nemc's pipeline; None in a
         # standalone package, which has only the parts it was built with): see compiled_with.
         self.part_compiler: Callable[[frozenset[str]], BuiltModel] | None = None
+        # The native integrators for a system of n states given by a function pointer (the
+        # sensitivity system: sensitivities.py), their cffi module (set by nemc's pipeline, which
+        # builds them once per size; None in a standalone package).
+        self.system_drivers: Callable[[int], Any] | None = None
         self._variants: dict[str, BuiltModel] = {}  # compiled_with's, by the part asked for
         self._native_builds: dict[str, BuiltModel] = {}  # native.native_build's, by method
         self._stiffness_build: tuple[int, BuiltModel | None] = (-1, None)  # auto.stiffness_build's

@@ -129,7 +129,7 @@ def fit(model: BuiltModel, t: Any = None, data: Any = None, fit: Sequence[str] =
         experiments: Sequence[Experiment] | None = None,
         bounds: Mapping[str, tuple[float, float]] | None = None,
         start: Mapping[str, float] | None = None, params: Mapping[str, float] | None = None,
-        inputs: Mapping[str, Any] | None = None, method: str | None = None,
+        inputs: Mapping[str, Any] | None = None, method: str = "auto",
         rtol: float = 1e-10, atol: float = 1e-12, absolute_sigma: bool = False,
         max_nfev: int = 100) -> FitResult:
     """See nemc.fit."""
@@ -161,7 +161,7 @@ def fit(model: BuiltModel, t: Any = None, data: Any = None, fit: Sequence[str] =
 def checked_problem(model: BuiltModel, t: Any, data: Any, names: Sequence[str],
                     observed: Sequence[str], y0: Any, weights: Any,
                     experiments: Sequence[Experiment] | None, params: Any, inputs: Any,
-                    method: str | None, rtol: float, atol: float) -> Problem:
+                    method: str, rtol: float, atol: float) -> Problem:
     names = fitted_names(model, names)
     observed = observed_names(model, observed)
     if experiments is None:

@@ -9,10 +9,12 @@ one C call, the accelerations' program once and its exact forward-mode derivativ
 column). The columns' start: the unit vectors for initial values, d y0 / d p for a parameter
 when the scene's initial state is used (its values may be expressions of parameters), else 0.
 
-The system runs with scipy's methods (the implicit ones with the block-diagonal Jacobian
-diag(J_y, ..., J_y): the Newton iteration's, the second derivatives left out). A closed loop's
-sensitivities, impacts (a jump in the sensitivities), inputs given as Python functions and nemc's
-native methods are refused, each by name.
+The system runs with nemc.DOP853 and nemc.Vern9 (the drivers compiled for the system's size
+once, kept in the cache: nemc/build/systems.py; the model's events located on the state's
+entries) or with scipy's methods (the implicit ones with the block-diagonal Jacobian diag(J_y,
+..., J_y): the Newton iteration's, the second derivatives left out). A closed loop's
+sensitivities, impacts (a jump in the sensitivities), inputs given as Python functions,
+nemc.Radau and nemc.Taylor are refused, each by name.
 """
 
 from __future__ import annotations
@@ -23,15 +25,25 @@ from typing import Any
 
 import numpy as np
 
-from ..vocabulary import AUTO, IMPLICIT_METHODS, NATIVE_METHODS, SCIPY_METHODS
-from . import runs
+from ..vocabulary import (
+    AUTO,
+    AUTO_VERN9_BELOW_RTOL,
+    IMPLICIT_METHODS,
+    NATIVE_METHODS,
+    SCIPY_METHODS,
+)
+from . import native, runs
 from .built import BuiltModel
+from .checks import native_tolerances
+from .compiled import arm_callback
 from .failures import IntegrationFailure, ModelError
 from .outcome import RunSpec, ended_early, gave_up, lazy_outputs
 from .results import LazyOutputs, SimulationResult
 
 INITIAL_VALUES = "y0"  # the name asking for d y(t) / d y0, every initial value at once
-DEFAULT_METHOD = "DOP853"  # "auto" (or no method) with sensitivities: scipy's DOP853
+SCIPY_DEFAULT = "DOP853"  # "auto" where the native drivers cannot run (a standalone package,
+#                           events= callables): scipy's DOP853
+SYSTEM_METHODS = ("nemc.DOP853", "nemc.Vern9")  # the native methods that take the system
 
 
 @dataclass(frozen=True)
@@ -151,12 +163,22 @@ def checked_spec(model: BuiltModel, spec: RunSpec) -> RunSpec:
         raise ModelError("sensitivities: an input given as a Python function has no derivative "
                          "nemc can take; give it as a number, a table or nemc.feedback(...)")
     method = spec.method
+    native_ok = model.system_drivers is not None and not spec.user_events
     if method == AUTO:
-        return spec.but(method=DEFAULT_METHOD)
-    if method in NATIVE_METHODS:
-        raise ModelError(f"sensitivities run with scipy's methods ({', '.join(SCIPY_METHODS)};"
-                         f" method None or \"auto\" takes {DEFAULT_METHOD}): {method} does not "
-                         "integrate the variational equations yet")
+        if not native_ok:
+            return spec.but(method=SCIPY_DEFAULT)
+        return spec.but(method="nemc.Vern9" if spec.rtol < AUTO_VERN9_BELOW_RTOL
+                        else "nemc.DOP853")
+    if method in NATIVE_METHODS and method not in SYSTEM_METHODS:
+        raise ModelError(f"sensitivities: {method} does not integrate the variational equations"
+                         f" yet: {', '.join(SYSTEM_METHODS)} or scipy's methods "
+                         f"({', '.join(SCIPY_METHODS)}) do")
+    if method in NATIVE_METHODS and spec.user_events:
+        raise ModelError(f"events= callables need one of scipy's methods: {method} runs in C")
+    if method in NATIVE_METHODS and model.system_drivers is None:
+        raise ModelError(f"sensitivities with {method} need nemc to build the native "
+                         "integrators for the sensitivity system: this standalone package "
+                         f"runs them with scipy's methods ({', '.join(SCIPY_METHODS)})")
     return spec
 
 
@@ -184,26 +206,75 @@ def initial_tangent(build: BuiltModel, p: np.ndarray) -> np.ndarray:
 
 def run_system(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Columns
                ) -> SimulationResult:
-    """The sensitivity system integrated by solve_ivp under the run settings and the scene's
-    events, split into the run's states and their sensitivities."""
+    """The sensitivity system integrated with the run's method, split into the run's states
+    and their sensitivities."""
+    n = model.n_state
+    z0 = np.concatenate([spec.state0, cols.start.T.ravel()])
+    run = native_run if spec.method in NATIVE_METHODS else scipy_run
+    try:
+        outcome = run(model, build, spec, cols, z0)
+    except IntegrationFailure as failure:
+        return failed_run(model, spec, cols, failure)
+    t, z = outcome.t, outcome.z
+    y = z[:n].copy()
+    finite = bool(np.all(np.isfinite(z)))
+    result = SimulationResult(
+        t, y, lazy_outputs(model, t, y, spec.p, spec.inputs), outcome.nfev, outcome.njev,
+        outcome.nlu, outcome.status, outcome.message if finite else
+        "the sensitivities are not finite: " + outcome.message,
+        outcome.status >= 0 and finite, spec.method, outcome.rtol, outcome.atol,
+        model.parameters_at(spec.p),
+        {name: (times, states[:, :n]) for name, (times, states) in outcome.events.items()})
+    result.sensitivities = split_columns(z[n:], cols, n)
+    result.output_sensitivities = output_sensitivities(model, build, spec, cols, t, z)
+    return result
+
+
+@dataclass
+class SystemOutcome:
+    """What a run of the system gives: its times and states z (N x n_t), status, message,
+    counts, tolerances and events (their states z)."""
+
+    t: np.ndarray
+    z: np.ndarray
+    status: int
+    message: str
+    nfev: int
+    njev: int
+    nlu: int
+    rtol: float
+    atol: float
+    events: Mapping[str, tuple[np.ndarray, np.ndarray]]
+
+
+def failed_run(model: BuiltModel, spec: RunSpec, cols: Columns,
+               failure: IntegrationFailure) -> SimulationResult:
+    """A run whose equations failed: where and why, its sensitivities NaN there."""
+    from .outcome import failed
+
+    result = failed(failure, spec.method, spec.rtol, spec.atol, model.parameters_at(spec.p))
+    n = model.n_state
+    result.sensitivities = split_columns(np.full((n * cols.count, 1), np.nan), cols, n)
+    return result
+
+
+def scipy_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Columns,
+              z0: np.ndarray) -> SystemOutcome:
+    """The system by solve_ivp under the run settings, the scene's events and events=."""
     from scipy.integrate import solve_ivp
 
     n = model.n_state
-    z0 = np.concatenate([spec.state0, cols.start.T.ravel()])
     system = SystemRhs(build, spec, cols)
     jac = system_jacobian(model, spec, cols) if spec.method in IMPLICIT_METHODS else None
     options = {"rtol": spec.rtol, "atol": spec.atol, **({"jac": jac} if jac else {})}
     p_at = None if spec.inputs is None else spec.inputs.at
     events = model.compiled.model_events(spec.p, p_at)  # their C reads the state's entries
     user_events = [state_event(event, n) for event in spec.user_events]
-    try:
-        with runs.interrupt_flag() as flag:
-            outcome, control = runs.simulate_scipy(
-                solve_ivp, system, spec.method, spec.span, z0,
-                None if spec.times is None else np.asarray(spec.times, dtype=float), options,
-                events, user_events, spec.settings, flag)
-    except IntegrationFailure as failure:
-        raise ModelError(f"sensitivities: the run failed {failure}") from None
+    with runs.interrupt_flag() as flag:
+        outcome, control = runs.simulate_scipy(
+            solve_ivp, system, spec.method, spec.span, z0,
+            None if spec.times is None else np.asarray(spec.times, dtype=float), options,
+            events, user_events, spec.settings, flag)
     status, message = outcome.status, outcome.message
     if control.stop:
         status = control.stop
@@ -213,20 +284,102 @@ def run_system(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
             control.stiffness), spec.p)
     elif status == -1 and system.last[1] is not None:
         message = gave_up(model, message, system.last[0], system.last[1][:n], spec.p)
-    t, z = outcome.t, outcome.y
-    y = z[:n].copy()
-    result = SimulationResult(
-        t=t, y=y, outputs=lazy_outputs(model, t, y, spec.p, spec.inputs), nfev=outcome.nfev,
-        njev=outcome.njev, nlu=outcome.nlu, status=status, message=message,
-        success=status >= 0 and bool(np.all(np.isfinite(z))), method=spec.method,
-        rtol=spec.rtol, atol=spec.atol, params=model.parameters_at(spec.p),
-        events={name: (times, states[:, :n]) for name, (times, states)
-                in outcome.events.items()})
-    if not np.all(np.isfinite(z)) and status >= 0:
-        result.message = "the sensitivities are not finite: " + message
-    result.sensitivities = split_columns(z[n:], cols, n)
-    result.output_sensitivities = output_sensitivities(model, build, spec, cols, t, z)
-    return result
+    return SystemOutcome(outcome.t, outcome.y, status, message, outcome.nfev, outcome.njev,
+                         outcome.nlu, spec.rtol, spec.atol, outcome.events)
+
+
+class SystemDrivers:
+    """The cffi module of the native integrators for the system's size, as native.py's
+    helpers take a build's (ffi, buffer, the run's types, Ctrl-C's callback)."""
+
+    def __init__(self, module: Any):
+        self.ffi, self.lib = module.ffi, module.lib
+        self.run_pointer, self.int_pointer = (self.ffi.typeof("nemc_run *"),
+                                              self.ffi.typeof("int *"))
+        self.double_array = self.ffi.typeof("double[]")
+        self.arm_interrupts = arm_callback(self.ffi)
+
+    def buffer(self, array: np.ndarray) -> Any:
+        return self.ffi.from_buffer(self.double_array, array)
+
+    def function(self, build: BuiltModel, name: str) -> Any:
+        """The build's C function NAME as a pointer these drivers call."""
+        compiled = build.compiled
+        address = compiled.ffi.cast("uintptr_t", compiled.ffi.addressof(
+            compiled.lib, compiled.prefix + name))
+        return self.ffi.cast("nemc_system_fn", int(address))
+
+
+def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Columns,
+               z0: np.ndarray) -> SystemOutcome:
+    """The system by nemc.DOP853 or nemc.Vern9 in C, the drivers compiled for its size."""
+    assert model.system_drivers is not None
+    size = z0.size
+    drivers = SystemDrivers(model.system_drivers(size))
+    rtol, atol = native_tolerances(spec.rtol, spec.atol)
+    run, keep = native.new_run(drivers, spec.span, spec.times, rtol, atol, spec.settings)
+    p = cols.parameters(spec.p)
+    if spec.inputs is not None and spec.inputs.tables:
+        keep.append(native.table_inputs(drivers, run, spec.inputs, p.size))
+    n_eval = -1 if spec.times is None else len(spec.times)
+    out = np.empty((max(n_eval, 0) + 1, size))
+    run.y_eval = out_buffer = drivers.buffer(out)
+    run.y_fail = out_buffer + max(n_eval, 0) * size
+    table = model.compiled.event_table
+    directions = np.array([runs.DIRECTIONS[e["direction"]] for e in table] or [0],
+                          dtype=np.intc)
+    actions = np.array([{"record": 0, "stop": 1}[e["action"]] for e in table] or [0],
+                       dtype=np.intc)
+    ints = drivers.ffi.typeof("int[]")
+    rhs, events = (drivers.function(build, "sensitivity_rhs"),
+                   drivers.function(build, "events") if table else drivers.ffi.NULL)
+
+    def integrate(method: int, run: Any, y0: Any, p: Any) -> int:
+        return drivers.lib.nemc_system_integrate(
+            method, rhs, len(table), drivers.ffi.from_buffer(ints, directions),
+            drivers.ffi.from_buffer(ints, actions), events, run, y0, p)
+
+    method_id = getattr(drivers.lib, "NEMC_" + spec.method.split(".")[1].upper())
+    try:
+        status = native.run_in_c(drivers, integrate, method_id, run, drivers.buffer(z0),
+                                 drivers.buffer(p))
+        t, z = native_states(drivers, run, spec, out)
+        found = native_events(drivers, run, table, size)
+    finally:
+        drivers.lib.nemc_system_free_steps(run)
+    if status == drivers.lib.NEMC_RHS_FAILED:
+        raise IntegrationFailure(run.t_fail, out[-1][:model.n_state], run.rhs_status,
+                                 model.state_names, build.compiled.status_cause(run.rhs_status))
+    message = native.native_message(model, spec, run, out[-1][:model.n_state])
+    return SystemOutcome(t, z, status, message, run.nfev, run.njev, run.nlu, rtol, atol, found)
+
+
+def native_states(drivers: SystemDrivers, run: Any, spec: RunSpec, out: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The run's times and states z: at t_eval (those reached), or at its steps."""
+    size = out.shape[1]
+    if spec.times is None:
+        count = run.n_out
+        t = np.frombuffer(drivers.ffi.buffer(run.steps_t, 8 * count), dtype=float).copy()
+        z = np.frombuffer(drivers.ffi.buffer(run.steps_y, 8 * count * size), dtype=float)
+        return t, z.reshape(count, size).T.copy()
+    reached = run.n_out
+    return np.asarray(spec.times)[:reached], out[:reached].T.copy()
+
+
+def native_events(drivers: SystemDrivers, run: Any, table: list, size: int
+                  ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """The scene's events that fired, by name: (times, system states before)."""
+    count = run.n_event_out
+    if not table or not count:
+        return {event["name"]: (np.empty(0), np.empty((0, size))) for event in table}
+    ffi = drivers.ffi
+    which = np.frombuffer(ffi.buffer(run.event_which, 4 * count), dtype=np.intc)
+    times = np.frombuffer(ffi.buffer(run.event_t, 8 * count), dtype=float)
+    states = np.frombuffer(ffi.buffer(run.event_y, 8 * count * size), dtype=float).reshape(
+        count, size)
+    return {event["name"]: (times[which == k].copy(), states[which == k].copy())
+            for k, event in enumerate(table)}
 
 
 def split_columns(s: np.ndarray, cols: Columns, n: int) -> dict[str, np.ndarray]:

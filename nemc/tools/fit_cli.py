@@ -45,7 +45,8 @@ def add_fit_parser(commands: argparse._SubParsersAction, assignment: Any) -> Non
     fit.add_argument("--sigma", type=float, metavar="S",
                      help="the data's noise standard deviation, taken as known (default: "
                      "estimated from the residuals)")
-    fit.add_argument("--method", help="scipy's method for the runs (default DOP853)")
+    fit.add_argument("--method", default="auto", help="the runs' method (default auto: "
+                     "nemc.Vern9 or nemc.DOP853; scipy's methods too)")
     fit.add_argument("--rtol", type=float, default=1e-10, help="the runs' rtol (1e-10)")
     fit.add_argument("--out", help="also write the estimates to this .json file")
 
