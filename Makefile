@@ -85,6 +85,7 @@ bench: $(PEERS_STAMP)
 	$(BIN)/python benchmarks/sweep.py
 	$(BIN)/python benchmarks/events.py
 	$(BIN)/python benchmarks/auto.py
+	$(BIN)/python benchmarks/sensitivities.py
 
 bench-quick: $(STAMP)
 	$(BIN)/nemc bench --quick

@@ -152,3 +152,14 @@ def test_overhead_reports_every_row() -> None:
                 "| simulate over [0, 0], auto (chose nemc.", "at the run's states",
                 "- nemc.DOP853: the driver adds "):
         assert row in done.stdout, (row, done.stdout)
+
+
+def test_sensitivities_smoke_mode_writes_its_table(tmp_path: Path) -> None:
+    out = run_script("sensitivities.py", tmp_path)
+    result = json.loads((out / "sensitivities-latest.json").read_text())
+    assert result["environment"]["loadavg_end"] is not None or os.name != "posix"
+    (row,) = result["rows"]
+    assert row["contender"] == "nemc.Vern9"
+    assert row["plain"]["median"] > 0 and row["sensitivities"]["median"] > 0
+    assert row["error"] < 1e-8  # the sensitivities against scipy's tight run
+    assert (out / "sensitivities-latest.md").read_text().startswith("# Sensitivities")
