@@ -273,3 +273,22 @@ def test_what_has_no_sensitivities_yet_is_refused_by_name(damped) -> None:
         nemc.compile(EXAMPLES / "fourbar.yaml").simulate(sensitivities=["y0"])
     with pytest.raises(ModelError, match=r"impact events \['bounce'\]"):
         nemc.compile(EXAMPLES / "bouncing_ball.yaml").simulate(sensitivities=["e"])
+
+
+def test_long_programs_in_parts_give_the_same_sensitivities(double_pendulum) -> None:
+    """Printed in part functions (chunk_steps 4: the tangent's coefficients then computed in
+    each column, as the Jacobian's are), the same numbers as the one-body build's."""
+    from nemc.pipeline import compile_mechanism
+
+    parts = compile_mechanism(EXAMPLES / "double_pendulum.yaml", chunk_steps=4,
+                              sensitivities=True).model
+    names = ["y0", "m2", "g"]
+    ours = parts.simulate((0, 2), sensitivities=names, method="nemc.Vern9", rtol=1e-11,
+                          atol=1e-13)
+    whole = double_pendulum.simulate((0, 2), sensitivities=names, method="nemc.Vern9",
+                                     rtol=1e-11, atol=1e-13, t_eval=ours.t)
+    for name in names:
+        assert relative_error(ours.sensitivities[name], whole.sensitivities[name]) < 1e-9
+    for output in ("A.Fx", "energy.total"):
+        assert relative_error(ours.output_sensitivities["g"][output],
+                              whole.output_sensitivities["g"][output]) < 1e-9
