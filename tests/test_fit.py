@@ -179,3 +179,18 @@ def test_the_command_line_fits_and_writes_only_a_fit(pendulum, clean, tmp_path: 
     assert main(["fit", str(mech), str(data), "--fit", "mass", "--out", str(failing)]) == 2
     assert "unknown name 'mass'" in capsys.readouterr().err
     assert not failing.exists()
+
+
+def test_the_tutorials_numbers() -> None:
+    """docs/tutorials/fitting.md's data and fit (the numbers it quotes), from its example."""
+    model = nemc.compile(Path(__file__).resolve().parent.parent / "examples"
+                         / "damped_compound_pendulum.yaml")
+    t = np.linspace(0, 10, 101)
+    true = model.simulate((0, 10), t_eval=t, rtol=1e-12, atol=1e-12)
+    angles = np.round(true.y[0] + np.random.default_rng(2024).normal(0, 0.01, t.size), 6)
+    fit = nemc.fit(model, t, angles, fit=["c", "L"], observed=["theta"],
+                   start={"c": 0.2, "L": 2.5})
+    assert fit.values["c"] == pytest.approx(0.50018105, abs=2e-7)
+    assert fit.values["L"] == pytest.approx(2.9995333, abs=2e-6)
+    assert fit.stderr["c"] == pytest.approx(0.00123, abs=1e-5)
+    assert fit.correlation[0, 1] == pytest.approx(0.857, abs=1e-3)
