@@ -86,6 +86,7 @@ bench: $(PEERS_STAMP)
 	$(BIN)/python benchmarks/events.py
 	$(BIN)/python benchmarks/auto.py
 	$(BIN)/python benchmarks/plant.py
+	$(BIN)/python benchmarks/sensitivities.py
 
 bench-quick: $(STAMP)
 	$(BIN)/nemc bench --quick

@@ -53,6 +53,25 @@ def feedback(K: Any, y_ref: Any = None, u_ref: Any = None, states: Any = None) -
     return make(K, y_ref, u_ref, states)
 
 
+def fit(model: Model, t: Any = None, data: Any = None, fit: Any = (), observed: Any = (),
+        y0: Any = None, weights: Any = None, **options: Any) -> Any:
+    """MODEL fitted to measured DATA at times T: the values of FIT (parameters, constant inputs,
+    initial values or "y0") that minimize the weighted squared differences of the OBSERVED
+    state entries or outputs from the data (n_t x len(observed), or a mapping by name), by
+    scipy's least_squares with the exact Jacobian from the run's sensitivities. WEIGHTS: 1 /
+    sigma (a number, one per observed, or the data's shape). Options: experiments= (a list of
+    nemc.Experiment sharing the parameters, instead of t and data), bounds= (name -> (low,
+    high)), start=, params= (the others' values), inputs=, method= ("auto": nemc.Vern9 or
+    nemc.DOP853 in C; scipy's methods too), rtol= (1e-10), atol= (1e-12), absolute_sigma=
+    (False: the errors scaled by the residuals' variance), max_nfev= (100). Returns a
+    FitResult (values, stderr, covariance, correlation, residual, success, runs); a fit that
+    cannot identify a name, or does not converge, raises
+    nemc.FitError saying which."""
+    from .runtime.fitting import fit as run_fit
+
+    return run_fit(model, t, data, fit, observed, y0, weights, **options)
+
+
 def sweep(model: Model, y0s: Any = None, **options: Any) -> SweepResult:
     """Run MODEL over many initial states and parameter sets, on this machine's cores or a Dask
     cluster (client=...), into one xarray dataset (out=None, or a .zarr, .nc or .npz file).
@@ -62,4 +81,14 @@ def sweep(model: Model, y0s: Any = None, **options: Any) -> SweepResult:
     return run_sweep(model, y0s, **options)
 
 
-__all__ = ["compile", "feedback", "sweep", "__version__"]
+def __getattr__(name: str) -> Any:
+    """nemc.Experiment, nemc.FitError and nemc.FitResult, imported when first named."""
+    if name in ("Experiment", "FitError", "FitResult"):
+        from .runtime import fitting
+
+        return getattr(fitting, name)
+    raise AttributeError(f"module 'nemc' has no attribute {name!r}")
+
+
+__all__ = ["Experiment", "FitError", "FitResult", "compile", "feedback", "fit", "sweep",
+           "__version__"]

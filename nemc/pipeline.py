@@ -13,7 +13,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from .build.builder import Source, build_key, cached_package, fma_available, is_intact, lane_count
 from .runtime.load import load_package
@@ -37,6 +37,7 @@ class Recipe:
     parts: tuple[str, ...] = ()
     mass_matrix: bool = False
     linearization: bool = False
+    sensitivities: bool = False
 
 
 @dataclass
@@ -73,7 +74,7 @@ def read_source(path: str | Path) -> Source:
 def compile_mechanism(
     path: str | Path, jacobian: bool | None = None, *, energy: bool = False,
     taylor: bool | None = None, chunk_steps: int | None = None, mass_matrix: bool = False,
-    linearization: bool = False,
+    linearization: bool = False, sensitivities: bool = False,
 ) -> Compiled:
     """Build the mechanism in PATH (or load its cached build) and load it.
 
@@ -83,18 +84,20 @@ def compile_mechanism(
     mass_matrix: True generates M^-1 (Model.mass_matrix) now; False, on its first call.
     linearization: True generates A, B, C, D's code (Model.linearize) now; False, on its first
     call.
+    sensitivities: True generates the variational equations' code (simulate(...,
+    sensitivities=[...])) now; False, on their first run.
     energy: True adds the energy outputs when the YAML does not request them (`nemc stress`).
     chunk_steps: the most steps of a program emitted as one C function (None:
     nemc.emit.parts.CHUNK_STEPS); part of the build key."""
     return compile_source(read_source(path), jacobian, energy=energy, taylor=taylor,
                           chunk_steps=chunk_steps, mass_matrix=mass_matrix,
-                          linearization=linearization)
+                          linearization=linearization, sensitivities=sensitivities)
 
 
 def compile_source(
     source: Source, jacobian: bool | None, *, energy: bool = False,
     taylor: bool | None = None, chunk_steps: int | None = None, lanes: int = 0,
-    mass_matrix: bool = False, linearization: bool = False,
+    mass_matrix: bool = False, linearization: bool = False, sensitivities: bool = False,
 ) -> Compiled:
     """lanes: also nemc.Taylor's ensembles in SIMD lanes, this many per batch (with taylor: the
     part "lanes"; build.lane_count() gives this machine's); 0: none."""
@@ -110,6 +113,8 @@ def compile_source(
         options["mass_matrix"] = True
     if linearization:
         options["linearization"] = True
+    if sensitivities:
+        options["sensitivities"] = True
     if chunk_steps is not None:
         options["chunk_steps"] = chunk_steps
     key = build_key(source, options)
@@ -119,7 +124,8 @@ def compile_source(
         cached = package is not None
         if package is None:
             package = generate_and_build(source, key, jacobian, timings, energy, taylor,
-                                         chunk_steps, lanes, mass_matrix, linearization)
+                                         chunk_steps, lanes, mass_matrix, linearization,
+                                         sensitivities)
         try:
             with timed(timings, "load"):
                 model = load_package(package)
@@ -134,7 +140,8 @@ def compile_source(
                               taylor=bool(parts & {"taylor", "lanes"}), chunk_steps=chunk_steps,
                               lanes=lane_count() if "lanes" in parts else 0,
                               mass_matrix="mass_matrix" in parts,
-                              linearization="linearization" in parts).model
+                              linearization="linearization" in parts,
+                              sensitivities="sensitivities" in parts).model
 
     def export_fmu(target: Path, fmi: int, kind: str) -> Path:
         """This mechanism as an FMU (Model.export_fmu): its build with the Jacobian (nemc.Radau
@@ -149,15 +156,27 @@ def compile_source(
 
     model.part_compiler = compile_parts
     model.fmu_exporter = export_fmu
+    model.system_drivers = system_drivers
     model.recipe = Recipe(source, jacobian, taylor, energy, chunk_steps,
-                          tuple(model.metadata["generated"]), mass_matrix, linearization)
+                          tuple(model.metadata["generated"]), mass_matrix, linearization,
+                          sensitivities)
     return Compiled(model, package, cached, timings)
+
+
+def system_drivers(n_state: int) -> Any:
+    """The native integrators for systems of N_STATE states (a model's sensitivity system):
+    built once per size into the cache (nemc/build/systems.py), then loaded."""
+    from .build.systems import system_extension
+    from .runtime.load import load_system
+
+    return load_system(system_extension(n_state))
 
 
 def generate_and_build(
     source: Source, key: str, jacobian: bool | None, timings: dict[str, float],
     energy: bool = False, taylor: bool | None = None, chunk_steps: int | None = None,
     lanes: int = 0, mass_matrix: bool = False, linearization: bool = False,
+    sensitivities: bool = False,
 ) -> Path:
     from .build.builder import build
     from .derive.assembly import check_assembly
@@ -167,6 +186,7 @@ def generate_and_build(
         with_jacobian,
         with_linearization,
         with_mass_matrix,
+        with_sensitivities,
         with_taylor,
     )
     from .emit.emitted import emit
@@ -190,6 +210,8 @@ def generate_and_build(
                 equations = with_mass_matrix(equations)
             if linearization:
                 equations = with_linearization(equations)
+            if sensitivities:
+                equations = with_sensitivities(equations)
             if taylor or (taylor is None and method == "nemc.Taylor"):
                 equations = with_taylor(equations)
             elif taylor is None and auto_builds_taylor(method, equations.n):

@@ -178,3 +178,12 @@ def test_plant_quick_mode_measures_every_section(tmp_path: Path) -> None:
             assert found["zero_gain_same_steps"], (method, found["steps"])
             assert found["held_upright_within"] < 0.05, (method, found["held_upright_within"])
     assert (out / "plant-latest.md").read_text().startswith("# The model as a plant")
+def test_sensitivities_smoke_mode_writes_its_table(tmp_path: Path) -> None:
+    out = run_script("sensitivities.py", tmp_path)
+    result = json.loads((out / "sensitivities-latest.json").read_text())
+    assert result["environment"]["loadavg_end"] is not None or os.name != "posix"
+    (row,) = result["rows"]
+    assert row["contender"] == "nemc.Vern9"
+    assert row["plain"]["median"] > 0 and row["sensitivities"]["median"] > 0
+    assert row["error"] < 1e-8  # the sensitivities against scipy's tight run
+    assert (out / "sensitivities-latest.md").read_text().startswith("# Sensitivities")

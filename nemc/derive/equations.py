@@ -41,6 +41,7 @@ from .mass_form import (
 from .outputs import derive_outputs
 from .products import fewer_products
 from .program import Program, split_deep
+from .sensitivities import Sensitivities, sensitivities
 from .tangent import seed_symbols, tangent_program
 from .taylor import series_cost, unsupported_operation
 
@@ -108,6 +109,8 @@ class Equations:
     inputs: InputLaw = InputLaw((), (), (), ())  # the inputs' laws and their coefficients
     linearization: Linearization | None = None  # A, B, C, D's programs (trees), if built
     linearization_unavailable: str | None = None  # why it is not, where it is asked for
+    sensitivities: Sensitivities | None = None  # the variational equations' programs, if built
+    sensitivities_unavailable: str | None = None  # why they are not (FILE:LINE: ...)
 
     @property
     def n(self) -> int:
@@ -326,6 +329,23 @@ def with_linearization(eqs: Equations) -> Equations:
     results = (*eqs.accelerations, *eqs.drives, *eqs.multipliers)
     return dataclasses.replace(eqs, linearization=linearization(
         eqs.dynamics, seeds, results, tuple(expr for _, expr in eqs.outputs)))
+
+
+def with_sensitivities(eqs: Equations) -> Equations:
+    """Add the variational equations' programs (nemc/derive/sensitivities.py): the tangent of
+    a tree's dynamics and outputs along the state's and the parameters' seeds, and the initial
+    state's derivatives by the parameters. A closed loop's are refused, with its line."""
+    mech = eqs.mechanism
+    if eqs.loops is not None:
+        where = mech.constraints[0].loc
+        return dataclasses.replace(eqs, sensitivities_unavailable=(
+            f"{where.file}:{where.line}: {where.key}: sensitivities of a closed loop (projected "
+            "onto its constraints, its assembly's own sensitivity) are not available yet; "
+            "trees only"))
+    results = (*eqs.accelerations, *eqs.drives)
+    return dataclasses.replace(eqs, sensitivities=sensitivities(
+        eqs.dynamics, eqs.state, eqs.parameters, results,
+        tuple(expr for _, expr in eqs.outputs), eqs.initial_state))
 
 
 def with_mass_matrix(eqs: Equations) -> Equations:

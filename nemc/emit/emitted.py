@@ -67,6 +67,8 @@ def emit(eqs: Equations, block: Block, chunk_steps: int | None = None,
         info["lane_count"] = lanes
     if taylor_unavailable:
         info["taylor_unavailable"] = info["lanes_unavailable"] = taylor_unavailable
+    if eqs.sensitivities_unavailable:
+        info["sensitivities_unavailable"] = eqs.sensitivities_unavailable
     interface = header(eqs, prefix)
     headers = shared_headers()
     return Emitted(

@@ -58,8 +58,9 @@ def generated_functions(eqs: Equations) -> list[str]:
     mass_matrix = ["mass_matrix"] if eqs.inverse_mass is not None else []
     outputs = ["outputs"] if eqs.outputs else []
     linear = ["linearization"] if eqs.linearization is not None else []
+    sensitivities = ["sensitivities"] if eqs.sensitivities is not None else []
     return (["rhs", "rhs_many", "checks", "initial_state"] + outputs + jacobian + mass_matrix
-            + linear)
+            + linear + sensitivities)
 
 
 def coordinate_kinds(mech: m.Mechanism) -> list[str]:

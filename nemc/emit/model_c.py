@@ -19,6 +19,7 @@ from .optimize import Block
 from .parts import Units
 from .printing import body, comment_text, indexed, needed, symbol_table, template
 from .resources import read_template
+from .sensitivities_c import sensitivities_section
 
 
 def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
@@ -32,6 +33,7 @@ def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
                                 shared and shared[0])
     jacobian = jacobian_section(eqs, block, printer, prefix, chunk_steps, units, shared)
     jacobian += linearization_section(eqs, block, printer, prefix, chunk_steps, units)
+    jacobian += sensitivities_section(eqs, block, printer, prefix, chunk_steps, units)
     return template("model.c.tmpl").substitute(
         name=mech.name,
         version=__version__,

@@ -4,9 +4,12 @@ model-independent nemc_drivers.c, and <name>_spectrum.c, method auto's look at t
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from ..derive.equations import Equations
 from ..vocabulary import AUTO_SPECTRUM_MAX_STATES
 from ..vocabulary import NEMC_VERSION as __version__
+from .interface import cdef, shared_headers
 from .jacobian_c import has_jacobian, jacobian_function
 from .printing import template
 from .resources import read_template
@@ -30,13 +33,37 @@ def drivers_source(eqs: Equations) -> str:
     Jacobian: it halves the compile time the integrators add elsewhere. The text names no
     model, so models of one size (and Jacobian or not) share one compiled object
     (build.builder.drivers_object)."""
-    radau = has_jacobian(eqs)
+    return drivers_text(2 * eqs.n, has_jacobian(eqs))
+
+
+def drivers_text(n_state: int, radau: bool) -> str:
+    """nemc_drivers.c for N_STATE states, with nemc.Radau or without."""
     return template("drivers.c.tmpl").substitute(
-        version=__version__, n_state=2 * eqs.n, radau_note=" (with the Jacobian)" if radau else "",
-        radau_name=", Radau" if radau else "",
+        version=__version__, n_state=n_state,
+        radau_note=" (with the Jacobian)" if radau else "", radau_name=", Radau" if radau else "",
         run_control=read_template("run_control.c.tmpl"),
         integrators=read_template("integrators.c.tmpl"),
         radau=read_template("radau.c.tmpl") if radau else "")
+
+
+@dataclass(frozen=True)
+class SystemCode:
+    """The C of the native integrators for a system of N_STATE states given by a function
+    pointer (a model's sensitivity system): nemc_drivers.c (no Radau), nemc_system.c's entry
+    points, the shared headers and the cffi cdef. It names no model."""
+
+    n_state: int
+    drivers: str
+    entry: str
+    headers: tuple[tuple[str, str], ...]
+    cdef: str
+
+
+def system_code(n_state: int) -> SystemCode:
+    entry = template("system.c.tmpl").substitute(version=__version__, n_state=n_state)
+    headers = shared_headers()
+    return SystemCode(n_state, drivers_text(n_state, radau=False), entry, headers,
+                      cdef(dict(headers)["nemc_run.h"], entry))
 
 
 def spectrum_source(eqs: Equations, prefix: str) -> str:

@@ -99,6 +99,15 @@ def event_groups(eqs: Equations) -> dict[str, tuple[sympy.Expr, ...]]:
     return groups
 
 
+def sensitivity_programs(eqs: Equations) -> dict[str, Program | None]:
+    """The variational equations' programs, by name (none without the part)."""
+    if eqs.sensitivities is None:
+        return {}
+    tangents = eqs.sensitivities.tangents
+    return {"sensitivities": tangents.dynamics, "sensitivity_outputs": tangents.outputs,
+            "sensitivity_outputs_tangent": tangents.outputs_tangent}
+
+
 def optimize_equations(eqs: Equations) -> Block:
     loops = eqs.loops
     groups = {
@@ -109,6 +118,7 @@ def optimize_equations(eqs: Equations) -> Block:
         "constraints": () if loops is None else
         (*loops.values, *(v for row in loops.jacobian for v in row), *loops.rate),
         **event_groups(eqs),
+        **({"sensitivity_initial": eqs.sensitivities.initial} if eqs.sensitivities else {}),
     }
     primal = eqs.accelerations_program if eqs.jacobian is not None else None
     lin = eqs.linearization
@@ -117,7 +127,8 @@ def optimize_equations(eqs: Equations) -> Block:
                 "primal": primal if primal is not eqs.dynamics else None,
                 "linearization": lin and lin.dynamics,
                 "linearization_outputs": lin and lin.outputs,
-                "linearization_outputs_tangent": lin and lin.outputs_tangent}
+                "linearization_outputs_tangent": lin and lin.outputs_tangent,
+                **sensitivity_programs(eqs)}
     temporaries, reduced = shared_cse(groups)
     rewritten = {name: rewrite_program(prog) for name, prog in programs.items()
                  if prog is not None}

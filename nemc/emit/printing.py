@@ -54,6 +54,8 @@ def symbol_table(eqs: Equations, block: Block) -> dict[sympy.Symbol, str]:
             names[eqs.seeds[q]], names[eqs.seeds[u]] = f"SEED_Q({i})", f"SEED_DQ({i})"
     if eqs.linearization is not None:
         names.update(linearization_names(eqs))
+    if eqs.sensitivities is not None:
+        names.update(sensitivity_names(eqs))
     names.update({s: s.name for s, _ in block.temporaries})
     for program in (*block.programs.values(), eqs.taylor):
         if program is not None:
@@ -73,6 +75,21 @@ def linearization_names(eqs: Equations) -> dict[sympy.Symbol, str]:
     names.update({lin.results_seeds[a]: f"DQDD({i})" for i, a in enumerate(eqs.accelerations)})
     names.update({lin.results_seeds[d]: f"DDRIVE({j})" for j, d in enumerate(eqs.drives)})
     names.update({lin.results_seeds[k]: f"DLAMBDA({j})" for j, k in enumerate(eqs.multipliers)})
+    return names
+
+
+def sensitivity_names(eqs: Equations) -> dict[sympy.Symbol, str]:
+    """The variational equations' seeds (the state's, the parameters') and the tangents of
+    the accelerations and drives."""
+    sens = eqs.sensitivities
+    assert sens is not None
+    seeds, names = sens.tangents.seeds, {}
+    for i, (q, u) in enumerate(zip(eqs.coordinates, eqs.speeds)):
+        names[seeds[q]], names[seeds[u]] = f"SEED_Q({i})", f"SEED_DQ({i})"
+    names.update({seed: f"SEED_P({k})" for k, seed in enumerate(sens.parameter_seeds.values())})
+    results = sens.tangents.results_seeds
+    names.update({results[a]: f"DQDD({i})" for i, a in enumerate(eqs.accelerations)})
+    names.update({results[d]: f"DDRIVE({j})" for j, d in enumerate(eqs.drives)})
     return names
 
 

@@ -27,7 +27,7 @@ from .parameters import Parameters
 
 DEFAULT_T_SPAN = (0.0, 10.0)
 OPTIONAL_PARTS = frozenset({"jacobian", "mass_matrix", "taylor", "lanes",  # C built when asked
-                            "linearization"})
+                            "linearization", "sensitivities"})
 
 
 class BuiltModel:
@@ -58,6 +58,10 @@ class BuiltModel:
         # Writes this mechanism's FMU (set by nemc's pipeline; None in a standalone package):
         # Model.export_fmu, nemc/runtime/fmu.py.
         self.fmu_exporter: Callable[..., Any] | None = None
+        # The native integrators for a system of n states given by a function pointer (the
+        # sensitivity system: sensitivities.py), their cffi module (set by nemc's pipeline, which
+        # builds them once per size; None in a standalone package).
+        self.system_drivers: Callable[[int], Any] | None = None
         self._variants: dict[str, BuiltModel] = {}  # compiled_with's, by the part asked for
         self._native_builds: dict[str, BuiltModel] = {}  # native.native_build's, by method
         self._stiffness_build: tuple[int, BuiltModel | None] = (-1, None)  # auto.stiffness_build's

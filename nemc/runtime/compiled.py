@@ -23,7 +23,8 @@ from .failures import IntegrationFailure, ModelError, status_cause
 # the entry points every build (or a build with the part) has, by short name
 ENTRY_POINTS = ("rhs", "rhs_many", "checks", "initial_state", "outputs", "jacobian",
                 "inverse_mass_matrix", "integrate", "free_steps", "start_stiffness",
-                "input_values", "linearization", "loop_tangents", "outputs_tangent")
+                "input_values", "linearization", "loop_tangents", "outputs_tangent",
+                "sensitivity_rhs", "initial_state_tangent", "output_sensitivities")
 
 
 def no_fast_call(t: Any, y: Any) -> None:

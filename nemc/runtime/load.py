@@ -23,6 +23,15 @@ def load_package(folder: Path) -> Model:
                  rhs_call(folder))
 
 
+def load_system(folder: Path) -> ModuleType:
+    """The native integrators for systems given by a function pointer, in FOLDER (built by
+    nemc/build/systems.py): their cffi module (ffi, lib)."""
+    module = import_extension(folder, "_system")
+    if module is None:
+        raise ImportError(f"no compiled extension in the nemc build {folder}")
+    return module
+
+
 def rhs_call(folder: Path) -> ModuleType | None:
     """The build's _rhs_call (Model.rhs's extension), or None where it cannot be imported (a
     stable-ABI build of it in CPython 3.10): Model.rhs then goes through cffi alone."""

@@ -34,6 +34,7 @@ from ..vocabulary import (  # noqa: F401 (re-exported: the runtime's public name
     auto_takes_taylor,
 )
 from . import ensemble, fmu, plant, runs, simulation
+from . import sensitivities as variational
 from .auto import checked_auto_choice
 from .built import DEFAULT_T_SPAN, BuiltModel  # noqa: F401 (re-exported)
 from .failures import IntegrationFailure, ModelError  # noqa: F401 (re-exported)
@@ -65,6 +66,7 @@ class Model(BuiltModel):
         tstops: Sequence[float] | None = None,
         max_steps: int | None = None,
         inputs: Any = None,
+        sensitivities: Sequence[str] | None = None,
     ) -> SimulationResult:
         """Integrate the scene. Arguments left None take the YAML scene's values, then defaults
         (t_span (0, 10), method "auto", rtol 1e-6, atol 1e-9, t_eval: the solver's steps).
@@ -83,9 +85,19 @@ class Model(BuiltModel):
         between samples, held beyond), nemc.feedback(K, y_ref, u_ref) (u = u_ref - K (y -
         y_ref)), all evaluated in C by every method, or a function f(t, y) (scipy's methods);
         or nemc.feedback(...) for every input at once. Those not given take the YAML's value
-        (the scene's simulation.inputs, else the default)."""
+        (the scene's simulation.inputs, else the default).
+        sensitivities: names of parameters, inputs (d/d a constant added to the input) and
+        initial values (state names, or "y0" for all): the variational equations integrated
+        with the run, exact (the part "sensitivities", compiled on first need), in the same
+        error control; res.sensitivities[name] is d y(t) / d name, (n_state, n_t) ("y0":
+        (n_state, n_state, n_t)), res.output_sensitivities[name][output] the outputs'. Trees
+        only; with scipy's methods (none or "auto": DOP853)."""
         arguments = (t_span, y0, method, rtol, atol, params, events, max_step, tstops,
                      max_steps, inputs)  # as simulation.RUN_ARGUMENTS names them
+        if sensitivities is not None:
+            spec = simulation.run_spec(self, arguments, t_eval)
+            return variational.simulate_sensitivities(self, spec, sensitivities,
+                                                      y0 is not None)
         result = simulation.simulate(self, arguments, t_eval)
         result.model = self  # the result knows its model, and runs again at other times
         result.run_arguments = arguments

@@ -72,6 +72,10 @@ class SimulationResult:
     # name -> (times, states just before each, shape (k, n_state)): the scene's events that
     # fired, then simulate(events=...)'s callables by their __name__
     events: Mapping[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    # simulate(..., sensitivities=[...])'s: name -> d y(t) / d name, (n_state, n_t) ("y0":
+    # (n_state, n_state, n_t)); and the outputs': name -> output -> (n_t,) ("y0": (n_state, n_t))
+    sensitivities: Mapping[str, np.ndarray] = field(default_factory=dict)
+    output_sensitivities: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
 
     @property
     def t_events(self) -> list[np.ndarray]:

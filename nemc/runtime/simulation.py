@@ -53,6 +53,24 @@ RUN_ARGUMENTS = ("t_span", "y0", "method", "rtol", "atol", "params", "events", "
 def simulate(model: BuiltModel, arguments: tuple, t_eval: Any) -> SimulationResult:
     """The run of simulate()'s ARGUMENTS (as RUN_ARGUMENTS names them) at the times T_EVAL:
     each resolved against the scene, then the defaults, and checked, in this order."""
+    spec = run_spec(model, arguments, t_eval)
+    if not model.has_loops:
+        return integrate(model, spec)
+    y0 = arguments[1]
+    state0, freedom = model.loops.assembled(spec.span[0], spec.state0,
+                                            model.loops.given_mask(y0), spec.p)
+    spec = RunSpec(spec.method, spec.span, state0, spec.times, spec.rtol, spec.atol, spec.p,
+                   spec.settings, spec.user_events, spec.inputs)
+    if freedom == 0:
+        return kinematic_run(model, spec)
+    result = integrate(model, spec)
+    result.y = model.loops.projected(result.t, result.y, spec.p)
+    return result
+
+
+def run_spec(model: BuiltModel, arguments: tuple, t_eval: Any) -> RunSpec:
+    """simulate()'s ARGUMENTS resolved against the scene, then the defaults, and checked, in
+    this order, into one run's plan (a closed loop's state not yet assembled)."""
     t_span, y0, method, rtol, atol, params, events, max_step, tstops, max_steps, inputs = \
         arguments
     p = model.parameter_table.vector(params)  # Model.parameter_vector's, one call less
@@ -70,17 +88,8 @@ def simulate(model: BuiltModel, arguments: tuple, t_eval: Any) -> SimulationResu
     settings = checked_settings(scene, span, max_step, tstops, max_steps)
     if varying is not None and varying.tables:  # every step lands on the tables' samples
         settings = with_tstops(settings, varying.tstops, span)
-    user_events = checked_events(events)
-    if not model.has_loops:
-        return integrate(model, RunSpec(method, span, state0, times, rtol, atol, p, settings,
-                                        user_events, varying))
-    state0, freedom = model.loops.assembled(span[0], state0, model.loops.given_mask(y0), p)
-    spec = RunSpec(method, span, state0, times, rtol, atol, p, settings, user_events, varying)
-    if freedom == 0:
-        return kinematic_run(model, spec)
-    result = integrate(model, spec)
-    result.y = model.loops.projected(result.t, result.y, p)
-    return result
+    return RunSpec(method, span, state0, times, rtol, atol, p, settings,
+                   checked_events(events), varying)
 
 
 def integrate(model: BuiltModel, spec: RunSpec) -> SimulationResult:

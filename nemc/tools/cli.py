@@ -1,5 +1,6 @@
 """The `nemc` command: compile, simulate, show, check, bench, stress, animate, sweep, linearize
 (plant_cli.py), export (fmu_cli.py).
+(plant_cli.py), fit (fit_cli.py).
 
 Exit status: 0 success; 2 bad input (`FILE:LINE: key.path: what is wrong`, no traceback);
 1 any other failure (e.g. the C compiler failed: the message names the C file and its error);
@@ -20,6 +21,7 @@ from pathlib import Path
 
 from ..errors import BuildError, InputError, OutputRefused
 from .fmu_cli import add_export_parser, cmd_export
+from .fit_cli import add_fit_parser, cmd_fit
 from .plant_cli import add_linearize_parser, cmd_linearize
 
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
@@ -87,6 +89,9 @@ def make_parser() -> argparse.ArgumentParser:
                       help="also build nemc.Taylor's coefficient code")
     comp.add_argument("--linearization", action="store_true",
                       help="also build the exact linearization (model.linearize, trim)")
+    comp.add_argument("--sensitivities", action="store_true",
+                      help="also build the variational equations (simulate(sensitivities=),"
+                      " nemc.fit)")
     sim = commands.add_parser("simulate", help="run the scene and print the table")
     sim.add_argument("mechanism")
     add_run_options(sim)
@@ -121,6 +126,7 @@ def make_parser() -> argparse.ArgumentParser:
     add_sweep_parser(commands)
     add_linearize_parser(commands, parse_assignment, parse_initial)
     add_export_parser(commands)
+    add_fit_parser(commands, parse_assignment)
     return parser
 
 
@@ -300,7 +306,8 @@ def cmd_compile(args: argparse.Namespace) -> int:
 
     compiled = compile_mechanism(args.mechanism, args.jacobian, taylor=args.taylor,
                                  mass_matrix=bool(args.jacobian),
-                                 linearization=args.linearization)
+                                 linearization=args.linearization,
+                                 sensitivities=args.sensitivities)
     target = export(compiled.package, Path(args.output), compiled.model.name)
     print(target)
     state = "cached build loaded" if compiled.cached else "built"
@@ -582,6 +589,7 @@ COMMANDS = {
     "sweep": cmd_sweep,
     "linearize": cmd_linearize,
     "export": cmd_export,
+    "fit": cmd_fit,
 }
 
 

@@ -1,0 +1,66 @@
+"""Forward sensitivities along a run: the programs of the variational equations of a tree.
+
+For a parameter (or an input's constant term, or none: an initial value) direction e and the
+state's sensitivity s = d y / d (direction), the variational equations are
+
+    ds/dt = J_y(t, y, p) s + J_p(t, y, p) e,
+
+which is the forward-mode derivative of the right-hand side along the seeds (y -> s, p -> e):
+the same tangent as the linearization's (linearization.py), with the parameters seeded as well
+as the state. The generated C (templates/sensitivities.c.tmpl) runs the accelerations' program
+once and its tangent once per sensitivity column, each column seeded with its own s and e: no
+Jacobian is formed, no matrix product made. The outputs' tangent along the same seeds gives the
+outputs' sensitivities by the chain rule (through the accelerations' and drives' tangents), and
+the initial state's partial derivatives by the parameters give the columns' start (a scene's
+initial values may be expressions of parameters).
+
+A closed loop's sensitivities need the projection onto the constraints' tangent space and the
+assembly's sensitivity: not derived here (`unavailable`)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import sympy
+
+from .linearization import Linearization, linearization, state_seeds
+from .program import Program
+
+
+@dataclass(frozen=True)
+class Sensitivities:
+    """The programs of a tree's variational equations, in runtime symbols."""
+
+    tangents: Linearization  # the accelerations', drives' and outputs' tangents along seeds
+    parameter_seeds: Mapping[sympy.Symbol, sympy.Symbol]  # runtime parameter -> its seed
+    initial: tuple[sympy.Expr, ...]  # d y0[i] / d p[k], row-major (state entry, parameter)
+
+    @property
+    def dynamics(self) -> Program:
+        return self.tangents.dynamics
+
+    @property
+    def state_seeds(self) -> Mapping[sympy.Symbol, sympy.Symbol]:
+        return {symbol: seed for symbol, seed in self.tangents.seeds.items()
+                if symbol not in self.parameter_seeds}
+
+
+def parameter_seeds(parameters: tuple[sympy.Symbol, ...]) -> dict[sympy.Symbol, sympy.Symbol]:
+    """The tangent of each runtime parameter (printed SEED_P(k))."""
+    return {p: sympy.Dummy(f"seed_p_{k}", real=True) for k, p in enumerate(parameters)}
+
+
+def sensitivities(dynamics: Program, state: tuple[sympy.Symbol, ...],
+                  parameters: tuple[sympy.Symbol, ...], results: tuple[sympy.Symbol, ...],
+                  outputs: tuple[sympy.Expr, ...],
+                  initial_state: tuple[sympy.Expr, ...]) -> Sensitivities:
+    """DYNAMICS (a tree's accelerations, then its drives: RESULTS name them) and OUTPUTS
+    differentiated along the STATE's and the PARAMETERS' seeds; the INITIAL_STATE's
+    derivatives by the parameters."""
+    by_parameter = parameter_seeds(parameters)
+    tangents = linearization(dynamics, {**state_seeds(state), **by_parameter}, results,
+                             outputs)
+    initial = tuple(sympy.diff(sympy.sympify(value), p) for value in initial_state
+                    for p in parameters)
+    return Sensitivities(tangents, by_parameter, initial)

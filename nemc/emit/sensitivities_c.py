@@ -1,0 +1,160 @@
+"""The variational equations' C, an optional part of a build (nemc/derive/sensitivities.py):
+the sensitivity system's right-hand side (templates/sensitivities.c.tmpl), the initial state's
+derivatives by the parameters, and the outputs' sensitivities at a point of a run
+(templates/output_sensitivities.c.tmpl). Exact: the accelerations' program once, then its
+forward-mode derivative once per sensitivity column.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import sympy
+
+from ..derive.equations import Equations
+from ..derive.program import Guard, Program
+from .angles_c import angles_c
+from .c_text import SymbolTablePrinter
+from .jacobian_c import jacobian_programs
+from .optimize import Block
+from .parts import Units
+from .printing import STATE_INPUTS, Caller, Printed, body, program_body, template
+
+SEEDS = (("const double *", "seed"), ("const double *", "seed_p"))
+PRIMAL = Caller("sensitivity_primal", "The accelerations and drives, and what their "
+                "derivative reads", STATE_INPUTS, ("QDD", "qdd"), "v")
+TANGENT = Caller("sensitivity_tangent", "The derivative of the accelerations and drives "
+                 "along seed and seed_p", (*STATE_INPUTS, *SEEDS, ("const double *", "v")),
+                 ("DQDD", "dqdd"), "dv", indent=" " * 8)
+OUTPUT_PRIMAL = dataclasses.replace(PRIMAL, function="output_sensitivity_primal")
+OUTPUT_TANGENT = dataclasses.replace(TANGENT, function="output_sensitivity_tangent")
+
+
+def sensitivities_section(eqs: Equations, block: Block, printer: SymbolTablePrinter,
+                          prefix: str, chunk_steps: int, units: Units | None = None) -> str:
+    """The sensitivity system's functions, or the functions saying this build has none."""
+    absent = template("sensitivities_absent.c.tmpl").substitute(prefix=prefix)
+    no_outputs = template("output_sensitivities_absent.c.tmpl").substitute(prefix=prefix)
+    if eqs.sensitivities is None:
+        return absent + no_outputs
+    primal, coefficients, tangent = system_programs(eqs, block, printer, chunk_steps, units)
+    rows = [(f"out[{i * len(eqs.parameters) + k}]", expr) for i in range(len(eqs.state))
+            for k, expr in enumerate(block.groups["sensitivity_initial"][
+                i * len(eqs.parameters): (i + 1) * len(eqs.parameters)])]
+    system = template("sensitivities.c.tmpl").substitute(
+        prefix=prefix, sensitivity_parts=primal.functions + tangent.functions,
+        primal=primal.body, coefficients=coefficients, tangent=tangent.body,
+        initial=body(printer, block, rows))
+    return system + output_sensitivities(eqs, block, printer, prefix, chunk_steps, units)
+
+
+def system_programs(eqs: Equations, block: Block, printer: SymbolTablePrinter,
+                    chunk_steps: int, units: Units | None) -> tuple[Printed, str, Printed]:
+    """The system's primal, the tangent's coefficients (computed once) and its columns' steps:
+    hoisted (hoisted_tangent) where the programs are short enough for one body, else the
+    tangent as the Jacobian prints it (in parts), every column computing its coefficients."""
+    programs = block.programs
+    dynamics, tangent = programs["dynamics"], programs["sensitivities"]
+    if max(dynamics.size, tangent.size) <= chunk_steps:
+        angles = angles_c(eqs, printer, dynamics, tangent)
+        assert angles.reader is not None
+        seeds = set(eqs.sensitivities.tangents.seeds.values()) if eqs.sensitivities else set()
+        hoisted = hoisted_tangent(angles.printer.with_names({}, order="none"), angles.reader,
+                                  seeds)
+        if hoisted is not None:
+            primal = Printed("", angles.prologue + program_body(angles.printer, angles.program,
+                                                                PRIMAL.writes))
+            return primal, hoisted[0], Printed("", hoisted[1])
+    primal, columns = jacobian_programs(eqs, printer, dynamics, tangent, chunk_steps, units,
+                                        (PRIMAL, TANGENT))
+    return primal, "", columns
+
+
+def output_sensitivities(eqs: Equations, block: Block, printer: SymbolTablePrinter,
+                         prefix: str, chunk_steps: int, units: Units | None = None) -> str:
+    """The outputs' sensitivities at a point, or the function saying the scene has none."""
+    programs = block.programs
+    if "sensitivity_outputs_tangent" not in programs:
+        return template("output_sensitivities_absent.c.tmpl").substitute(prefix=prefix)
+    primal, tangent = jacobian_programs(eqs, printer, programs["dynamics"],
+                                        programs["sensitivities"], chunk_steps, units,
+                                        (OUTPUT_PRIMAL, OUTPUT_TANGENT))
+    outputs = program_body(printer, programs["sensitivity_outputs"], ())
+    outputs_tangent = program_body(printer.with_names({}, order="none"),
+                                   programs["sensitivity_outputs_tangent"], "DOUT", " " * 8)
+    return template("output_sensitivities.c.tmpl").substitute(
+        prefix=prefix, output_parts=primal.functions + tangent.functions, primal=primal.body,
+        tangent=tangent.body, outputs=outputs, outputs_tangent=outputs_tangent)
+
+
+# ---- the columns' tangent with its coefficients hoisted out of the loop over columns ---------
+# The tangent is linear in the seeds and in its own earlier steps: each step is a sum of
+# coefficient x tangent, the coefficients functions of the primal values only. They are the
+# same for every column, so they are computed once, before the loop, and each column's steps
+# are then short sums of products.
+
+Linear = dict[sympy.Symbol, sympy.Expr]  # tangent symbol -> its coefficient
+
+
+class NotLinear(Exception):
+    """A tangent step that is not a sum of coefficient x tangent (then printed as it is)."""
+
+
+def linear_form(expr: sympy.Expr, tangents: frozenset[sympy.Symbol]) -> Linear:
+    """EXPR as {tangent: coefficient}, the coefficients free of TANGENTS."""
+    expr = sympy.sympify(expr)
+    if expr in tangents:
+        return {expr: sympy.S.One}
+    if not (expr.free_symbols & tangents):
+        if expr == 0:
+            return {}
+        raise NotLinear(expr)
+    if expr.is_Add:
+        total: Linear = {}
+        for term in expr.args:
+            for symbol, coefficient in linear_form(term, tangents).items():
+                total[symbol] = total.get(symbol, sympy.S.Zero) + coefficient
+        return total
+    if expr.is_Mul:
+        varying = [f for f in expr.args if f.free_symbols & tangents]
+        if len(varying) != 1:
+            raise NotLinear(expr)
+        scale = sympy.Mul(*(f for f in expr.args if f is not varying[0]))
+        return {symbol: scale * coefficient
+                for symbol, coefficient in linear_form(varying[0], tangents).items()}
+    raise NotLinear(expr)
+
+
+def hoisted_tangent(printer: SymbolTablePrinter, tangent: Program, seeds: set[sympy.Symbol]
+                    ) -> tuple[str, str] | None:
+    """The tangent as (the coefficients' lines, before the loop over columns; each column's
+    steps and results), or None where a step is not linear or the program has guards."""
+    if any(isinstance(step, Guard) for step in tangent.steps):
+        return None
+    tangents = frozenset(seeds | {name for name, _ in tangent.assignments()})
+    coefficients: dict[sympy.Expr, sympy.Symbol] = {}
+
+    def named(coefficient: sympy.Expr) -> sympy.Expr:
+        if coefficient.is_Number or coefficient.is_Symbol:
+            return coefficient
+        if -coefficient in coefficients:
+            return -coefficients[-coefficient]
+        if coefficient not in coefficients:
+            coefficients[coefficient] = sympy.Dummy(f"kc{len(coefficients)}", real=True)
+        return coefficients[coefficient]
+
+    try:
+        steps = [(name, linear_form(expr, tangents)) for name, expr in tangent.assignments()]
+        results = [linear_form(result, tangents) for result in tangent.results]
+    except NotLinear:
+        return None
+    sums = [(name, sympy.Add(*(named(c) * t for t, c in form.items())))
+            for name, form in steps]
+    result_sums = [sympy.Add(*(named(c) * t for t, c in form.items())) for form in results]
+    inner = printer.with_names({s: s.name for s in coefficients.values()}, order="none")
+    before = "\n".join(f"    const double {symbol.name} = {printer.doprint(expr)};"
+                       for expr, symbol in coefficients.items())
+    indent = " " * 8
+    loop = [f"{indent}const double {name.name} = {inner.doprint(expr)};" for name, expr in sums]
+    loop += [f"{indent}DQDD({i}) = {inner.doprint(expr)};" for i, expr in enumerate(result_sums)]
+    return before, "\n".join(loop)

@@ -1,0 +1,484 @@
+"""Forward sensitivities along a run (simulate(..., sensitivities=[...])): d y(t) / d p for named
+parameters and inputs, and d y(t) / d y0, from the variational equations
+
+    ds_j/dt = J_y(t, y, p) s_j + J_p(t, y, p) e_j
+
+integrated with the state as one system, in the same error control (the build's part
+"sensitivities": templates/sensitivities.c.tmpl evaluates the whole system's right-hand side in
+one C call, the accelerations' program once and its exact forward-mode derivative once per
+column). The columns' start: the unit vectors for initial values, d y0 / d p for a parameter
+when the scene's initial state is used (its values may be expressions of parameters), else 0.
+
+The system runs with nemc.DOP853 and nemc.Vern9 (the drivers compiled for the system's size
+once, kept in the cache: nemc/build/systems.py; the model's events located on the state's
+entries) or with scipy's methods (the implicit ones with the block-diagonal Jacobian diag(J_y,
+..., J_y): the Newton iteration's, the second derivatives left out). A closed loop's
+sensitivities, impacts (a jump in the sensitivities), inputs given as Python functions,
+nemc.Radau and nemc.Taylor are refused, each by name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..vocabulary import (
+    AUTO,
+    AUTO_VERN9_BELOW_RTOL,
+    IMPLICIT_METHODS,
+    NATIVE_METHODS,
+    SCIPY_METHODS,
+)
+from . import native, runs
+from .built import BuiltModel
+from .checks import native_tolerances
+from .compiled import arm_callback
+from .failures import IntegrationFailure, ModelError
+from .outcome import RunSpec, ended_early, gave_up, lazy_outputs
+from .results import LazyOutputs, SimulationResult
+
+INITIAL_VALUES = "y0"  # the name asking for d y(t) / d y0, every initial value at once
+SCIPY_DEFAULT = "DOP853"  # "auto" where the native drivers cannot run (a standalone package,
+#                           events= callables): scipy's DOP853
+SYSTEM_METHODS = ("nemc.DOP853", "nemc.Vern9")  # the native methods that take the system
+
+
+@dataclass(frozen=True)
+class Columns:
+    """The sensitivity columns of a run: for each requested name its columns (a slice), each
+    column's start s_j(t0) (n_state x k) and its direction in the parameters e_j (k x
+    n_param)."""
+
+    names: tuple[str, ...]
+    slices: Mapping[str, slice]
+    start: np.ndarray
+    directions: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return self.directions.shape[0]
+
+    def parameters(self, p: np.ndarray) -> np.ndarray:
+        """The sensitivity system's parameter vector: p, the count, the directions."""
+        return np.concatenate([p, [float(self.count)], self.directions.ravel()])
+
+
+def requested(names: Any) -> tuple[str, ...]:
+    """sensitivities=: a name or a sequence of names, each once."""
+    listed = [names] if isinstance(names, str) else names
+    try:
+        listed = list(listed)
+    except TypeError:
+        raise ModelError(f"sensitivities must be a list of names (parameters, inputs, initial "
+                         f"values or \"y0\"), got {names!r}") from None
+    for name in listed:
+        if not isinstance(name, str):
+            raise ModelError(f"sensitivities: names are strings, got {name!r}")
+    repeated = sorted({name for name in listed if listed.count(name) > 1})
+    if repeated:
+        raise ModelError(f"sensitivities: {repeated} asked for more than once")
+    if not listed:
+        raise ModelError("sensitivities: no name given (parameters, inputs, initial values "
+                         "or \"y0\")")
+    return tuple(listed)
+
+
+def columns(model: BuiltModel, names: Sequence[str], p: np.ndarray,
+            initial_tangent: np.ndarray | None) -> Columns:
+    """The columns of NAMES: "y0" (every initial value), a state entry's name (its initial
+    value), a parameter or an input (its constant term: d y / d u for a constant input).
+    INITIAL_TANGENT: d y0 / d p (n_state x n_param) where the scene's initial state is used,
+    else None (a given y0 does not move with the parameters)."""
+    n, size = model.n_state, p.size
+    starts: list[np.ndarray] = []
+    directions: list[np.ndarray] = []
+    slices: dict[str, slice] = {}
+    for name in names:
+        first = len(starts)
+        if name == INITIAL_VALUES or name in model.state_names:
+            entries = range(n) if name == INITIAL_VALUES else [model.state_names.index(name)]
+            for i in entries:
+                starts.append(np.eye(n)[i])
+                directions.append(np.zeros(size))
+        else:
+            index = direction_index(model, name)
+            direction = np.zeros(size)
+            direction[index] = 1.0
+            starts.append(np.zeros(n) if initial_tangent is None else initial_tangent[:, index])
+            directions.append(direction)
+        slices[name] = slice(first, len(starts))
+    return Columns(tuple(names), slices, np.array(starts).T.copy(), np.array(directions))
+
+
+def direction_index(model: BuiltModel, name: str) -> int:
+    """Where in p the direction of NAME lies: a parameter's place, an input's constant term;
+    a derived parameter or an unknown name refused."""
+    if name in model.input_names:
+        return model.input_layout.value_index(name)
+    if name in model.parameter_names or name in model.derived_parameters:
+        return model.parameter_table.index(name)  # a derived one: refused, with its formula
+    import difflib
+
+    known = [INITIAL_VALUES, *model.parameter_names, *model.input_names, *model.state_names]
+    close = difflib.get_close_matches(name, known, n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    raise ModelError(f"sensitivities: unknown name {name!r}{hint} (parameters "
+                     f"{list(model.parameter_names)}, inputs {list(model.input_names)}, initial "
+                     f"values {list(model.state_names)} or \"y0\")")
+
+
+def sensitivity_build(model: BuiltModel) -> BuiltModel:
+    """The build with the part "sensitivities" (compiled on first need), or a refusal saying
+    why this model cannot have it."""
+    why = model.metadata.get("sensitivities_unavailable")
+    if why:
+        raise ModelError(f"sensitivities: {why}")
+    build = model.compiled_with("sensitivities")
+    why = build.metadata.get("sensitivities_unavailable")
+    if why:
+        raise ModelError(f"sensitivities: {why}")
+    if not build.has_part("sensitivities"):
+        raise ModelError("sensitivities: this standalone package was built without its "
+                         "variational equations: compile it with nemc (nemc compile "
+                         "--sensitivities)")
+    return build
+
+
+def checked_spec(model: BuiltModel, spec: RunSpec) -> RunSpec:
+    """The run's plan with its method for sensitivities: scipy's (DOP853 for none or "auto");
+    what cannot have sensitivities refused by name."""
+    if model.has_loops:
+        raise ModelError("sensitivities: a closed loop's sensitivities (projected onto its "
+                         "constraints, its assembly's own) are not available yet: trees only")
+    impacts = [event["name"] for event in model.compiled.event_table
+               if event["action"] == "impact"]
+    if impacts:
+        raise ModelError(f"sensitivities: the scene's impact events {impacts} jump the state, "
+                         "and the jump of the sensitivities there is not computed yet; run "
+                         "without them (a copy of the file without the impacts)")
+    if spec.inputs is not None and spec.inputs.callables:
+        raise ModelError("sensitivities: an input given as a Python function has no derivative "
+                         "nemc can take; give it as a number, a table or nemc.feedback(...)")
+    method = spec.method
+    native_ok = model.system_drivers is not None and not spec.user_events
+    if method == AUTO:
+        if not native_ok:
+            return spec.but(method=SCIPY_DEFAULT)
+        return spec.but(method="nemc.Vern9" if spec.rtol < AUTO_VERN9_BELOW_RTOL
+                        else "nemc.DOP853")
+    if method in NATIVE_METHODS and method not in SYSTEM_METHODS:
+        raise ModelError(f"sensitivities: {method} does not integrate the variational equations"
+                         f" yet: {', '.join(SYSTEM_METHODS)} or scipy's methods "
+                         f"({', '.join(SCIPY_METHODS)}) do")
+    if method in NATIVE_METHODS and spec.user_events:
+        raise ModelError(f"events= callables need one of scipy's methods: {method} runs in C")
+    if method in NATIVE_METHODS and model.system_drivers is None:
+        raise ModelError(f"sensitivities with {method} need nemc to build the native "
+                         "integrators for the sensitivity system: this standalone package "
+                         f"runs them with scipy's methods ({', '.join(SCIPY_METHODS)})")
+    return spec
+
+
+def simulate_sensitivities(model: BuiltModel, spec: RunSpec, names: Any,
+                           y0_given: bool) -> SimulationResult:
+    """One run of SPEC with the sensitivities of NAMES (see Model.simulate). Y0_GIVEN: the
+    caller gave y0 (then it does not move with the parameters)."""
+    names = requested(names)
+    spec = checked_spec(model, spec)
+    build = sensitivity_build(model)
+    tangent = None if y0_given else initial_tangent(build, spec.p)
+    cols = columns(model, names, spec.p, tangent)
+    if spec.span[0] == spec.span[1]:
+        raise ModelError("sensitivities: t_span is empty (t0 == t1): nothing to integrate")
+    return run_system(model, build, spec, cols)
+
+
+def initial_tangent(build: BuiltModel, p: np.ndarray) -> np.ndarray:
+    """d y0 / d p of the scene's initial state at p (n_state x n_param)."""
+    out = np.empty((build.n_state, p.size))
+    compiled = build.compiled
+    compiled.functions["initial_state_tangent"](compiled.buffer(p), compiled.buffer(out))
+    return out
+
+
+def run_system(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Columns
+               ) -> SimulationResult:
+    """The sensitivity system integrated with the run's method, split into the run's states
+    and their sensitivities."""
+    n = model.n_state
+    z0 = np.concatenate([spec.state0, cols.start.T.ravel()])
+    run = native_run if spec.method in NATIVE_METHODS else scipy_run
+    try:
+        outcome = run(model, build, spec, cols, z0)
+    except IntegrationFailure as failure:
+        return failed_run(model, spec, cols, failure)
+    t, z = outcome.t, outcome.z
+    y = z[:n].copy()
+    finite = bool(np.all(np.isfinite(z)))
+    result = SimulationResult(
+        t, y, lazy_outputs(model, t, y, spec.p, spec.inputs), outcome.nfev, outcome.njev,
+        outcome.nlu, outcome.status, outcome.message if finite else
+        "the sensitivities are not finite: " + outcome.message,
+        outcome.status >= 0 and finite, spec.method, outcome.rtol, outcome.atol,
+        model.parameters_at(spec.p),
+        {name: (times, states[:, :n]) for name, (times, states) in outcome.events.items()})
+    result.sensitivities = split_columns(z[n:], cols, n)
+    result.output_sensitivities = output_sensitivities(model, build, spec, cols, t, z)
+    return result
+
+
+@dataclass
+class SystemOutcome:
+    """What a run of the system gives: its times and states z (N x n_t), status, message,
+    counts, tolerances and events (their states z)."""
+
+    t: np.ndarray
+    z: np.ndarray
+    status: int
+    message: str
+    nfev: int
+    njev: int
+    nlu: int
+    rtol: float
+    atol: float
+    events: Mapping[str, tuple[np.ndarray, np.ndarray]]
+
+
+def failed_run(model: BuiltModel, spec: RunSpec, cols: Columns,
+               failure: IntegrationFailure) -> SimulationResult:
+    """A run whose equations failed: where and why, its sensitivities NaN there."""
+    from .outcome import failed
+
+    result = failed(failure, spec.method, spec.rtol, spec.atol, model.parameters_at(spec.p))
+    n = model.n_state
+    result.sensitivities = split_columns(np.full((n * cols.count, 1), np.nan), cols, n)
+    return result
+
+
+def scipy_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Columns,
+              z0: np.ndarray) -> SystemOutcome:
+    """The system by solve_ivp under the run settings, the scene's events and events=."""
+    from scipy.integrate import solve_ivp
+
+    n = model.n_state
+    system = SystemRhs(build, spec, cols)
+    jac = system_jacobian(model, spec, cols) if spec.method in IMPLICIT_METHODS else None
+    options = {"rtol": spec.rtol, "atol": spec.atol, **({"jac": jac} if jac else {})}
+    p_at = None if spec.inputs is None else spec.inputs.at
+    events = model.compiled.model_events(spec.p, p_at)  # their C reads the state's entries
+    user_events = [state_event(event, n) for event in spec.user_events]
+    with runs.interrupt_flag() as flag:
+        outcome, control = runs.simulate_scipy(
+            solve_ivp, system, spec.method, spec.span, z0,
+            None if spec.times is None else np.asarray(spec.times, dtype=float), options,
+            events, user_events, spec.settings, flag)
+    status, message = outcome.status, outcome.message
+    if control.stop:
+        status = control.stop
+        message = ended_early(model, runs.Ending(
+            status, control.t, spec.span, control.steps, spec.method,
+            spec.settings.max_steps, control.y[:n], control.h_recent, control.stiff_from,
+            control.stiffness), spec.p)
+    elif status == -1 and system.last[1] is not None:
+        message = gave_up(model, message, system.last[0], system.last[1][:n], spec.p)
+    return SystemOutcome(outcome.t, outcome.y, status, message, outcome.nfev, outcome.njev,
+                         outcome.nlu, spec.rtol, spec.atol, outcome.events)
+
+
+class SystemDrivers:
+    """The cffi module of the native integrators for the system's size, as native.py's
+    helpers take a build's (ffi, buffer, the run's types, Ctrl-C's callback)."""
+
+    def __init__(self, module: Any):
+        self.ffi, self.lib = module.ffi, module.lib
+        self.run_pointer, self.int_pointer = (self.ffi.typeof("nemc_run *"),
+                                              self.ffi.typeof("int *"))
+        self.double_array = self.ffi.typeof("double[]")
+        self.arm_interrupts = arm_callback(self.ffi)
+
+    def buffer(self, array: np.ndarray) -> Any:
+        return self.ffi.from_buffer(self.double_array, array)
+
+    def function(self, build: BuiltModel, name: str) -> Any:
+        """The build's C function NAME as a pointer these drivers call."""
+        compiled = build.compiled
+        address = compiled.ffi.cast("uintptr_t", compiled.ffi.addressof(
+            compiled.lib, compiled.prefix + name))
+        return self.ffi.cast("nemc_system_fn", int(address))
+
+
+def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Columns,
+               z0: np.ndarray) -> SystemOutcome:
+    """The system by nemc.DOP853 or nemc.Vern9 in C, the drivers compiled for its size."""
+    assert model.system_drivers is not None
+    size = z0.size
+    drivers = SystemDrivers(model.system_drivers(size))
+    rtol, atol = native_tolerances(spec.rtol, spec.atol)
+    run, keep = native.new_run(drivers, spec.span, spec.times, rtol, atol, spec.settings)
+    p = cols.parameters(spec.p)
+    if spec.inputs is not None and spec.inputs.tables:
+        keep.append(native.table_inputs(drivers, run, spec.inputs, p.size))
+    n_eval = -1 if spec.times is None else len(spec.times)
+    out = np.empty((max(n_eval, 0) + 1, size))
+    run.y_eval = out_buffer = drivers.buffer(out)
+    run.y_fail = out_buffer + max(n_eval, 0) * size
+    table = model.compiled.event_table
+    directions = np.array([runs.DIRECTIONS[e["direction"]] for e in table] or [0],
+                          dtype=np.intc)
+    actions = np.array([{"record": 0, "stop": 1}[e["action"]] for e in table] or [0],
+                       dtype=np.intc)
+    ints = drivers.ffi.typeof("int[]")
+    rhs, events = (drivers.function(build, "sensitivity_rhs"),
+                   drivers.function(build, "events") if table else drivers.ffi.NULL)
+
+    def integrate(method: int, run: Any, y0: Any, p: Any) -> int:
+        return drivers.lib.nemc_system_integrate(
+            method, rhs, len(table), drivers.ffi.from_buffer(ints, directions),
+            drivers.ffi.from_buffer(ints, actions), events, run, y0, p)
+
+    method_id = getattr(drivers.lib, "NEMC_" + spec.method.split(".")[1].upper())
+    try:
+        status = native.run_in_c(drivers, integrate, method_id, run, drivers.buffer(z0),
+                                 drivers.buffer(p))
+        t, z = native_states(drivers, run, spec, out)
+        found = native_events(drivers, run, table, size)
+    finally:
+        drivers.lib.nemc_system_free_steps(run)
+    if status == drivers.lib.NEMC_RHS_FAILED:
+        raise IntegrationFailure(run.t_fail, out[-1][:model.n_state], run.rhs_status,
+                                 model.state_names, build.compiled.status_cause(run.rhs_status))
+    message = native.native_message(model, spec, run, out[-1][:model.n_state])
+    return SystemOutcome(t, z, status, message, run.nfev, run.njev, run.nlu, rtol, atol, found)
+
+
+def native_states(drivers: SystemDrivers, run: Any, spec: RunSpec, out: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The run's times and states z: at t_eval (those reached), or at its steps."""
+    size = out.shape[1]
+    if spec.times is None:
+        count = run.n_out
+        t = np.frombuffer(drivers.ffi.buffer(run.steps_t, 8 * count), dtype=float).copy()
+        z = np.frombuffer(drivers.ffi.buffer(run.steps_y, 8 * count * size), dtype=float)
+        return t, z.reshape(count, size).T.copy()
+    reached = run.n_out
+    return np.asarray(spec.times)[:reached], out[:reached].T.copy()
+
+
+def native_events(drivers: SystemDrivers, run: Any, table: list, size: int
+                  ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """The scene's events that fired, by name: (times, system states before)."""
+    count = run.n_event_out
+    if not table or not count:
+        return {event["name"]: (np.empty(0), np.empty((0, size))) for event in table}
+    ffi = drivers.ffi
+    which = np.frombuffer(ffi.buffer(run.event_which, 4 * count), dtype=np.intc)
+    times = np.frombuffer(ffi.buffer(run.event_t, 8 * count), dtype=float)
+    states = np.frombuffer(ffi.buffer(run.event_y, 8 * count * size), dtype=float).reshape(
+        count, size)
+    return {event["name"]: (times[which == k].copy(), states[which == k].copy())
+            for k, event in enumerate(table)}
+
+
+def split_columns(s: np.ndarray, cols: Columns, n: int) -> dict[str, np.ndarray]:
+    """The integrated columns (k n x n_t) by name: (n_state, n_t) each, "y0" (n_state,
+    n_state, n_t) (d y_i(t) / d y0_j at [i, j])."""
+    by_column = s.reshape(cols.count, n, -1)
+    found = {}
+    for name, where in cols.slices.items():
+        block = by_column[where]
+        found[name] = (np.ascontiguousarray(block.transpose(1, 0, 2))
+                       if name == INITIAL_VALUES else block[0].copy())
+    return found
+
+
+class SystemRhs:
+    """solve_ivp's fun of the sensitivity system: the build's sensitivity_rhs in one C call;
+    `last` holds the latest [t, z] (where a solver that gave up stopped)."""
+
+    def __init__(self, build: BuiltModel, spec: RunSpec, cols: Columns):
+        compiled = build.compiled
+        self.call, self.buffer = compiled.functions["sensitivity_rhs"], compiled.buffer
+        self.cause, self.names = compiled.status_cause, build.state_names
+        self.cols, self.inputs = cols, spec.inputs
+        self.p = cols.parameters(spec.p)
+        self.p_buffer = self.buffer(self.p)
+        self.size = build.n_state * (1 + cols.count)
+        self.last: list = [0.0, None]
+
+    def __call__(self, t: float, z: np.ndarray) -> np.ndarray:
+        z = np.ascontiguousarray(z, dtype=np.float64)
+        self.last[0], self.last[1] = t, z
+        p = self.p_buffer
+        if self.inputs is not None:  # a table's segment at t
+            p = self.buffer(self.cols.parameters(self.inputs.at(t, z[:len(self.names)])))
+        dz = np.empty(self.size)
+        status = self.call(t, self.buffer(z), p, self.buffer(dz))
+        if status:
+            n = len(self.names)
+            raise IntegrationFailure(t, z[:n], status, self.names, self.cause(status))
+        return dz
+
+
+def system_jacobian(model: BuiltModel, spec: RunSpec, cols: Columns
+                    ) -> Callable[[float, np.ndarray], np.ndarray] | None:
+    """The implicit methods' Jacobian of the system: diag(J_y, ..., J_y) (the exact J_y of the
+    build with the part "jacobian"; the terms of second derivatives left out: Newton's
+    iteration converges on it), or None where the package has no Jacobian."""
+    source = model.compiled_with("jacobian")
+    if not source.has_part("jacobian") or spec.inputs is not None:
+        return None
+    jacobian = source.compiled.integrator_jacobian(spec.p)
+    n, blocks = model.n_state, cols.count + 1
+
+    def system(t: float, z: np.ndarray) -> np.ndarray:
+        return np.kron(np.eye(blocks), jacobian(t, np.ascontiguousarray(z[:n])))
+
+    return system
+
+
+def state_event(event: Callable, n: int) -> Callable:
+    """A simulate(events=...) callable event(t, y) called with the system's state z: y =
+    z[:n], its terminal and direction kept."""
+    def on_state(t: float, z: np.ndarray) -> float:
+        return event(t, z[:n])
+
+    for attribute in ("terminal", "direction"):
+        if hasattr(event, attribute):
+            setattr(on_state, attribute, getattr(event, attribute))
+    on_state.__name__ = getattr(event, "__name__", "event")
+    return on_state
+
+
+def output_sensitivities(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Columns,
+                         t: np.ndarray, z: np.ndarray) -> Mapping[str, Any]:
+    """The outputs' sensitivities along the run by the chain rule in C, computed when first
+    read: name -> output -> (n_t,) ("y0": (n_state, n_t))."""
+    if not model.output_names or not t.size:
+        return {}
+    return LazyOutputs(outputs_along, build, spec, cols, t, z)
+
+
+def outputs_along(build: BuiltModel, spec: RunSpec, cols: Columns, t: np.ndarray,
+                  z: np.ndarray) -> dict[str, Any]:
+    compiled, n = build.compiled, build.n_state
+    call, buffer = compiled.functions["output_sensitivities"], compiled.buffer
+    n_out = len(build.output_names)
+    out = np.empty((t.size, cols.count, n_out))
+    p = cols.parameters(spec.p)
+    for r in range(t.size):
+        state = np.ascontiguousarray(z[:, r])
+        if spec.inputs is not None:
+            p = cols.parameters(spec.inputs.at(float(t[r]), state[:n]))
+        status = call(float(t[r]), buffer(state), buffer(p), buffer(out[r]))
+        if status:
+            raise IntegrationFailure(float(t[r]), state[:n], status, build.state_names)
+    found: dict[str, Any] = {}
+    for name, where in cols.slices.items():
+        block = out[:, where, :]  # n_t x columns x outputs
+        found[name] = {output: (block[:, :, j].T.copy() if name == INITIAL_VALUES
+                                else block[:, 0, j].copy())
+                       for j, output in enumerate(build.output_names)}
+    return found
