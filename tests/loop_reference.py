@@ -42,6 +42,7 @@ from reference import Frame, ReferenceModel, body_frames, resolve_parameters
 
 from nemc.front.mechanism import GROUND, TIME, Mechanism, PointRef, symbol
 from nemc.kinds.constraints import Constraint
+from nemc.kinds.joints import Joint
 from nemc.kinds.loads import Force, JointSpring, Spring, Torque
 
 Values = Mapping[str, object]  # name -> number, or an expression (text or sympy) of parameters
@@ -83,8 +84,14 @@ def point_of(ref: PointRef, frames: Mapping[str, Frame]) -> sp.Matrix:
     return frames[ref.body].point(ref.xy)
 
 
-def constraint_equations(c: Constraint, frames: Mapping[str, Frame]) -> list[sp.Expr]:
-    """Phi of one constraint, written from the spec's table."""
+def constraint_equations(c: Constraint, frames: Mapping[str, Frame],
+                         joints: Mapping[str, Joint] | None = None) -> list[sp.Expr]:
+    """Phi of one constraint, written from the spec's table (a coupling's offset, its value
+    at the start, left out: the accelerations and multipliers do not depend on it)."""
+    if c.type == "coupling":
+        assert joints is not None
+        q_a, q_b = (symbol(joints[name].coordinates[0]) for name in (c.a, c.b))
+        return [q_a - c.ratio * q_b]
     d = point_of(c.a, frames) - point_of(c.b, frames)
     if c.type == "revolute":
         return [d[0], d[1]]
@@ -189,7 +196,8 @@ class LoopReference:
         self.rows: dict[str, slice] = {}  # constraint name -> its rows of Phi
         closure: list[sp.Expr] = []
         for c in self.mech.constraints:
-            equations = constraint_equations(c, self.frames)
+            equations = constraint_equations(c, self.frames,
+                                             {j.name: j for j in self.mech.joints})
             self.rows[c.name] = slice(len(closure), len(closure) + len(equations))
             closure += equations
         self.closure = sp.Matrix(closure) if closure else sp.zeros(0, 1)
@@ -237,6 +245,9 @@ class LoopReference:
                 jac = value.jacobian(q)
                 out += [value, jac, (jac * u).jacobian(q) * u]
         for c in self.mech.constraints:
+            if c.type == "coupling":  # no point, no axes: its reaction is its multiplier
+                out += [sp.Matrix([1, 0]), sp.S.Zero]
+                continue
             normal = slot_normal(c, self.frames) if c.type != "revolute" else sp.Matrix([1, 0])
             out += [normal, self.frames[c.a.body].angle]
         for joint in self.mech.joints:
@@ -498,12 +509,17 @@ class LoopReference:
         for i, c in enumerate(self.mech.constraints):
             normal, angle_a = np.ravel(kin[base + 2 * i]), float(kin[base + 2 * i + 1])
             mult = lam[self.rows[c.name]]
+            if c.type == "coupling":  # generalized forces on two coordinates: no point force
+                out[c.name] = (np.zeros(2), 0.0, 0.0, float(mult[0]))
+                continue
             force = mult[:2] if c.type == "revolute" else mult[0] * normal
             couple = float(mult[1]) if c.type == "prismatic" else 0.0
             out[c.name] = (np.asarray(force, dtype=float), couple, angle_a)
         return out
 
     def _constraint_reaction(self, name: str, forces: dict) -> dict[str, float]:
+        if self.mech.constraint(name).type == "coupling":
+            return {f"{name}.Q": forces[name][3]}
         force, couple, angle = forces[name]
         out = self._named(name, force, angle)
         if self.mech.constraint(name).type == "prismatic":
@@ -546,6 +562,8 @@ class LoopReference:
             else:
                 moment -= float(np.ravel(np.asarray(loads[k], dtype=float))[0])
         for c in self.mech.constraints:
+            if c.type == "coupling":  # a couple about a coordinate, or a force through a slide
+                continue
             f, couple, _ = constraint_forces[c.name]
             where = self._point(c.a, args)[0]  # where its force acts on both bodies
             for body, sign in ((c.a.body, 1.0), (c.b.body, -1.0)):

@@ -10,6 +10,7 @@ Phi_q there (`nemc check` prints them).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,7 +20,7 @@ from ..errors import InputError, Problem
 from ..front import mechanism as m
 from ..front.values import resolve_values
 from .kinematics import Kinematics
-from .loops import loop_equations
+from .loops import LoopEquations, loop_equations
 
 TOLERANCE = 1e-10  # the largest residual an assembled state may keep (as the runtime's)
 ITERATIONS = 100
@@ -91,14 +92,27 @@ def numeric_loops(mech: m.Mechanism):
 
     loops = loop_equations(with_motions(mech), Kinematics(with_motions(mech)), number)
     q = [m.symbol(name) for name in mech.coordinates]
-    phi = sympy.lambdify([q], list(loops.values), "numpy")
-    jacobian = sympy.lambdify([q], [list(row) for row in loops.jacobian], "numpy")
     scene = {**mech.simulation.guess, **mech.simulation.initial}
     start = np.array([float(number(scene.get(name, 0))) for name in mech.coordinates])
+    loops = with_start_offsets(loops, dict(zip(q, start)))
+    phi = sympy.lambdify([q], list(loops.values), "numpy")
+    jacobian = sympy.lambdify([q], [list(row) for row in loops.jacobian], "numpy")
     given = np.array([name in mech.simulation.initial for name in mech.coordinates])
     return (lambda x: np.asarray(phi(x), dtype=float),
             lambda x: np.asarray(jacobian(x), dtype=float).reshape(len(loops.values), -1),
             start, given)
+
+
+def with_start_offsets(loops: LoopEquations, start: dict[sympy.Symbol, float]) -> LoopEquations:
+    """LOOPS with the offsets of the equations that hold "as at the start" set to what their
+    g(q) is at START (the runtime sets them so at each run's start)."""
+    at = {symbol: sympy.Float(value) for symbol, value in start.items()}
+    offsets = {offset: (loops.values[k] + offset).xreplace(at) for k, offset in loops.starts}
+    if not offsets:
+        return loops
+    return dataclasses.replace(
+        loops, values=tuple(v.xreplace(offsets) for v in loops.values),
+        jacobian=tuple(tuple(e.xreplace(offsets) for e in row) for row in loops.jacobian))
 
 
 def gauss_newton(phi, jacobian, q: np.ndarray, free: np.ndarray) -> np.ndarray:

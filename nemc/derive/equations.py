@@ -207,6 +207,7 @@ def derive(mech: m.Mechanism) -> Equations:
         for field in ("mass", "inertia")
     )
     loops = loop_equations(mech, kin, runtime) if mech.constraints else None
+    starts = tuple(offset for _, offset in loops.starts) if loops is not None else ()
     count = loops.count if loops is not None else 0
     multipliers = tuple(sympy.Dummy(f"multiplier_{k}", real=True) for k in range(count))
     drives = tuple(sympy.Dummy(f"drive_{joint.name}", real=True) for joint in mech.driven)
@@ -224,8 +225,8 @@ def derive(mech: m.Mechanism) -> Equations:
         coordinates=kin.q,
         speeds=kin.u,
         accelerations=kin.qdd,
-        parameters=values.runtime_symbols + inputs.coefficients,
-        parameter_defaults=values.runtime_defaults + inputs.defaults,
+        parameters=values.runtime_symbols + inputs.coefficients + starts,
+        parameter_defaults=values.runtime_defaults + inputs.defaults + (0.0,) * len(starts),
         derived_parameters=values.derived,
         dynamics=forms[form],
         outputs=tuple((name, runtime(expr)) for name, expr in

@@ -29,6 +29,8 @@ class LoopEquations:
     jacobian: tuple[tuple[sympy.Expr, ...], ...]  # Phi_q, m x n
     rate: tuple[sympy.Expr, ...]  # Phi_t
     bias: tuple[sympy.Expr, ...]  # G = d/dt (Phi_q qdot + Phi_t) at qdd = 0
+    starts: tuple[tuple[int, sympy.Symbol], ...] = ()  # (equation, its offset): g(q) - offset,
+    #                          the offset a runtime parameter set to g at the run's start
 
     @property
     def count(self) -> int:
@@ -46,8 +48,13 @@ def loop_equations(mech: m.Mechanism, kin: Kinematics,
                    runtime: Callable[[object], sympy.Expr]) -> LoopEquations:
     owners: list[str] = []
     values: list[sympy.Expr] = []
+    starts: list[tuple[int, sympy.Symbol]] = []
     for constraint in mech.constraints:
-        found = constraint.equations(kin.frame(constraint.a.body), kin.frame(constraint.b.body))
+        found = constraint.equations(kin)
+        if constraint.as_at_start:  # g(q) - g(q at the start): the offset a runtime parameter
+            offsets = [start_offset(constraint.name, k) for k in range(len(found))]
+            starts += [(len(values) + k, offset) for k, offset in enumerate(offsets)]
+            found = [g - offset for g, offset in zip(found, offsets)]
         owners += [constraint.name] * len(found)
         values += found
     phi = sympy.Matrix(values)
@@ -59,9 +66,16 @@ def loop_equations(mech: m.Mechanism, kin: Kinematics,
     n = len(kin.q)
     return LoopEquations(
         owners=tuple(owners),
+        starts=tuple(starts),
         values=tuple(runtime(v) for v in values),
         jacobian=tuple(tuple(runtime(jacobian[k, i]) for i in range(n))
                        for k in range(len(values))),
         rate=tuple(runtime(v) for v in rate),
         bias=tuple(runtime(v) for v in bias),
     )
+
+
+def start_offset(constraint: str, equation: int) -> sympy.Symbol:
+    """The offset of a constraint's equation that holds "as at the start": a runtime parameter
+    (its name holds spaces: no name from the file equals it)."""
+    return sympy.Symbol(f"constraint {constraint} start {equation}", real=True)

@@ -26,7 +26,7 @@ def joint_keys(kind: type[Joint]) -> tuple[str, ...]:
 
 
 def constraint_keys(kind: type[Constraint]) -> tuple[str, ...]:
-    return ("type", "a", "b", *kind.keys)
+    return ("type", *kind.keys)
 
 
 def every_key(keys) -> list[str]:

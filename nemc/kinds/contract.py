@@ -127,6 +127,10 @@ class LoadSink(Protocol):
         """Equal and opposite loads on the joint's two bodies doing power tension * d/dt of its
         relative displacement (the joint says how: JointView.joint_load)."""
 
+    def generalized(self, joint: JointView, forces: Sequence[Expr]) -> None:
+        """Generalized forces on the joint's coordinates, one per coordinate (the joint says
+        how: Joint.generalized_load)."""
+
 
 class LoadView(Protocol):
     """The mechanism's bodies, coordinates and joints as a derivation shows them to a load."""

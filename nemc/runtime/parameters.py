@@ -1,6 +1,7 @@
 """A model's parameters: the C parameter vector for a caller's overrides, checked (finite, known
 by name, masses and inertias positive), the latest one kept; and a vector back as a dict. The
-vector ends with the coefficients of the inputs' laws (inputs.py), at their defaults here."""
+vector ends with the coefficients of the inputs' laws (inputs.py), at their defaults here, and
+the offsets of constraints that hold "as at the start" (loops.py, set at a run's start)."""
 
 from __future__ import annotations
 
@@ -25,7 +26,8 @@ class Parameters:
         self.compiled = compiled
         # the parameters, then the inputs' laws' coefficients (inputs.py): never written
         laws = (metadata.get("inputs") or {}).get("defaults", [])
-        self.defaults = np.array([*metadata["parameter_defaults"], *laws], dtype=float)
+        offsets = [0.0] * len(metadata.get("constraint_starts", []))  # set at a run's start
+        self.defaults = np.array([*metadata["parameter_defaults"], *laws, *offsets], dtype=float)
         self._checked: tuple[tuple, np.ndarray] = ((), self.defaults)  # the latest vector
         # at(the defaults), copied for each result: never handed out itself
         self._default_dict = dict(zip(self.names, self.defaults.tolist()))

@@ -74,6 +74,7 @@ def simulate(model: BuiltModel, arguments: tuple, t_eval: Any) -> SimulationResu
     if not model.has_loops:
         return integrate(model, RunSpec(method, span, state0, times, rtol, atol, p, settings,
                                         user_events, varying))
+    p = model.loops.started(span[0], state0, p)  # a gear pair's offset, "as at the start"
     state0, freedom = model.loops.assembled(span[0], state0, model.loops.given_mask(y0), p)
     spec = RunSpec(method, span, state0, times, rtol, atol, p, settings, user_events, varying)
     if freedom == 0:
