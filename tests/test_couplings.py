@@ -16,26 +16,9 @@ import nemc
 from nemc.errors import InputError
 from nemc.front.validate import load_mechanism, validate_text
 
-GEARS = """\
-name: gears
-parameters: {ra: 0.1, rb: 0.25, Ia: 0.02, Ib: 0.3, tau: 1.0}
-bodies:
-  pinion: {mass: 1, inertia: Ia}
-  wheel: {mass: 2, inertia: Ib}
-joints:
-  A: {type: revolute, parent: ground, child: pinion, coordinate: qa}
-  B: {type: revolute, parent: ground, child: wheel, at: [0.35, 0], coordinate: qb}
-constraints:
-  mesh: {type: coupling, a: A, b: B, ratio: -rb/ra}
-loads:
-  - {torque: tau, body: pinion}
-outputs:
-  reactions: [mesh]
-  energy: true
-simulation:
-  t_span: [0, 2]
-  initial: {qa: 0.4, qb: 0.1}
-"""
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+GEARS = (EXAMPLES / "gear_train.yaml").read_text()
 
 RACK = """\
 name: rack_and_pinion

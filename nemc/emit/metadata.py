@@ -33,12 +33,15 @@ def metadata(eqs: Equations, prefix: str) -> dict:
                        settable: settable + len(eqs.inputs.coefficients)])},
         "derived_parameters": {name: str(expr) for name, expr in eqs.derived_parameters},
         "check_names": [key for key, _ in eqs.checks],
+        "check_strict": list(eqs.check_strict),
         "output_names": [name for name, _ in eqs.outputs],
         "generated": generated_functions(eqs),
         "dynamics_program": eqs.dynamics_form,
         "drive_names": [joint.name for joint in mech.driven],
         "constraint_equations": list(eqs.loops.owners) if eqs.loops is not None else [],
         "constraint_starts": [[k, eqs.parameters.index(offset)] for k, offset in starts],
+        "constraint_on_velocities": list(eqs.loops.on_velocities) if eqs.loops is not None
+        else [],
         "initial_given": [name for name in mech.state_names if name in sim.initial],
         "scene": {
             "t_span": list(sim.t_span) if sim.t_span else None,

@@ -1,5 +1,5 @@
-"""The loop-closing constraints: each read by its kind (nemc/kinds/constraints/), between two
-bodies; with them, no more equations than free coordinates.
+"""The loop-closing constraints: each read by its kind (nemc/kinds/constraints/); with them, no
+more equations on the positions than free coordinates.
 """
 
 from __future__ import annotations
@@ -12,7 +12,8 @@ from .reader import Reader, constraint_keys, every_key
 
 
 def read_constraints(ctx: Context, node: Node) -> tuple[Constraint, ...]:
-    """The loop-closing constraints; with them, no more equations than free coordinates."""
+    """The loop-closing constraints; with them, no more equations on the positions than free
+    coordinates."""
     if not nonempty_mapping(ctx, node, "constraints", "constraint"):
         return ()
     found = []
@@ -23,7 +24,9 @@ def read_constraints(ctx: Context, node: Node) -> tuple[Constraint, ...]:
         constraint = _constraint(ctx, name, item, path)
         if constraint is not None:
             found.append(constraint)
-    equations = sum(c.equations_count for c in found)
+    # on the positions (one on the velocities, as a planet's rolling held by its carrier,
+    # may repeat what the positions' already say: the runtime drops a redundant equation)
+    equations = sum(c.equations_count - len(c.on_velocities()) for c in found)
     free = len([q for joint in ctx.joints.values() if not joint.driven
                 for q in joint.coordinates])
     if found and equations > free:

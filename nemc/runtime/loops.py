@@ -34,6 +34,8 @@ class Loops:
         # (equation, its offset's index in p) of the equations that hold "as at the start"
         self.starts: list[tuple[int, int]] = [tuple(pair) for pair in  # type: ignore[misc]
                                               metadata.get("constraint_starts", [])]
+        # the equations on the velocities (nonholonomic: a knife edge's), by index
+        self.on_velocities: tuple[int, ...] = tuple(metadata.get("constraint_on_velocities", []))
 
     def started(self, t0: float, y0: np.ndarray, p: np.ndarray) -> np.ndarray:
         """p with the offsets of the equations that hold "as at the start" (a gear pair's,
@@ -126,7 +128,10 @@ class Loops:
                                           buffer(p), buffer(info))
         if status:
             raise ModelError(self.assembly_failure(status, info, given))
-        return state, len(self.state_names) // 2 - int(info[4])
+        freedom = len(self.state_names) // 2 - int(info[4])
+        # equations on the velocities leave positions that move with the rates: integrated,
+        # never a kinematic analysis, even where they leave no freedom of motion
+        return state, max(freedom, 1) if self.on_velocities else freedom
 
     def assembly_failure(self, status: int, info: np.ndarray, given: np.ndarray) -> str:
         named = [name for name, kept in zip(self.state_names, given) if kept]

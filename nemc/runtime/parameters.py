@@ -23,6 +23,10 @@ class Parameters:
         self.names: tuple[str, ...] = tuple(metadata["parameter_names"])
         self.derived: dict[str, str] = dict(metadata["derived_parameters"])
         self.check_names: list[str] = metadata["check_names"]
+        # each check > 0 (what a joint carries), else >= 0 (a mass, an inertia); a build before
+        # format v3 says nothing: all > 0
+        self.check_strict: list[bool] = metadata.get("check_strict",
+                                                     [True] * len(self.check_names))
         self.compiled = compiled
         # the parameters, then the inputs' laws' coefficients (inputs.py): never written
         laws = (metadata.get("inputs") or {}).get("defaults", [])
@@ -81,13 +85,17 @@ class Parameters:
         raise ModelError(f"unknown parameter {name!r}{hint} (known: {list(self.names)})")
 
     def check_masses(self, p: np.ndarray) -> None:
-        """Refuse p where a mass or inertia (the C's checks) is not positive and finite."""
+        """Refuse p where a mass or inertia (the C's checks) is negative or not finite, or
+        leaves a joint nothing to move."""
         values = np.empty(len(self.check_names))
         buffer = self.compiled.buffer
         self.compiled.functions["checks"](buffer(p), buffer(values))
-        for key, value in zip(self.check_names, values):
-            if not value > 0:
-                raise ModelError(f"{key} must be > 0 and finite, got {value:g} at these parameters")
+        for key, value, strict in zip(self.check_names, values, self.check_strict):
+            if not (value > 0 if strict else value >= 0) or not np.isfinite(value):
+                raise ModelError(f"{key} must be {'>' if strict else '>='} 0 and finite, got "
+                                 f"{value:g} at these parameters" + (
+                                     " (the mass matrix would be singular)" if strict and
+                                     key.startswith("joints.") else ""))
 
     def share_defaults(self, other: Parameters) -> None:
         """Take the default vector of OTHER, the same mechanism's (a variant's build): a run that

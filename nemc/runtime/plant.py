@@ -100,6 +100,12 @@ def loop_linearization(model: BuiltModel, build: BuiltModel, t: float, y: np.nda
                        independent: Sequence[str] | None) -> Linearization:
     """A closed loop's linearization in independent coordinates (linear.loop_matrices)."""
     meta = model.metadata
+    if model.loops.on_velocities:
+        named = sorted({meta["constraint_equations"][k] for k in model.loops.on_velocities})
+        raise ModelError(
+            f"linearize: constraints {named} are on the velocities (nonholonomic), whose "
+            "linearization needs independent rates apart from independent coordinates: not "
+            "supported yet; model.jacobian(t, y) gives d(dy/dt)/dy in the full state")
     n, drives = len(model.coordinate_names), len(meta["drive_names"])
     m = len(meta["constraint_equations"])
     size = (m + 1) * (n + drives) + m * (n + 3)

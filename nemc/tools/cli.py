@@ -545,7 +545,9 @@ def cmd_check(args: argparse.Namespace) -> int:
     driven = f", {counted(len(mech.driven), 'driven joint')}" if mech.driven else ""
     print(f"{args.mechanism}: OK: {mech.name}, {counted(len(mech.bodies), 'body', 'bodies')}, "
           f"{counted(len(mech.coordinates), 'coordinate')}{driven}{loops}, "
-          f"{counted(assembly.freedom, 'degree', 'degrees')} of freedom, "
+          f"{counted(assembly.freedom, 'degree', 'degrees')} of freedom"
+          f"{'' if assembly.motion == assembly.freedom else ' of position, '}"
+          f"{'' if assembly.motion == assembly.freedom else f'{assembly.motion} of motion'}, "
           f"state {list(mech.state_names)}")
     return 0
 

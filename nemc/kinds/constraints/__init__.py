@@ -8,12 +8,15 @@ from __future__ import annotations
 
 from .base import Constraint, PointPair
 from .coupling import Coupling
+from .knife_edge import KnifeEdge
 from .prismatic import PrismaticConstraint
 from .revolute import RevoluteConstraint
+from .rolling import Rolling
 from .slot import Slot
 
 CONSTRAINT_KINDS: dict[str, type[Constraint]] = {
-    kind.type: kind for kind in (RevoluteConstraint, Slot, PrismaticConstraint, Coupling)}
+    kind.type: kind for kind in (RevoluteConstraint, Slot, PrismaticConstraint, Coupling,
+                                 Rolling, KnifeEdge)}
 
-__all__ = ["CONSTRAINT_KINDS", "Constraint", "Coupling", "PointPair", "PrismaticConstraint",
-           "RevoluteConstraint", "Slot"]
+__all__ = ["CONSTRAINT_KINDS", "Constraint", "Coupling", "KnifeEdge", "PointPair",
+           "PrismaticConstraint", "RevoluteConstraint", "Rolling", "Slot"]

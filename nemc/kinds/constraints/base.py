@@ -29,6 +29,18 @@ Named = list[tuple[str, Expr]]
 
 
 @dataclass(frozen=True)
+class ConstraintDrawing:
+    """What a picture shows of a constraint beyond its bodies' outlines (nemc/derive/
+    geometry.py): discs (body, radius: a circle around the body's origin, with a spoke to show
+    it turn), surfaces (body, point, axis: a line a disc rolls on, drawn over the range it
+    travels, with the disc's body) and blades (body, point, axis: a short edge)."""
+
+    discs: tuple[tuple[str, Expr], ...] = ()
+    surfaces: tuple[tuple[str, tuple[Expr, Expr], tuple[Expr, Expr], str], ...] = ()
+    blades: tuple[tuple[str, tuple[Expr, Expr], tuple[Expr, Expr]], ...] = ()
+
+
+@dataclass(frozen=True)
 class Constraint:
     """A loop-closing constraint. Subclasses: one per kind, in this package."""
 
@@ -36,8 +48,6 @@ class Constraint:
     keys: ClassVar[tuple[str, ...]] = ()  # its YAML keys besides type
     required: ClassVar[tuple[str, ...]] = ()  # those of its keys it cannot do without
     equations_count: ClassVar[int]  # how many equations it adds
-    as_at_start: ClassVar[bool] = False  # its equations g(q) = g(q at the run's start): the
-    #                                       derivation subtracts a runtime offset, set at a start
 
     name: str
     loc: Loc
@@ -52,8 +62,19 @@ class Constraint:
         return with_expressions_mapped(self, f)
 
     def equations(self, view: LoadView) -> list[Expr]:
-        """Phi: the expressions that vanish when the constraint holds."""
+        """Phi: the expressions that vanish when the constraint holds (those `on_velocities`
+        names: linear in the rates, A(q, t) dq + a(q, t))."""
         raise NotImplementedError
+
+    def held_as_at_start(self) -> tuple[int, ...]:
+        """Which of its equations are g(q) = g(q at the run's start) (a gear pair's): the
+        derivation subtracts an offset that each run sets at its start."""
+        return ()
+
+    def on_velocities(self) -> tuple[int, ...]:
+        """Which of its equations are on the velocities, not the positions (nonholonomic:
+        a knife edge's)."""
+        return ()
 
     def act(self, view: LoadView, sink: LoadSink, multipliers: list[Expr]) -> None:
         """The generalized force Phi_q^T lambda of these multipliers, as loads into SINK."""
@@ -62,6 +83,10 @@ class Constraint:
     def reaction(self, view: LoadView, multipliers: list[Expr]) -> Named:
         """Its reaction outputs (NAME.<suffix>) under these multipliers."""
         raise NotImplementedError
+
+    def drawing(self) -> ConstraintDrawing:
+        """What a picture shows of it besides the bodies (nothing: its points are theirs)."""
+        return ConstraintDrawing()
 
 
 @dataclass(frozen=True)

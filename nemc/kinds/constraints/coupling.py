@@ -32,7 +32,6 @@ class Coupling(Constraint):
     keys: ClassVar[tuple[str, ...]] = ("a", "b", "ratio")
     required: ClassVar[tuple[str, ...]] = ("a", "b", "ratio")
     equations_count: ClassVar[int] = 1
-    as_at_start: ClassVar[bool] = True
 
     a: str
     b: str
@@ -49,6 +48,9 @@ class Coupling(Constraint):
             read.problem("b", f"a coupling joins two joints, but a and b are both {a!r}")
             return None
         return read.fields(a=a, b=b, ratio=read.fixed("ratio", sympy.S.One))
+
+    def held_as_at_start(self) -> tuple[int, ...]:
+        return (0,)
 
     def coordinates(self, view: LoadView) -> tuple[sympy.Expr, sympy.Expr]:
         return tuple(view.coordinate(view.joint(name).coordinates[0])  # type: ignore[return-value]
