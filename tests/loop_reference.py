@@ -11,6 +11,8 @@ driven one is an ordinary coordinate there). On top of it, written here:
   revolute  p_a - p_b (ground axes, 2 equations);
   slot      n . (p_a - p_b), n the slot's axis turned +90 degrees, in body(b)'s frame (1);
   prismatic the slot's, and angle(a) - angle(b) - offset (2);
+  coupling  q_a - ratio q_b (1); rolling and knife_edge as their functions below say, an
+            equation on the velocities V(q, u, t) taking the row dV/du of Phi_q;
   a driven coordinate q_d - motion(t) (1: rheonomic);
 - Phi_q and gamma = -d/dt(Phi_q u + Phi_t) + Phi_q qdd by sympy differentiation;
 - the index-1 equations, solved numerically at a state:
@@ -42,6 +44,7 @@ from reference import Frame, ReferenceModel, body_frames, resolve_parameters
 
 from nemc.front.mechanism import GROUND, TIME, Mechanism, PointRef, symbol
 from nemc.kinds.constraints import Constraint
+from nemc.kinds.joints import Joint
 from nemc.kinds.loads import Force, JointSpring, Spring, Torque
 
 Values = Mapping[str, object]  # name -> number, or an expression (text or sympy) of parameters
@@ -83,8 +86,81 @@ def point_of(ref: PointRef, frames: Mapping[str, Frame]) -> sp.Matrix:
     return frames[ref.body].point(ref.xy)
 
 
-def constraint_equations(c: Constraint, frames: Mapping[str, Frame]) -> list[sp.Expr]:
-    """Phi of one constraint, written from the spec's table."""
+def time_rate(expr: sp.Matrix, q: Sequence[sp.Symbol], u: Sequence[sp.Symbol]) -> sp.Matrix:
+    """d/dt of an expression of q and t."""
+    return expr.jacobian(sp.Matrix(q)) * sp.Matrix(u) + sp.diff(expr, TIME)
+
+
+def material_velocity(frame: Frame, at: sp.Matrix, q, u) -> sp.Matrix:
+    """The velocity of the body's material point that is at ground point AT now."""
+    omega = time_rate(sp.Matrix([frame.angle]), q, u)[0]
+    arm = at - frame.origin
+    return time_rate(frame.origin, q, u) + omega * sp.Matrix([-arm[1], arm[0]])
+
+
+def unit_axis(axis: Sequence[object], angle: sp.Expr) -> sp.Matrix:
+    column = _column(axis)
+    return _rotation(angle) * column / sp.sqrt(column[0] ** 2 + column[1] ** 2)
+
+
+def rolling_equations(c: Constraint, frames: Mapping[str, Frame], q, u) -> list[sp.Expr]:
+    """A disc rolling (the spec's `rolling`): on a line, its center R from the line on its left
+    and s + R (angle(disc) - angle(on)) constant (the distance rolled is the angle turned: the
+    constant left out); on a disc, the centers' distance Rb + R (Rb - R inside), and the two
+    bodies' material points at the contact moving alike along the tangent (on the velocities).
+    Written so the multipliers are the spec's Fn (along the normal, from the surface to the
+    disc) and Ft (along the normal turned -90 degrees)."""
+    disc = frames[c.disc]
+    if c.on is not None:
+        other = frames[c.on.body]
+        along = unit_axis(c.axis, other.angle)
+        normal = sp.Matrix([-along[1], along[0]])
+        d = disc.origin - other.point(c.on.xy)
+        return [normal.dot(d) - c.radius, along.dot(d) + c.radius * (disc.angle - other.angle)]
+    other = frames[c.on_body]
+    d = disc.origin - other.origin
+    distance = sp.sqrt(d.dot(d))
+    e = d / distance
+    gap = c.on_radius - c.radius - distance if c.inside else distance - c.on_radius - c.radius
+    normal = -e if c.inside else e
+    tangent = sp.Matrix([normal[1], -normal[0]])
+    contact = other.origin + c.on_radius * e
+    slip = material_velocity(disc, contact, q, u) - material_velocity(other, contact, q, u)
+    return [gap, tangent.dot(slip)]
+
+
+def knife_edge_equation(c: Constraint, frames: Mapping[str, Frame], q, u) -> sp.Expr:
+    """The point's velocity across the blade (the axis turned +90 degrees, in its body)."""
+    frame = frames[c.at.body]
+    along = unit_axis(c.axis, frame.angle)
+    return sp.Matrix([-along[1], along[0]]).dot(time_rate(frame.point(c.at.xy), q, u))
+
+
+def on_velocities(c: Constraint) -> tuple[int, ...]:
+    """Which of a constraint's equations are on the velocities (the spec: a knife edge's;
+    rolling on a disc's second, written so here)."""
+    if c.type == "knife_edge":
+        return (0,)
+    if c.type == "rolling" and c.on is None:
+        return (1,)
+    return ()
+
+
+def constraint_equations(c: Constraint, frames: Mapping[str, Frame],
+                         joints: Mapping[str, Joint] | None = None,
+                         q: Sequence[sp.Symbol] = (), u: Sequence[sp.Symbol] = ()
+                         ) -> list[sp.Expr]:
+    """Phi of one constraint, written from the spec's table (a coupling's offset, its value
+    at the start, left out: the accelerations and multipliers do not depend on it); an
+    equation on the velocities (on_velocities) as its expression of q and u."""
+    if c.type == "rolling":
+        return rolling_equations(c, frames, q, u)
+    if c.type == "knife_edge":
+        return [knife_edge_equation(c, frames, q, u)]
+    if c.type == "coupling":
+        assert joints is not None
+        q_a, q_b = (symbol(joints[name].coordinates[0]) for name in (c.a, c.b))
+        return [q_a - c.ratio * q_b]
     d = point_of(c.a, frames) - point_of(c.b, frames)
     if c.type == "revolute":
         return [d[0], d[1]]
@@ -188,8 +264,13 @@ class LoopReference:
     def _build_constraints(self) -> None:
         self.rows: dict[str, slice] = {}  # constraint name -> its rows of Phi
         closure: list[sp.Expr] = []
+        self.on_velocities: list[int] = []  # rows of Phi on the velocities: V(q, u, t)
+        lag = self.ref.lagrangian
         for c in self.mech.constraints:
-            equations = constraint_equations(c, self.frames)
+            equations = constraint_equations(c, self.frames,
+                                             {j.name: j for j in self.mech.joints},
+                                             lag.q, lag.u)
+            self.on_velocities += [len(closure) + k for k in on_velocities(c)]
             self.rows[c.name] = slice(len(closure), len(closure) + len(equations))
             closure += equations
         self.closure = sp.Matrix(closure) if closure else sp.zeros(0, 1)
@@ -211,12 +292,17 @@ class LoopReference:
         self.args = args
         Phi_q = self.Phi.jacobian(q) if self.Phi.rows else sp.zeros(0, self.n)
         velocity = Phi_q * u + sp.diff(self.Phi, TIME)
+        for k in self.on_velocities:  # V(q, u, t): its row of Phi_q is dV/du; V its velocity
+            Phi_q[k, :] = sp.Matrix([self.Phi[k]]).jacobian(u)
+            velocity[k] = self.Phi[k]
         gamma = -(velocity.jacobian(q) * u + sp.diff(velocity, TIME)) if self.Phi.rows \
             else sp.zeros(0, 1)
         self.Phi_q, self.gamma = Phi_q, gamma
         self._kkt = _lambdify(args, [self.ref.M, self.ref.f, Phi_q, gamma])
-        closure_q = self.closure.jacobian(q) if self.m_closure else sp.zeros(0, self.n)
-        self._closure = _lambdify(args, [self.closure, closure_q])
+        closure_q = Phi_q[:self.m_closure, :] if self.m_closure else sp.zeros(0, self.n)
+        closure = sp.Matrix([0 if k in self.on_velocities else v
+                             for k, v in enumerate(self.closure)])
+        self._closure = _lambdify(args, [closure, closure_q])
         lag = self.ref.lagrangian
         self._energy = _lambdify(args, [lag.T, lag.V, lag.Q])
         self._kinematics = _lambdify(args, self._kinematic_exprs())
@@ -237,6 +323,9 @@ class LoopReference:
                 jac = value.jacobian(q)
                 out += [value, jac, (jac * u).jacobian(q) * u]
         for c in self.mech.constraints:
+            if c.type in ("coupling", "rolling", "knife_edge"):  # its reactions: multipliers
+                out += [sp.Matrix([1, 0]), sp.S.Zero]
+                continue
             normal = slot_normal(c, self.frames) if c.type != "revolute" else sp.Matrix([1, 0])
             out += [normal, self.frames[c.a.body].angle]
         for joint in self.mech.joints:
@@ -285,7 +374,10 @@ class LoopReference:
             A[:self.n, self.n:] = Phi_q.T
             A[self.n:, :self.n] = Phi_q
         rhs = np.concatenate([f, np.asarray(gamma, dtype=float).reshape(m)])
-        x = np.linalg.solve(A, rhs)
+        try:
+            x = np.linalg.solve(A, rhs)
+        except np.linalg.LinAlgError:  # redundant constraints: qdd still unique, lambda the
+            x = np.linalg.lstsq(A, rhs, rcond=1e-12)[0]  # least-norm (0 on a zero row)
         return x[:self.n], -x[self.n:]
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
@@ -498,12 +590,20 @@ class LoopReference:
         for i, c in enumerate(self.mech.constraints):
             normal, angle_a = np.ravel(kin[base + 2 * i]), float(kin[base + 2 * i + 1])
             mult = lam[self.rows[c.name]]
+            if c.type in ("coupling", "rolling", "knife_edge"):  # the multipliers, as they are
+                out[c.name] = (np.zeros(2), 0.0, 0.0, np.asarray(mult, dtype=float))
+                continue
             force = mult[:2] if c.type == "revolute" else mult[0] * normal
             couple = float(mult[1]) if c.type == "prismatic" else 0.0
             out[c.name] = (np.asarray(force, dtype=float), couple, angle_a)
         return out
 
     def _constraint_reaction(self, name: str, forces: dict) -> dict[str, float]:
+        kind = self.mech.constraint(name).type
+        if kind in ("coupling", "rolling", "knife_edge"):
+            suffixes = {"coupling": ("Q",), "rolling": ("Fn", "Ft"), "knife_edge": ("Fn",)}[kind]
+            return {f"{name}.{suffix}": float(value)
+                    for suffix, value in zip(suffixes, forces[name][3])}
         force, couple, angle = forces[name]
         out = self._named(name, force, angle)
         if self.mech.constraint(name).type == "prismatic":
@@ -546,6 +646,11 @@ class LoopReference:
             else:
                 moment -= float(np.ravel(np.asarray(loads[k], dtype=float))[0])
         for c in self.mech.constraints:
+            if c.type == "coupling":  # a couple about a coordinate, or a force through a slide
+                continue
+            if c.type in ("rolling", "knife_edge"):
+                raise NotImplementedError("this oracle has no tree-joint reactions beside a "
+                                          f"{c.type} constraint")
             f, couple, _ = constraint_forces[c.name]
             where = self._point(c.a, args)[0]  # where its force acts on both bodies
             for body, sign in ((c.a.body, 1.0), (c.b.body, -1.0)):

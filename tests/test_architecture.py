@@ -24,7 +24,7 @@ from nemc.emit.emitted import emit
 from nemc.emit.optimize import optimize_equations
 from nemc.emit.printing import symbol_table
 from nemc.front.validate import validate_text
-from nemc.kinds.constraints import CONSTRAINT_KINDS, Constraint
+from nemc.kinds.constraints import CONSTRAINT_KINDS, Constraint, PointPair
 from nemc.kinds.joints import JOINT_KINDS, Joint, Revolute, joint_kind
 from nemc.kinds.loads import LOAD_KINDS, Load
 
@@ -322,25 +322,25 @@ simulation:
 
 def distance_kind() -> type[Constraint]:
     @dataclasses.dataclass(frozen=True)
-    class Distance(Constraint):
+    class Distance(PointPair):
         type = "distance"
-        keys = ("length",)
+        keys = ("a", "b", "length")
         equations_count = 1
         length: sympy.Expr = sympy.S.One
 
         @classmethod
-        def read(cls, read):
-            return read.fields(length=read.fixed("length", sympy.S.One))
+        def read_own(cls, read):
+            return {"length": read.fixed("length", sympy.S.One)}
 
         def separation(self, a, b):
             pa, pb = a.point(self.a.xy), b.point(self.b.xy)
             return pa[0] - pb[0], pa[1] - pb[1]
 
-        def equations(self, a, b):
+        def between(self, a, b):
             dx, dy = self.separation(a, b)
             return [sympy.sqrt(dx * dx + dy * dy) - self.length]
 
-        def reaction(self, a, b, multipliers):
+        def force(self, a, b, multipliers):
             dx, dy = self.separation(a, b)
             norm = sympy.sqrt(dx * dx + dy * dy)
             return (multipliers[0] * dx / norm, multipliers[0] * dy / norm), sympy.S.Zero
@@ -506,20 +506,20 @@ simulation:
 
 def angle_ratio_kind() -> type[Constraint]:
     @dataclasses.dataclass(frozen=True)
-    class AngleRatio(Constraint):
+    class AngleRatio(PointPair):
         type = "angle_ratio"
-        keys = ("ratio",)
+        keys = ("a", "b", "ratio")
         equations_count = 1
         ratio: sympy.Expr = sympy.S.One
 
         @classmethod
-        def read(cls, read):
-            return read.fields(ratio=read.fixed("ratio", sympy.S.One))
+        def read_own(cls, read):
+            return {"ratio": read.fixed("ratio", sympy.S.One)}
 
-        def equations(self, a, b):
+        def between(self, a, b):
             return [self.ratio * a.angle - b.angle]
 
-        def act(self, sink, a, b, multipliers):
+        def act(self, view, sink, multipliers):
             sink.couple(self.a.body, self.ratio * multipliers[0])
             sink.couple(self.b.body, -multipliers[0])
 

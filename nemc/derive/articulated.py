@@ -244,6 +244,10 @@ class ArticulatedBody:
     def tension(self, joint: Joint, displacement: Expr, tension: Expr) -> None:
         joint.joint_load(self, self.frame(joint.parent), self.geo.origin[joint.child], tension)
 
+    def generalized(self, joint: Joint, forces: Sequence[Expr]) -> None:
+        joint.generalized_load(self, self.frame(joint.parent), self.geo.origin[joint.child],
+                               forces)
+
     # -- pass 1: velocities ---------------------------------------------------------------
 
     def _motion(self, node: Node) -> None:
@@ -382,11 +386,10 @@ class ArticulatedBody:
         multiplier of the constraint's equation alone, at rest: M^-1 Phi_q^T e_k for the tree
         with its driven joints held (and what their drives must add). Reuses the articulated
         inertias of the main passes (run first)."""
-        sink = PassLoads(self.node_of, self.geo.point)
+        sink = PassLoads(self)
         unit = [sympy.S.One if j == equation else sympy.S.Zero
                 for j in range(constraint.equations_count)]
-        constraint.map_expressions(self.value).act(
-            sink, self.frame(constraint.a.body), self.frame(constraint.b.body), unit)
+        constraint.map_expressions(self.value).act(self, sink, unit)
         order = list(self.nodes.values())
         bias = {node.joint.child: scale(sink.total(node.joint.child), -1) for node in order}
         u_forces: dict[str, list[Expr]] = {}
@@ -463,11 +466,11 @@ class ArticulatedBody:
 
 
 class PassLoads:
-    """The loads of one unit pass, by node: a constraint's reaction (LoadSink) or generalized
-    forces (SpatialSink, Joint.generalized_load)."""
+    """The loads of one unit pass of ABA's algorithm, by node: a constraint's reaction
+    (LoadSink) or generalized forces (SpatialSink, Joint.generalized_load)."""
 
-    def __init__(self, node_of: dict[str, str], point: Callable[[str, Sequence[Expr]], V2]):
-        self.node_of, self.point = node_of, point
+    def __init__(self, aba: ArticulatedBody):
+        self.aba, self.node_of, self.point = aba, aba.node_of, aba.geo.point
         self.loads: dict[str, list[V3]] = {}
 
     def apply(self, body: str, force: V3) -> None:
@@ -487,6 +490,10 @@ class PassLoads:
 
     def tension(self, joint: Joint, displacement: Expr, tension: Expr) -> None:
         raise NotImplementedError("a unit pass carries a constraint's reaction, no tension")
+
+    def generalized(self, joint: Joint, forces: Sequence[Expr]) -> None:
+        joint.generalized_load(self, self.aba.frame(joint.parent),
+                               self.aba.geo.origin[joint.child], forces)
 
     def total(self, node: str) -> V3:
         total = ZERO3

@@ -10,6 +10,7 @@ Phi_q there (`nemc check` prints them).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,7 +20,7 @@ from ..errors import InputError, Problem
 from ..front import mechanism as m
 from ..front.values import resolve_values
 from .kinematics import Kinematics
-from .loops import loop_equations
+from .loops import LoopEquations, loop_equations
 
 TOLERANCE = 1e-10  # the largest residual an assembled state may keep (as the runtime's)
 ITERATIONS = 100
@@ -30,8 +31,9 @@ class Assembly:
     """The scene's initial positions, assembled at the default parameters."""
 
     coordinates: dict[str, float]
-    freedom: int  # degrees of freedom: coordinates less the rank of Phi_q
+    freedom: int  # degrees of freedom (of position): coordinates less the rank of Phi_q
     equations: int  # constraint equations
+    motion: int  # degrees of freedom of motion: less the equations on the velocities too
 
 
 def check_assembly(mech: m.Mechanism) -> Assembly:
@@ -39,14 +41,20 @@ def check_assembly(mech: m.Mechanism) -> Assembly:
     cannot close. A mechanism without loops has every coordinate free."""
     names = mech.coordinates
     if not mech.constraints:
-        return Assembly({}, len(names), 0)
-    phi, jacobian, start, given = numeric_loops(mech)
-    q = gauss_newton(phi, jacobian, start, ~given)
+        return Assembly({}, len(names), 0, len(names))
+    phi, jacobian, start, given, positions = numeric_loops(mech)
+    q = gauss_newton(phi, lambda x: jacobian(x) * positions[:, None], start, ~given)
     residual = np.abs(phi(q))
     if not residual.max() <= TOLERANCE:
         raise InputError([assembly_problem(mech, phi, jacobian, start, given, residual)])
-    rank = np.linalg.matrix_rank(jacobian(q), tol=1e-9 * max(1.0, np.abs(jacobian(q)).max()))
-    return Assembly(dict(zip(names, q.tolist())), len(names) - int(rank), len(residual))
+    return Assembly(dict(zip(names, q.tolist())), len(names) - rank(jacobian(q)[positions]),
+                    len(residual), len(names) - rank(jacobian(q)))
+
+
+def rank(matrix: np.ndarray) -> int:
+    if not matrix.size:
+        return 0
+    return int(np.linalg.matrix_rank(matrix, tol=1e-9 * max(1.0, np.abs(matrix).max())))
 
 
 def assembly_problem(mech: m.Mechanism, phi, jacobian, start: np.ndarray, given: np.ndarray,
@@ -74,7 +82,9 @@ def assembly_problem(mech: m.Mechanism, phi, jacobian, start: np.ndarray, given:
 
 def numeric_loops(mech: m.Mechanism):
     """Phi(q) and Phi_q(q) at the default parameters and t0, the start of the solve (the
-    scene's given values and guesses) and which coordinates are given."""
+    scene's given values and guesses), which coordinates are given and which equations are on
+    the positions (an equation on the velocities has Phi 0 and its A as its row of Phi_q: the
+    solve keeps the positions off that direction)."""
     values = resolve_values(mech)
     defaults = dict(zip(values.runtime_symbols, values.runtime_defaults))
     t0 = (mech.simulation.t_span or (0.0, 0.0))[0]
@@ -91,14 +101,28 @@ def numeric_loops(mech: m.Mechanism):
 
     loops = loop_equations(with_motions(mech), Kinematics(with_motions(mech)), number)
     q = [m.symbol(name) for name in mech.coordinates]
-    phi = sympy.lambdify([q], list(loops.values), "numpy")
-    jacobian = sympy.lambdify([q], [list(row) for row in loops.jacobian], "numpy")
     scene = {**mech.simulation.guess, **mech.simulation.initial}
     start = np.array([float(number(scene.get(name, 0))) for name in mech.coordinates])
+    loops = with_start_offsets(loops, dict(zip(q, start)))
+    phi = sympy.lambdify([q], list(loops.values), "numpy")
+    jacobian = sympy.lambdify([q], [list(row) for row in loops.jacobian], "numpy")
     given = np.array([name in mech.simulation.initial for name in mech.coordinates])
+    positions = np.array([k not in loops.on_velocities for k in range(loops.count)])
     return (lambda x: np.asarray(phi(x), dtype=float),
             lambda x: np.asarray(jacobian(x), dtype=float).reshape(len(loops.values), -1),
-            start, given)
+            start, given, positions)
+
+
+def with_start_offsets(loops: LoopEquations, start: dict[sympy.Symbol, float]) -> LoopEquations:
+    """LOOPS with the offsets of the equations that hold "as at the start" set to what their
+    g(q) is at START (the runtime sets them so at each run's start)."""
+    at = {symbol: sympy.Float(value) for symbol, value in start.items()}
+    offsets = {offset: (loops.values[k] + offset).xreplace(at) for k, offset in loops.starts}
+    if not offsets:
+        return loops
+    return dataclasses.replace(
+        loops, values=tuple(v.xreplace(offsets) for v in loops.values),
+        jacobian=tuple(tuple(e.xreplace(offsets) for e in row) for row in loops.jacobian))
 
 
 def gauss_newton(phi, jacobian, q: np.ndarray, free: np.ndarray) -> np.ndarray:

@@ -23,6 +23,7 @@ from functools import cached_property
 import sympy
 
 from ..front import mechanism as m
+from ..front.carried import carried
 from ..front.values import resolve_values
 from .articulated import dynamics_program, generalized_force_symbols, inverse_mass_program
 from .c_cost import estimated_ns
@@ -85,7 +86,8 @@ class Equations:
     derived_parameters: tuple[tuple[str, sympy.Expr], ...]  # name -> expression of parameters
     dynamics: Program  # the accelerations qdd(t, q, dq)
     outputs: tuple[tuple[str, sympy.Expr], ...]  # may contain the acceleration symbols
-    checks: tuple[tuple[str, sympy.Expr], ...]  # key path -> expression that must be > 0
+    checks: tuple[tuple[str, sympy.Expr], ...]  # key path -> expression that must be >= 0,
+    check_strict: tuple[bool, ...]  # or (these) > 0: masses and inertias, what joints carry
     initial_state: tuple[sympy.Expr, ...]
     jacobian: Program | None = None  # d qdd / d y along the seeds: see tangent.py
     seeds: Mapping[sympy.Symbol, sympy.Symbol] = dataclasses.field(default_factory=dict)
@@ -204,12 +206,16 @@ def derive(mech: m.Mechanism) -> Equations:
     kin = Kinematics(mech)
     runtime = runtime_values(mech)
     inputs = input_law(mech, lambda expr: sympy.sympify(expr).xreplace(values.substitutions))
+    bodies = {body.name: body for body in mech.bodies}
+    needs = tuple(carried(bodies, mech.joints))
     checks = tuple(
         (f"bodies.{b.name}.{field}", runtime(getattr(b, field)))
         for b in mech.bodies
         for field in ("mass", "inertia")
-    )
+    ) + tuple((need.key, runtime(need.value)) for need in needs)
+    check_strict = (False,) * (2 * len(mech.bodies)) + (True,) * len(needs)
     loops = loop_equations(mech, kin, runtime) if mech.constraints else None
+    starts = tuple(offset for _, offset in loops.starts) if loops is not None else ()
     count = loops.count if loops is not None else 0
     multipliers = tuple(sympy.Dummy(f"multiplier_{k}", real=True) for k in range(count))
     drives = tuple(sympy.Dummy(f"drive_{joint.name}", real=True) for joint in mech.driven)
@@ -227,14 +233,15 @@ def derive(mech: m.Mechanism) -> Equations:
         coordinates=kin.q,
         speeds=kin.u,
         accelerations=kin.qdd,
-        parameters=values.runtime_symbols + inputs.coefficients,
-        parameter_defaults=values.runtime_defaults + inputs.defaults,
+        parameters=values.runtime_symbols + inputs.coefficients + starts,
+        parameter_defaults=values.runtime_defaults + inputs.defaults + (0.0,) * len(starts),
         derived_parameters=values.derived,
         dynamics=forms[form],
         outputs=tuple((name, runtime(expr)) for name, expr in
                       derive_outputs(mech, kin, dict(zip((j.name for j in mech.driven), drives)),
                                      multipliers_by_constraint(mech, multipliers))),
         checks=checks,
+        check_strict=check_strict,
         initial_state=initial_state(mech, runtime),
         layout=DynamicsLayout(len(kin.q), len(drives), count),
         loops=loops,

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import sympy
 
 from ..front import mechanism as m
+from ..kinds.constraints.base import ConstraintDrawing
 from .kinematics import Kinematics
 
 
@@ -31,11 +32,18 @@ class Drawing:
     joints: list[dict] = field(default_factory=list)
     springs: list[dict] = field(default_factory=list)
     traces: list[int] = field(default_factory=list)
+    discs: list[dict] = field(default_factory=list)  # {center, rim}: a rolling disc
+    surfaces: list[dict] = field(default_factory=list)  # {at, axis, origin}: what it rolls on
+    blades: list[dict] = field(default_factory=list)  # {at, axis}: a knife edge
 
     def metadata(self) -> dict:
-        return {"points": [name for name, _, _ in self.points], "bodies": self.bodies,
-                "coms": self.coms, "joints": self.joints, "springs": self.springs,
-                "traces": self.traces}
+        found = {"points": [name for name, _, _ in self.points], "bodies": self.bodies,
+                 "coms": self.coms, "joints": self.joints, "springs": self.springs,
+                 "traces": self.traces}
+        for key in ("discs", "surfaces", "blades"):  # only where a constraint draws them
+            if getattr(self, key):
+                found[key] = getattr(self, key)
+        return found
 
 
 # where a point fixed in a body (its name, body-frame xy) is in the ground frame: (x, y)
@@ -90,6 +98,31 @@ def drawing(mech: m.Mechanism, locate: Locate | None = None) -> Drawing:
             found = [builder.point(f"loads[{k}].{end}" if ref.body == m.GROUND else ref.label,
                                    ref.body, ref.xy) for end, ref in zip("ab", drawing.between)]
             builder.drawing.springs.append({"a": found[0], "b": found[1], "load": k})
+    for constraint in mech.constraints:
+        constraint_drawing(builder, constraint.name, constraint.drawing())
     for ref in mech.outputs.points:
         builder.drawing.traces.append(builder.point(ref.label, ref.body, ref.xy))
     return builder.drawing
+
+
+def constraint_drawing(builder: _Builder, name: str, shown: ConstraintDrawing) -> None:
+    """A constraint's discs (center and a rim point), surfaces and blades (a point and one
+    length unit along the axis from it)."""
+    picture = builder.drawing
+    for body, radius in shown.discs:
+        picture.discs.append({"center": builder.point(f"{body}.origin", body, (0, 0)),
+                              "rim": builder.point(f"{name}.{body}.rim", body, (radius, 0))})
+    for body, xy, axis, disc in shown.surfaces:
+        at, ahead = along(builder, name, body, xy, axis)
+        picture.surfaces.append({"at": at, "axis": ahead,
+                                 "origin": builder.point(f"{disc}.origin", disc, (0, 0))})
+    for body, xy, axis in shown.blades:
+        at, ahead = along(builder, name, body, xy, axis)
+        picture.blades.append({"at": at, "axis": ahead})
+
+
+def along(builder: _Builder, name: str, body: str, xy: m.Vec2, axis: m.Vec2) -> tuple[int, int]:
+    length = sympy.sqrt(axis[0] ** 2 + axis[1] ** 2)
+    ahead = (xy[0] + axis[0] / length, xy[1] + axis[1] / length)
+    return (builder.point(f"{name}.at", body, xy),
+            builder.point(f"{name}.axis", body, ahead))

@@ -220,6 +220,12 @@ class BalanceLoads:
     def tension(self, joint: Joint, displacement: sympy.Expr, tension: sympy.Expr) -> None:
         self.tensions.append(Tension(joint, displacement, tension))
 
+    def generalized(self, joint: Joint, forces: Sequence[sympy.Expr]) -> None:
+        """Generalized forces on the joint's coordinates: each a tension along its coordinate
+        (its power: force * the coordinate's rate)."""
+        for name, force in zip(joint.coordinates, forces):
+            self.tensions.append(Tension(joint, m.symbol(name), force))
+
 
 def applied_loads(mech: m.Mechanism, kin: Kinematics) -> BalanceLoads:
     """Gravity and the YAML's loads (each kind's Load.act) as point forces, body couples and

@@ -16,7 +16,6 @@ import sympy
 from ..front import mechanism as m
 
 if TYPE_CHECKING:
-    from ..kinds.constraints import Constraint
     from ..kinds.joints import Joint
 from ..kinds.spatial import cross_z, rotation, vec
 from .kinematics import BalanceLoads, Kinematics, applied_loads
@@ -99,29 +98,12 @@ def point_motion(kin: Kinematics, point: m.PointRef) -> Named:
     ]
 
 
-def constraint_reaction(kin: Kinematics, constraint: Constraint,
-                        multipliers: list[sympy.Expr]) -> Named:
-    """The force of body(b) on body(a) at point a (ground axes, then body(a)'s), and the
-    couple on body(a) for the kinds that hold an angle."""
-    frame_a, frame_b = kin.frame(constraint.a.body), kin.frame(constraint.b.body)
-    force, couple = constraint.reaction(frame_a, frame_b, multipliers)
-    body_frame = rotation(kin.angle(constraint.a.body)).T * vec(force)
-    name = constraint.name
-    named = [(f"{name}.Fx", force[0]), (f"{name}.Fy", force[1]),
-             (f"{name}.Fn", body_frame[0]), (f"{name}.Ft", body_frame[1])]
-    if constraint.reaction_couple:
-        named.append((f"{name}.M", couple))
-    return named
-
-
 def constraint_loads(mech: m.Mechanism, kin: Kinematics,
                      multipliers: dict[str, list[sympy.Expr]], loads: BalanceLoads) -> None:
     """Every loop constraint's reaction as loads into LOADS, as the constraint puts them
-    (Constraint.act: on body(a) at point a, its opposite on body(b) at the point of b under
-    a)."""
+    (Constraint.act)."""
     for constraint in mech.constraints:
-        constraint.act(loads, kin.frame(constraint.a.body), kin.frame(constraint.b.body),
-                       multipliers[constraint.name])
+        constraint.act(kin, loads, multipliers[constraint.name])
 
 
 def derive_outputs(mech: m.Mechanism, kin: Kinematics, drives: dict[str, sympy.Expr],
@@ -135,7 +117,8 @@ def derive_outputs(mech: m.Mechanism, kin: Kinematics, drives: dict[str, sympy.E
     constraints = {c.name: c for c in mech.constraints}
     for name in wanted.reactions:
         if name in constraints:
-            named += constraint_reaction(kin, constraints[name], multipliers[name])
+            named += [(f"{name}.{suffix}", expr) for suffix, expr in
+                      constraints[name].reaction(kin, multipliers[name])]
         else:
             named += joint_reaction(mech, kin, mech.joint(name), loads, drives.get(name))
     named += [(f"{name}.drive", drives[name]) for name in wanted.drives]

@@ -145,9 +145,11 @@ def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
         dynamics = print_program(printer, program, caller, chunk_steps, units)
         functions = template("accelerations_augmented.c.tmpl").substitute(
             dynamics_parts=dynamics.functions, dynamics=dynamics.body)
+    on_velocities = eqs.loops.on_velocities if eqs.loops is not None else ()
     return template("loops.c.tmpl").substitute(
         prefix=prefix, dynamics_functions=functions,
-        constraint_values=constraint_values(eqs, block, printer))
+        constraint_values=constraint_values(eqs, block, printer),
+        on_velocities=" || ".join(f"(k) == {k}" for k in on_velocities) or "0")
 
 
 def constraint_values(eqs: Equations, block: Block, printer: SymbolTablePrinter) -> str:

@@ -12,7 +12,9 @@ from .jacobian_c import has_jacobian
 
 def metadata(eqs: Equations, prefix: str) -> dict:
     mech, sim = eqs.mechanism, eqs.mechanism.simulation
-    settable = len(eqs.parameters) - len(eqs.inputs.coefficients)  # then the inputs' laws
+    starts = eqs.loops.starts if eqs.loops is not None else ()
+    # the parameters, then the inputs' laws, then the offsets of constraints "as at the start"
+    settable = len(eqs.parameters) - len(eqs.inputs.coefficients) - len(starts)
     return {
         "name": mech.name,
         "description": mech.description,
@@ -27,14 +29,19 @@ def metadata(eqs: Equations, prefix: str) -> dict:
         "parameter_defaults": list(eqs.parameter_defaults[:settable]),
         "inputs": {"names": list(eqs.inputs.names), "offset": settable,
                    "stride": eqs.inputs.stride,
-                   "defaults": list(eqs.parameter_defaults[settable:])},
+                   "defaults": list(eqs.parameter_defaults[
+                       settable: settable + len(eqs.inputs.coefficients)])},
         "derived_parameters": {name: str(expr) for name, expr in eqs.derived_parameters},
         "check_names": [key for key, _ in eqs.checks],
+        "check_strict": list(eqs.check_strict),
         "output_names": [name for name, _ in eqs.outputs],
         "generated": generated_functions(eqs),
         "dynamics_program": eqs.dynamics_form,
         "drive_names": [joint.name for joint in mech.driven],
         "constraint_equations": list(eqs.loops.owners) if eqs.loops is not None else [],
+        "constraint_starts": [[k, eqs.parameters.index(offset)] for k, offset in starts],
+        "constraint_on_velocities": list(eqs.loops.on_velocities) if eqs.loops is not None
+        else [],
         "initial_given": [name for name in mech.state_names if name in sim.initial],
         "scene": {
             "t_span": list(sim.t_span) if sim.t_span else None,

@@ -1,5 +1,5 @@
-"""The bodies: mass and inertia (positive at the default values), mass center and named
-points.
+"""The bodies: mass and inertia (>= 0 at the default values: a particle has no inertia, a
+massless link neither), mass center and named points.
 """
 
 from __future__ import annotations
@@ -31,10 +31,11 @@ def _body(ctx: Context, name: str, node: Node, path: str) -> Body | None:
     entries = entries_of(node)
     mass = None
     if "mass" in entries:
-        mass = read_fixed(ctx, entries["mass"], join_path(path, "mass"), True)
+        mass = read_fixed(ctx, entries["mass"], join_path(path, "mass"), nonnegative=True)
     inertia = None
     if "inertia" in entries:
-        inertia = read_fixed(ctx, entries["inertia"], join_path(path, "inertia"), True)
+        inertia = read_fixed(ctx, entries["inertia"], join_path(path, "inertia"),
+                             nonnegative=True)
     com = read_vec2(ctx, entries["com"], join_path(path, "com")) if "com" in entries else ZERO2
     points: dict[str, Vec2] | None = {}
     if "points" in entries:

@@ -1,5 +1,5 @@
-"""The loop-closing constraints: each read by its kind (nemc/kinds/constraints/), between two
-bodies; with them, no more equations than free coordinates.
+"""The loop-closing constraints: each read by its kind (nemc/kinds/constraints/); with them, no
+more equations on the positions than free coordinates.
 """
 
 from __future__ import annotations
@@ -12,7 +12,8 @@ from .reader import Reader, constraint_keys, every_key
 
 
 def read_constraints(ctx: Context, node: Node) -> tuple[Constraint, ...]:
-    """The loop-closing constraints; with them, no more equations than free coordinates."""
+    """The loop-closing constraints; with them, no more equations on the positions than free
+    coordinates."""
     if not nonempty_mapping(ctx, node, "constraints", "constraint"):
         return ()
     found = []
@@ -23,7 +24,9 @@ def read_constraints(ctx: Context, node: Node) -> tuple[Constraint, ...]:
         constraint = _constraint(ctx, name, item, path)
         if constraint is not None:
             found.append(constraint)
-    equations = sum(c.equations_count for c in found)
+    # on the positions (one on the velocities, as a planet's rolling held by its carrier,
+    # may repeat what the positions' already say: the runtime drops a redundant equation)
+    equations = sum(c.equations_count - len(c.on_velocities()) for c in found)
     free = len([q for joint in ctx.joints.values() if not joint.driven
                 for q in joint.coordinates])
     if found and equations > free:
@@ -35,7 +38,7 @@ def read_constraints(ctx: Context, node: Node) -> tuple[Constraint, ...]:
 
 def _constraint(ctx: Context, name: str, node: Node, path: str) -> Constraint | None:
     if not node.is_map:
-        ctx.problem(node.line, path, f"expected a constraint mapping {{type, a, b, ...}}, "
+        ctx.problem(node.line, path, f"expected a constraint mapping {{type, ...}}, "
                                      f"{described(node)}")
         return None
     entries = entries_of(node)
@@ -47,14 +50,9 @@ def _constraint(ctx: Context, name: str, node: Node, path: str) -> Constraint | 
     allowed = constraint_keys(kind) if kind is not None else all_keys
     owner = (f"a {kind.type} constraint" if kind is not None else "", all_keys)
     count = len(ctx.problems)
-    check_keys(ctx, node, path, allowed, ("type", "a", "b"), owner=owner)
-    reader = Reader(ctx, node, path)
-    ends = {key: reader.point_ref(key) for key in ("a", "b")}
-    fields = kind.read(reader) if kind is not None else None
-    a, b = ends["a"], ends["b"]
-    if a is not None and b is not None and a.body == b.body:
-        ctx.problem(entries["b"].line, join_path(path, "b"), f"a constraint joins two bodies, but "
-                    f"a and b are both on {a.body!r}")
-    if kind is None or fields is None or a is None or b is None or len(ctx.problems) > count:
+    check_keys(ctx, node, path, allowed, ("type", *(kind.required if kind else ())),
+               owner=owner)
+    fields = kind.read(Reader(ctx, node, path)) if kind is not None else None
+    if kind is None or fields is None or len(ctx.problems) > count:
         return None
-    return kind(name=name, a=a, b=b, loc=ctx.loc(node, path), **fields)
+    return kind(name=name, loc=ctx.loc(node, path), **fields)

@@ -78,8 +78,10 @@ def has_defaults(ctx: Context, expr: sympy.Expr) -> bool:
     return expr.free_symbols <= ctx.defaults.keys()
 
 
-def read_fixed(ctx: Context, node: Node, path: str, positive: bool = False) -> sympy.Expr | None:
-    """An expression of parameters and constants, finite (and > 0) at the default values."""
+def read_fixed(ctx: Context, node: Node, path: str, positive: bool = False,
+               nonnegative: bool = False) -> sympy.Expr | None:
+    """An expression of parameters and constants, finite (and > 0, or >= 0) at the default
+    values."""
     expr = read_expr(ctx, node, path, ctx.scope("fixed"))
     if expr is None or not has_defaults(ctx, expr):
         return expr
@@ -90,6 +92,10 @@ def read_fixed(ctx: Context, node: Node, path: str, positive: bool = False) -> s
         return None
     if positive and value <= 0:
         ctx.problem(node.line, path, f"must be > 0, got {value:g} at the default parameter values")
+        return None
+    if nonnegative and value < 0:
+        ctx.problem(node.line, path, f"must be >= 0, got {value:g} at the default parameter "
+                                     "values")
         return None
     return expr
 

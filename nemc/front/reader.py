@@ -14,7 +14,7 @@ from ..kinds.constraints import CONSTRAINT_KINDS, Constraint
 from ..kinds.joints import JOINT_KINDS, Joint
 from ..kinds.loads import LOAD_KINDS
 from .context import Context, check_keys, entries_of, join_path
-from .fields import ZERO2, read_choice, read_expr, read_fixed, read_vec2
+from .fields import ZERO2, read_choice, read_expr, read_fixed, read_flag, read_vec2
 from .mechanism import Loc, PointRef, Vec2
 from .parse import Node
 from .references import body_name, joint_name, point_of, point_ref, read_axis
@@ -26,7 +26,7 @@ def joint_keys(kind: type[Joint]) -> tuple[str, ...]:
 
 
 def constraint_keys(kind: type[Constraint]) -> tuple[str, ...]:
-    return ("type", "a", "b", *kind.keys)
+    return ("type", *kind.keys)
 
 
 def every_key(keys) -> list[str]:
@@ -65,6 +65,15 @@ class Reader:
     def problem(self, key: str, message: str) -> None:
         self.ctx.problem(self.entries.get(key, self.node).line, join_path(self.path, key), message)
 
+    def has(self, key: str) -> bool:
+        """Whether the mapping gives this key."""
+        return key in self.entries
+
+    def flag(self, key: str, default: bool) -> bool:
+        """true or false."""
+        found = self._at(key)
+        return default if found is None else read_flag(self.ctx, *found)
+
     def _at(self, key: str) -> tuple[Node, str] | None:
         return (self.entries[key], join_path(self.path, key)) if key in self.entries else None
 
@@ -73,10 +82,11 @@ class Reader:
         found = self._at(key)
         return default if found is None else read_expr(self.ctx, *found, self.ctx.scope("load"))
 
-    def fixed(self, key: str, default: sympy.Expr) -> sympy.Expr | None:
-        """An expression of parameters and constants, finite at their defaults."""
+    def fixed(self, key: str, default: sympy.Expr, positive: bool = False
+              ) -> sympy.Expr | None:
+        """An expression of parameters and constants, finite (and > 0) at their defaults."""
         found = self._at(key)
-        return default if found is None else read_fixed(self.ctx, *found)
+        return default if found is None else read_fixed(self.ctx, *found, positive)
 
     def vec2(self, key: str) -> Vec2 | None:
         """[x, y], each as `expr` reads it."""

@@ -16,6 +16,7 @@ from collections.abc import Mapping
 
 from ..errors import InputError, Problem
 from .bodies import read_bodies
+from .carried import check_carried
 from .constraints import read_constraints
 from .context import Context, check_keys, entries_of
 from .fields import ZERO2, read_string, read_vec2
@@ -77,6 +78,7 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
     gravity = read_vec2(ctx, root["gravity"], "gravity") if "gravity" in root else ZERO2
     bodies = read_bodies(ctx, root.get("bodies"))
     joints = read_joints(ctx, root.get("joints"))
+    check_carried(ctx)
     constraints = read_constraints(ctx, root["constraints"]) if "constraints" in root else ()
     loads = read_loads(ctx, root["loads"]) if "loads" in root else ()
     outputs = read_outputs(ctx, root["outputs"]) if "outputs" in root else Outputs()

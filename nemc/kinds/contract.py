@@ -45,11 +45,17 @@ class Reader(Protocol):
 
     def problem(self, key: str, message: str) -> None: ...
 
+    def has(self, key: str) -> bool:
+        """Whether the mapping gives this key."""
+
+    def flag(self, key: str, default: bool) -> bool:
+        """true or false."""
+
     def expr(self, key: str, default: Expr | None = None) -> Expr | None:
         """An expression of t, coordinates, rates, parameters and constants (as loads take)."""
 
-    def fixed(self, key: str, default: Expr) -> Expr | None:
-        """An expression of parameters and constants, finite at their defaults."""
+    def fixed(self, key: str, default: Expr, positive: bool = False) -> Expr | None:
+        """An expression of parameters and constants, finite (and > 0) at their defaults."""
 
     def vec2(self, key: str) -> Vec2 | None:
         """[x, y], each as `expr` reads it."""
@@ -126,6 +132,10 @@ class LoadSink(Protocol):
     def tension(self, joint: JointView, displacement: Expr, tension: Expr) -> None:
         """Equal and opposite loads on the joint's two bodies doing power tension * d/dt of its
         relative displacement (the joint says how: JointView.joint_load)."""
+
+    def generalized(self, joint: JointView, forces: Sequence[Expr]) -> None:
+        """Generalized forces on the joint's coordinates, one per coordinate (the joint says
+        how: Joint.generalized_load)."""
 
 
 class LoadView(Protocol):

@@ -98,6 +98,7 @@ class BuiltModel:
         self.compiled.functions["initial_state"](buffer(p), buffer(y0))
         if self.has_loops:
             t0 = (self.scene["t_span"] or DEFAULT_T_SPAN)[0]
+            p = self.loops.started(t0, y0, p)
             y0 = self.loops.assembled(t0, y0, self.loops.given_mask(None), p)[0]
         return y0
 
@@ -122,7 +123,10 @@ class BuiltModel:
     # -- evaluation -------------------------------------------------------------------------
 
     def rhs(self, t: float, y: Any, params: Mapping[str, float] | None = None) -> np.ndarray:
-        """dy/dt at (t, y)."""
+        """dy/dt at (t, y) (equations that hold "as at the start", a gear pair's, hold as at y)."""
+        if self.loops.starts:
+            p = self._started(t, y, self.parameter_vector(params))
+            return self.compiled.integrator_rhs(p)(checked_time(t), checked_state(y, self.n_state))
         if params is None:  # the default parameters (checked when compiled): no lookup
             fast = self._fast_rhs or self._prepare_default_rhs()
             dy = fast(t, y)  # a float t and a float64 array y: the C call, else None
@@ -150,13 +154,19 @@ class BuiltModel:
         ys = checked_states(y, self.n_state)
         ts = times_for(t, len(ys))
         dys = np.empty_like(ys)
-        self.compiled.call_many("rhs_many", ts, ys, self.parameter_vector(params), dys)
+        p = self.parameter_vector(params)
+        if self.loops.starts:  # each state its own start
+            for k in range(len(ys)):
+                self.compiled.call_many("rhs_many", ts[k:k + 1], ys[k:k + 1],
+                                        self._started(ts[k], ys[k], p), dys[k:k + 1])
+            return dys.T
+        self.compiled.call_many("rhs_many", ts, ys, p, dys)
         return dys.T
 
     def jacobian(self, t: float, y: Any, params: Mapping[str, float] | None = None) -> np.ndarray:
         """d rhs / d y, (n_state, n_state): analytic, from C (built on first need); central
         differences of the compiled RHS only in a standalone package built without it."""
-        p = self.parameter_vector(params)
+        p = self._started(t, y, self.parameter_vector(params))
         source = self.compiled_with("jacobian")
         if source.has_part("jacobian"):
             function = source.compiled.integrator_jacobian(p)
@@ -165,7 +175,7 @@ class BuiltModel:
                                                 params)
 
     def _finite_difference_jacobian(self, t: float, y: np.ndarray, params) -> np.ndarray:
-        f = self.compiled.integrator_rhs(self.parameter_vector(params))
+        f = self.compiled.integrator_rhs(self._started(t, y, self.parameter_vector(params)))
         jac = np.empty((self.n_state, self.n_state))
         for j in range(self.n_state):
             h = 6e-6 * max(1.0, abs(y[j]))
@@ -200,7 +210,14 @@ class BuiltModel:
         """The scene's outputs: floats for one state, arrays for y of shape (n_state, n_t)."""
         if not self.output_names:
             return {}
-        return self.compiled.outputs_at(t, y, self.parameter_vector(params))
+        p = self.parameter_vector(params)
+        array = real_array(y, "states")
+        if not self.loops.starts or array.ndim == 1:
+            return self.compiled.outputs_at(t, array, self._started(t, array, p))
+        ts = times_for(t, array.shape[-1])
+        columns = [self.compiled.outputs_at(ts[k], column, self._started(ts[k], column, p))
+                   for k, column in enumerate(array.T)]  # each state its own start
+        return {name: np.array([c[name] for c in columns]) for name in self.output_names}
 
     def positions(self, t: Any, y: Any, params: Mapping[str, float] | None = None
                   ) -> dict[str, np.ndarray]:
@@ -225,23 +242,42 @@ class BuiltModel:
         ys = checked_states(y, self.n_state)
         ts = times_for(t, len(ys))
         out = np.empty((len(ys), len(self.metadata["drawing"]["points"]), 2))
-        buffer = self.compiled.buffer
-        function(len(ys), buffer(ts), buffer(ys), buffer(self.parameter_vector(params)),
-                 buffer(out))
+        buffer, p = self.compiled.buffer, self.parameter_vector(params)
+        for rows in [slice(k, k + 1) for k in range(len(ys))] if self.loops.starts else [
+                slice(None)]:  # a state its own start where equations hold "as at the start"
+            p_rows = self._started(ts[rows][0], ys[rows][0], p) if self.loops.starts else p
+            function(len(ys[rows]), buffer(np.ascontiguousarray(ts[rows])),
+                     buffer(np.ascontiguousarray(ys[rows])), buffer(p_rows),
+                     buffer(out[rows]))
         return out
 
     def constraint_residual(self, y: Any, t: Any = 0.0,
-                            params: Mapping[str, float] | None = None) -> np.ndarray:
+                            params: Mapping[str, float] | None = None,
+                            start: Any = None) -> np.ndarray:
         """|Phi(q, t)| and |Phi_q q' + Phi_t| (the largest entry of each) at a state, or for y of
         shape (n_state, n_t) at each state (shape (2, n_t)). Zeros for a mechanism without
-        loops."""
+        loops. Equations that hold "as at the start" (a gear pair's) are measured from the
+        state `start` at time t_span[0] (default: the scene's initial state)."""
         array = np.asarray(y, dtype=float)
         single = array.ndim == 1
         ys = checked_states(array.reshape(-1, 1) if single else array, self.n_state)
         if not self.has_loops:
             return np.zeros(2) if single else np.zeros((2, len(ys)))
-        out = self.loops.residual(times_for(t, len(ys)), ys, self.parameter_vector(params))
+        p = self.parameter_vector(params)
+        if self.loops.starts:
+            first = (self.scene["t_span"] or DEFAULT_T_SPAN)[0]
+            p = self.loops.started(first, self.initial_state(params) if start is None
+                                   else self.state_vector(start, params), p)
+        out = self.loops.residual(times_for(t, len(ys)), ys, p)
         return out[0] if single else out.T
+
+    def _started(self, t: Any, y: Any, p: np.ndarray) -> np.ndarray:
+        """p with the offsets of equations that hold "as at the start" taken at (t, y): outside
+        a run, a state is its own start (p itself for a mechanism without such equations)."""
+        if not self.loops.starts:
+            return p
+        return self.loops.started(checked_time(float(np.asarray(t).reshape(-1)[0])),
+                                  checked_state(y, self.n_state), p)
 
     # -- the builds with more parts ------------------------------------------------------------
 

@@ -95,6 +95,7 @@ def run_ensemble(model: BuiltModel, call: EnsembleCall, span: tuple[float, float
     given = model.loops.given_mask(call.y0s)
     ps, y0s, tables = inputs or ensemble_inputs(model, call.y0s, call.params, call.inputs)
     if model.has_loops:  # each run from its assembled state
+        ps = np.ascontiguousarray(model.loops.started_runs(span[0], y0s, ps))
         y0s = model.loops.assembled_runs(span[0], y0s, given, ps)
     settings = checked_settings(model.scene, span, call.max_step, call.tstops, call.max_steps)
     if tables is not None:  # every step lands on the tables' samples

@@ -31,6 +31,34 @@ class Loops:
         # the constraint owning each constraint equation (empty for a tree)
         self.constraint_equations: tuple[str, ...] = compiled.constraint_equations
         self.has_loops = bool(self.constraint_equations)
+        # (equation, its offset's index in p) of the equations that hold "as at the start"
+        self.starts: list[tuple[int, int]] = [tuple(pair) for pair in  # type: ignore[misc]
+                                              metadata.get("constraint_starts", [])]
+        # the equations on the velocities (nonholonomic: a knife edge's), by index
+        self.on_velocities: tuple[int, ...] = tuple(metadata.get("constraint_on_velocities", []))
+
+    def started(self, t0: float, y0: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """p with the offsets of the equations that hold "as at the start" (a gear pair's,
+        a rolling disc's) set to what those equations' g(q) are at (t0, y0); p itself without
+        such equations."""
+        if not self.starts:
+            return p
+        p = p.copy()
+        offsets = [index for _, index in self.starts]
+        p[offsets] = 0.0
+        phi = np.empty(len(self.constraint_equations))
+        buffer = self.compiled.buffer
+        state = np.ascontiguousarray(y0, dtype=float)
+        self._loop_c("constraint_phi")(float(t0), buffer(state), buffer(p), buffer(phi))
+        p[offsets] = phi[[k for k, _ in self.starts]]
+        return p
+
+    def started_runs(self, t0: float, y0s: np.ndarray, ps: np.ndarray) -> np.ndarray:
+        """An ensemble's parameter rows (k of them where offsets are set) started at y0s."""
+        if not self.starts:
+            return ps
+        return np.array([self.started(t0, y0, ps[run % len(ps)])
+                         for run, y0 in enumerate(y0s)])
 
     def _loop_c(self, name: str) -> Any:
         return getattr(self.compiled.lib, self.compiled.prefix + name)
@@ -100,7 +128,10 @@ class Loops:
                                           buffer(p), buffer(info))
         if status:
             raise ModelError(self.assembly_failure(status, info, given))
-        return state, len(self.state_names) // 2 - int(info[4])
+        freedom = len(self.state_names) // 2 - int(info[4])
+        # equations on the velocities leave positions that move with the rates: integrated,
+        # never a kinematic analysis, even where they leave no freedom of motion
+        return state, max(freedom, 1) if self.on_velocities else freedom
 
     def assembly_failure(self, status: int, info: np.ndarray, given: np.ndarray) -> str:
         named = [name for name, kept in zip(self.state_names, given) if kept]

@@ -1,6 +1,7 @@
 """A model's parameters: the C parameter vector for a caller's overrides, checked (finite, known
 by name, masses and inertias positive), the latest one kept; and a vector back as a dict. The
-vector ends with the coefficients of the inputs' laws (inputs.py), at their defaults here.
+vector ends with the coefficients of the inputs' laws (inputs.py), at their defaults here, and
+the offsets of constraints that hold "as at the start" (loops.py, set at a run's start).
 
 A params dict passed again costs next to nothing (issue 46: each entry used to add about 1-7 us
 to every model.rhs call): the latest dict that was checked is remembered by its names and the
@@ -34,10 +35,15 @@ class Parameters:
         self.names: tuple[str, ...] = tuple(metadata["parameter_names"])
         self.derived: dict[str, str] = dict(metadata["derived_parameters"])
         self.check_names: list[str] = metadata["check_names"]
+        # each check > 0 (what a joint carries), else >= 0 (a mass, an inertia); a build before
+        # format v3 says nothing: all > 0
+        self.check_strict: list[bool] = metadata.get("check_strict",
+                                                     [True] * len(self.check_names))
         self.compiled = compiled
         # the parameters, then the inputs' laws' coefficients (inputs.py): never written
         laws = (metadata.get("inputs") or {}).get("defaults", [])
-        self.defaults = np.array([*metadata["parameter_defaults"], *laws], dtype=float)
+        offsets = [0.0] * len(metadata.get("constraint_starts", []))  # set at a run's start
+        self.defaults = np.array([*metadata["parameter_defaults"], *laws, *offsets], dtype=float)
         self._checked: tuple[tuple, np.ndarray] = ((), self.defaults)  # the latest vector
         # the latest dict checked: its names, its values (the objects), its vector (None: none)
         self._seen: tuple[tuple, tuple, np.ndarray] | None = None
@@ -111,13 +117,17 @@ class Parameters:
         raise ModelError(f"unknown parameter {name!r}{hint} (known: {list(self.names)})")
 
     def check_masses(self, p: np.ndarray) -> None:
-        """Refuse p where a mass or inertia (the C's checks) is not positive and finite."""
+        """Refuse p where a mass or inertia (the C's checks) is negative or not finite, or
+        leaves a joint nothing to move."""
         values = np.empty(len(self.check_names))
         buffer = self.compiled.buffer
         self.compiled.functions["checks"](buffer(p), buffer(values))
-        for key, value in zip(self.check_names, values):
-            if not value > 0:
-                raise ModelError(f"{key} must be > 0 and finite, got {value:g} at these parameters")
+        for key, value, strict in zip(self.check_names, values, self.check_strict):
+            if not (value > 0 if strict else value >= 0) or not np.isfinite(value):
+                raise ModelError(f"{key} must be {'>' if strict else '>='} 0 and finite, got "
+                                 f"{value:g} at these parameters" + (
+                                     " (the mass matrix would be singular)" if strict and
+                                     key.startswith("joints.") else ""))
 
     def share_defaults(self, other: Parameters) -> None:
         """Take the default vector of OTHER, the same mechanism's (a variant's build): a run that

@@ -62,7 +62,7 @@ def linearize(model: BuiltModel, y: Any = None, u: Any = None, *, t: float = 0.0
     """A, B, C, D at (t, y, u), exact (see Model.linearize)."""
     t = checked_time(t)
     p = with_inputs(model, model.parameter_vector(params), u)
-    state = point_state(model, y, t, p, params)
+    state, p = point_state(model, y, t, p, params)
     build = model.compiled_with("linearization")
     if not build.has_part("linearization"):
         raise ModelError("this standalone package was built without its linearization: "
@@ -78,20 +78,21 @@ def linearize(model: BuiltModel, y: Any = None, u: Any = None, *, t: float = 0.0
 
 
 def point_state(model: BuiltModel, y: Any, t: float, p: np.ndarray,
-                params: Mapping[str, float] | None) -> np.ndarray:
+                params: Mapping[str, float] | None) -> tuple[np.ndarray, np.ndarray]:
     """The state a linearization is taken at: Y (an array; a mapping of named values, the
     rates it does not name 0, the coordinates the scene's), a closed loop's on its
     constraints (the named values kept, the others solved; an array's nearest consistent
-    state)."""
+    state), and p with the offsets of constraints "as at the start" set there."""
     state = model.state_vector(y, params).copy()
     if isinstance(y, Mapping):
         rates = [i for i in range(1, model.n_state, 2) if model.state_names[i] not in y]
         state[rates] = 0.0
     if not model.has_loops:
-        return state
+        return state, p
+    p = model.loops.started(t, state, p)
     if isinstance(y, Mapping):  # the rates it does not name solved from 0 (none: at rest)
-        return model.loops.assembled(t, state, model.loops.given_mask(y), p)[0]
-    return model.loops.projected(np.array([t]), state.reshape(-1, 1), p)[:, 0]
+        return model.loops.assembled(t, state, model.loops.given_mask(y), p)[0], p
+    return model.loops.projected(np.array([t]), state.reshape(-1, 1), p)[:, 0], p
 
 
 def loop_linearization(model: BuiltModel, build: BuiltModel, t: float, y: np.ndarray,
@@ -99,6 +100,12 @@ def loop_linearization(model: BuiltModel, build: BuiltModel, t: float, y: np.nda
                        independent: Sequence[str] | None) -> Linearization:
     """A closed loop's linearization in independent coordinates (linear.loop_matrices)."""
     meta = model.metadata
+    if model.loops.on_velocities:
+        named = sorted({meta["constraint_equations"][k] for k in model.loops.on_velocities})
+        raise ModelError(
+            f"linearize: constraints {named} are on the velocities (nonholonomic), whose "
+            "linearization needs independent rates apart from independent coordinates: not "
+            "supported yet; model.jacobian(t, y) gives d(dy/dt)/dy in the full state")
     n, drives = len(model.coordinate_names), len(meta["drive_names"])
     m = len(meta["constraint_equations"])
     size = (m + 1) * (n + drives) + m * (n + 3)
@@ -232,7 +239,7 @@ class Equilibrium:
                  params: Mapping[str, float] | None):
         self.model, self.point, self.columns, self.t, self.params = (model, point, columns, t,
                                                                      params)
-        self.p0 = model.parameter_vector(params)
+        self.p0 = model.loops.started(t, point[:model.n_state], model.parameter_vector(params))
         self.rows = list(range(model.n_state))
         if model.has_loops:  # the rows: the state entries of the varying coordinates
             kept = {model.state_names[c] for c in columns if c < model.n_state}

@@ -57,9 +57,10 @@ def simulate(model: BuiltModel, arguments: tuple, t_eval: Any) -> SimulationResu
     if not model.has_loops:
         return integrate(model, spec)
     y0 = arguments[1]
+    p = model.loops.started(spec.span[0], spec.state0, spec.p)  # a gear pair's offset
     state0, freedom = model.loops.assembled(spec.span[0], spec.state0,
-                                            model.loops.given_mask(y0), spec.p)
-    spec = RunSpec(spec.method, spec.span, state0, spec.times, spec.rtol, spec.atol, spec.p,
+                                            model.loops.given_mask(y0), p)
+    spec = RunSpec(spec.method, spec.span, state0, spec.times, spec.rtol, spec.atol, p,
                    spec.settings, spec.user_events, spec.inputs)
     if freedom == 0:
         return kinematic_run(model, spec)

@@ -58,6 +58,10 @@ class Scene:
 
     def extent(self) -> tuple[np.ndarray, np.ndarray]:
         points = self.xy.reshape(-1, 2)
+        for disc in self.drawing.get("discs", ()):  # a circle's whole box, not its rim point
+            center, rim = self.xy[:, disc["center"]], self.xy[:, disc["rim"]]
+            radius = np.hypot(*(rim - center).T)[:, None]
+            points = np.vstack([points, center - radius, center + radius])
         points = points[np.all(np.isfinite(points), axis=1)]
         if not points.size:
             return np.zeros(2), np.ones(2)
@@ -195,7 +199,12 @@ class Artist:
                         for _ in drawing["springs"]]
         self.joint_springs = [ax.plot([], [], "-", color=INK, lw=1.0, zorder=3)[0]
                               for j in drawing["joints"] if j["sprung"]]
+        self.surfaces = [ax.plot([], [], "-", color="#999999", lw=3, solid_capstyle="round",
+                                 zorder=1)[0] for _ in drawing.get("surfaces", ())]
         self.bodies = {body: self.body_artist(body) for body in drawing["bodies"]}
+        self.discs = [self.disc_artist(disc) for disc in drawing.get("discs", ())]
+        self.blades = [ax.plot([], [], "-", color=INK, lw=4, solid_capstyle="butt",
+                               zorder=6)[0] for _ in drawing.get("blades", ())]
         self.coms = ax.plot([], [], "o", ms=5, mfc="white", mec=INK, mew=1.0, zorder=6)[0]
         self.pins = ax.plot([], [], "o", ms=7, mfc="white", mec=INK, mew=1.4, zorder=7)[0]
         self.welds = ax.plot([], [], "s", ms=5, color=INK, zorder=7)[0]
@@ -211,8 +220,9 @@ class Artist:
 
     def dynamic(self) -> list[Any]:
         """Every artist that moves (drawn over a fixed background, frame by frame)."""
-        return [*self.rails, *self.traces, *self.springs, *self.joint_springs,
-                *self.bodies.values(), self.coms, self.pins, self.welds, self.sliders,
+        return [*self.rails, *self.surfaces, *self.traces, *self.springs, *self.joint_springs,
+                *self.bodies.values(), *(a for disc in self.discs for a in disc),
+                *self.blades, self.coms, self.pins, self.welds, self.sliders,
                 self.supports, self.anchor_marks, self.stamp]
 
     def stamp_text(self, now: float) -> str:
@@ -240,6 +250,32 @@ class Artist:
                                 zorder=4)[0]
         return self.ax.plot([], [], "s", color=colour, ms=14, zorder=4)[0]
 
+    def disc_artist(self, disc: dict) -> tuple[Any, Any]:
+        """A rolling disc: its rim, and a spoke to its rim point that shows it turn."""
+        from matplotlib.patches import Circle
+
+        body = self.scene.drawing["points"][disc["center"]].split(".")[0]
+        colour = self.body_colour.get(body, INK)
+        rim = Circle((0.0, 0.0), 1.0, fill=False, ec=colour, lw=2, zorder=5)
+        self.ax.add_patch(rim)
+        return rim, self.ax.plot([], [], "-", color=colour, lw=1.5, zorder=5)[0]
+
+    def update_discs(self, xy: np.ndarray) -> None:
+        drawing = self.scene.drawing
+        for (rim, spoke), disc in zip(self.discs, drawing.get("discs", ())):
+            center, point = xy[disc["center"]], xy[disc["rim"]]
+            rim.set_center(tuple(center))
+            rim.set_radius(math.hypot(*(point - center)))
+            spoke.set_data([center[0], point[0]], [center[1], point[1]])
+        for artist, surface in zip(self.surfaces, drawing.get("surfaces", ())):
+            self.draw_rail(artist, surface, xy)
+        for artist, blade in zip(self.blades, drawing.get("blades", ())):
+            at, ahead = xy[blade["at"]], xy[blade["axis"]]
+            unit = (ahead - at) / max(math.hypot(*(ahead - at)), 1e-12)
+            ends = np.array([at - 0.05 * self.scene.scale * unit,
+                             at + 0.05 * self.scene.scale * unit])
+            artist.set_data(ends[:, 0], ends[:, 1])
+
     def update(self, k: int) -> list[Any]:
         """Move every artist to frame k."""
         scene, xy = self.scene, self.scene.xy[k]
@@ -253,6 +289,7 @@ class Artist:
         coms = np.array([xy[k] for k in drawing["coms"].values()]).reshape(-1, 2)
         self.coms.set_data(coms[:, 0], coms[:, 1])
         self.update_joints(xy)
+        self.update_discs(xy)
         for artist, spring in zip(self.springs, drawing["springs"]):
             line = zigzag(xy[spring["a"]], xy[spring["b"]], 0.02 * scene.scale)
             artist.set_data(line[:, 0], line[:, 1])

@@ -20,8 +20,8 @@ from contextlib import contextmanager, suppress
 from pathlib import Path
 
 from ..errors import BuildError, InputError, OutputRefused
-from .fmu_cli import add_export_parser, cmd_export
 from .fit_cli import add_fit_parser, cmd_fit
+from .fmu_cli import add_export_parser, cmd_export
 from .plant_cli import add_linearize_parser, cmd_linearize
 
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
@@ -554,7 +554,9 @@ def cmd_check(args: argparse.Namespace) -> int:
     driven = f", {counted(len(mech.driven), 'driven joint')}" if mech.driven else ""
     print(f"{args.mechanism}: OK: {mech.name}, {counted(len(mech.bodies), 'body', 'bodies')}, "
           f"{counted(len(mech.coordinates), 'coordinate')}{driven}{loops}, "
-          f"{counted(assembly.freedom, 'degree', 'degrees')} of freedom, "
+          f"{counted(assembly.freedom, 'degree', 'degrees')} of freedom"
+          f"{'' if assembly.motion == assembly.freedom else ' of position, '}"
+          f"{'' if assembly.motion == assembly.freedom else f'{assembly.motion} of motion'}, "
           f"state {list(mech.state_names)}")
     return 0
 

@@ -25,20 +25,20 @@ if TYPE_CHECKING:
 @dataclass(frozen=True)
 class PrismaticConstraint(Slot):
     type: ClassVar[str] = "prismatic"
-    keys: ClassVar[tuple[str, ...]] = ("axis", "offset")
+    keys: ClassVar[tuple[str, ...]] = ("a", "b", "axis", "offset")
     equations_count: ClassVar[int] = 2
     reaction_couple: ClassVar[bool] = True
 
     offset: sympy.Expr = sympy.S.Zero
 
     @classmethod
-    def read(cls, read: Reader) -> dict[str, Any] | None:
-        return read.fields(axis=read.axis("axis"), offset=read.fixed("offset", sympy.S.Zero))
+    def read_own(cls, read: Reader) -> dict[str, Any] | None:
+        return {"axis": read.axis("axis"), "offset": read.fixed("offset", sympy.S.Zero)}
 
-    def equations(self, a: Frame, b: Frame) -> list[sympy.Expr]:
-        return [*super().equations(a, b), a.angle - b.angle - self.offset]
+    def between(self, a: Frame, b: Frame) -> list[sympy.Expr]:
+        return [*super().between(a, b), a.angle - b.angle - self.offset]
 
-    def reaction(self, a: Frame, b: Frame, multipliers: list[sympy.Expr]
-                 ) -> tuple[V2, sympy.Expr]:
-        force, _ = super().reaction(a, b, multipliers[:1])
+    def force(self, a: Frame, b: Frame, multipliers: list[sympy.Expr]
+              ) -> tuple[V2, sympy.Expr]:
+        force, _ = super().force(a, b, multipliers[:1])
         return force, multipliers[1]

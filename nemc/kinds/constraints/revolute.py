@@ -15,18 +15,19 @@ import sympy
 
 from ..contract import Frame
 from ..spatial import V2
-from .base import Constraint
+from .base import PointPair
 
 
 @dataclass(frozen=True)
-class RevoluteConstraint(Constraint):
+class RevoluteConstraint(PointPair):
     type: ClassVar[str] = "revolute"
+    keys: ClassVar[tuple[str, ...]] = ("a", "b")
     equations_count: ClassVar[int] = 2
 
-    def equations(self, a: Frame, b: Frame) -> list[sympy.Expr]:
+    def between(self, a: Frame, b: Frame) -> list[sympy.Expr]:
         pa, pb = a.point(self.a.xy), b.point(self.b.xy)
         return [pa[0] - pb[0], pa[1] - pb[1]]
 
-    def reaction(self, a: Frame, b: Frame, multipliers: list[sympy.Expr]
-                 ) -> tuple[V2, sympy.Expr]:
+    def force(self, a: Frame, b: Frame, multipliers: list[sympy.Expr]
+              ) -> tuple[V2, sympy.Expr]:
         return (multipliers[0], multipliers[1]), sympy.S.Zero

@@ -16,23 +16,23 @@ import sympy
 
 from ..contract import Frame
 from ..spatial import V2, scale, unit
-from .base import Constraint
+from .base import PointPair
 
 if TYPE_CHECKING:
     from ..contract import Reader
 
 
 @dataclass(frozen=True)
-class Slot(Constraint):
+class Slot(PointPair):
     type: ClassVar[str] = "slot"
-    keys: ClassVar[tuple[str, ...]] = ("axis",)
+    keys: ClassVar[tuple[str, ...]] = ("a", "b", "axis")
     equations_count: ClassVar[int] = 1
 
     axis: tuple[sympy.Expr, sympy.Expr] = (sympy.S.One, sympy.S.Zero)  # in body(b)'s frame
 
     @classmethod
-    def read(cls, read: Reader) -> dict[str, Any] | None:
-        return read.fields(axis=read.axis("axis"))
+    def read_own(cls, read: Reader) -> dict[str, Any] | None:
+        return {"axis": read.axis("axis")}
 
     def normal(self, b: Frame) -> V2:
         ux, uy = unit(self.axis)
@@ -42,12 +42,12 @@ class Slot(Constraint):
         pa, pb = a.point(self.a.xy), b.point(self.b.xy)
         return pa[0] - pb[0], pa[1] - pb[1]
 
-    def equations(self, a: Frame, b: Frame) -> list[sympy.Expr]:
+    def between(self, a: Frame, b: Frame) -> list[sympy.Expr]:
         n, d = self.normal(b), self.separation(a, b)
         return [n[0] * d[0] + n[1] * d[1]]
 
-    def reaction(self, a: Frame, b: Frame, multipliers: list[sympy.Expr]
-                 ) -> tuple[V2, sympy.Expr]:
+    def force(self, a: Frame, b: Frame, multipliers: list[sympy.Expr]
+              ) -> tuple[V2, sympy.Expr]:
         return scale(self.normal(b), multipliers[0]), sympy.S.Zero  # type: ignore[return-value]
 
     def contact_on_b(self, a: Frame, b: Frame) -> tuple[sympy.Expr, sympy.Expr]:
