@@ -130,17 +130,17 @@ EXPECTED: dict[str, tuple[int, str, str]] = {
     "guess_rate": (15, "simulation.guess.dot(q2)", "unknown coordinate 'dot(q2)'"),
     "drives_undriven": (15, "outputs.drives[0]", "joint 'A' is not driven (it has no motion:)"),
     # masses, inertias and parameters at load time
-    "mass_zero": (5, "bodies.b1.mass", "must be > 0, got 0"),
-    "mass_negative": (5, "bodies.b1.mass", "must be > 0, got -1.5"),
+    "mass_zero": (6, "bodies.b2", "joint 'B' would move nothing"),
+    "mass_negative": (5, "bodies.b1.mass", "must be >= 0, got -1.5"),
     "mass_nan": (5, "bodies.b1.mass", "expected a finite number, got nan"),
     "mass_inf": (5, "bodies.b1.mass", "expected a finite number, got inf"),
     "mass_overflow": (5, "bodies.b1.mass", "expected a finite number, got inf"),
     "mass_overflow_expression": (5, "bodies.b1.mass", "out of range"),
     "mass_divide_by_zero": (5, "bodies.b1.mass", "expression is not finite"),
     "mass_complex": (5, "bodies.b1.mass", "does not evaluate to a finite real number"),
-    "mass_zero_from_parameter": (5, "bodies.b1.mass", "must be > 0, got 0 at the default"),
-    "inertia_zero": (5, "bodies.b1.inertia", "must be > 0, got 0"),
-    "inertia_negative": (5, "bodies.b1.inertia", "must be > 0, got -2"),
+    "mass_zero_from_parameter": (6, "bodies.b2", "(0 at the default parameter values)"),
+    "inertia_zero": (5, "bodies.b1", "have no inertia"),
+    "inertia_negative": (5, "bodies.b1.inertia", "must be >= 0, got -2"),
     "parameter_nan": (3, "parameters.L", "expected a finite number, got nan"),
     "parameter_inf": (3, "parameters.L", "expected a finite number, got -inf"),
     "parameter_cycle": (3, "parameters.m", "definitions form a cycle: m -> L -> m"),
@@ -182,7 +182,7 @@ EXPECTED: dict[str, tuple[int, str, str]] = {
     "unicode_nel": (6, "", "character U+0085 (NEL) is not allowed"),
     "unicode_line_separator": (3, "", "character U+2028 (LINE SEPARATOR) is not allowed"),
     "unicode_paragraph_separator": (6, "", "character U+2029 (PARAGRAPH SEPARATOR) is not"),
-    "line_lone_carriage_return": (6, "bodies.b1.mass", "must be > 0, got -1"),  # PyYAML: 7
+    "line_lone_carriage_return": (6, "bodies.b1.mass", "must be >= 0, got -1"),  # PyYAML: 7
     # numbers C cannot hold as a double, and depths the later stages cannot take
     "number_huge_integer_in_load": (11, "loads[0].torque", "a number in the expression is out"),
     "number_tiny_rational_in_load": (11, "loads[0].torque", "a number in the expression is out"),
@@ -387,10 +387,8 @@ def test_c_keyword_model_exports_and_imports_alone(tmp_path: Path, nemc_cache: P
 @pytest.mark.parametrize("assignment, message", [
     ("int=nan", "must be finite"),
     ("int=inf", "must be finite"),
-    ("int=-1", "bodies.struct.mass must be > 0"),
-    ("int=0", "bodies.struct.mass must be > 0"),
-    ("main=0", "bodies.union.inertia must be > 0"),
-    ("return=0", "bodies.struct.inertia must be > 0"),
+    ("int=-1", "bodies.struct.mass must be >= 0"),
+    ("main=-1", "bodies.union.inertia must be >= 0"),
     ("itn=1", "did you mean 'int'"),
 ])
 def test_bad_parameters_at_run_time(assignment: str, message: str, capsys) -> None:
@@ -398,3 +396,14 @@ def test_bad_parameters_at_run_time(assignment: str, message: str, capsys) -> No
     captured = capsys.readouterr()
     assert captured.out == "" and captured.err.startswith(f"{VALID_C_NAMES}: --set")
     assert message in captured.err
+
+
+def test_parameters_that_leave_a_joint_nothing_to_move_are_refused_at_run_time(capsys) -> None:
+    """Masses and inertias may be 0 (format v3), but not everything a joint moves: the file's
+    defaults pass, the overrides that empty joint 'switch' are refused before any run."""
+    zeroed = ["--set", "int=0", "--set", "printf=0", "--set", "main=0"]
+    assert main(["simulate", str(VALID_C_NAMES), *zeroed]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.startswith(f"{VALID_C_NAMES}: --set")
+    assert "joints.switch (mass or inertia of body 'struct' and what it carries) must be > 0" \
+        in captured.err

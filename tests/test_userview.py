@@ -126,7 +126,7 @@ def test_compile_from_text_names_the_text_in_messages() -> None:
         0.0, [0.3, 0.1]), rtol=1e-15)
     with pytest.raises(InputError, match=r"^<text>:\d+: bodies\.link\.mass: .*'\*\*'"):
         nemc.compile(text=ROBOT_ARM.replace("mass: m", "mass: m^2"))
-    with pytest.raises(InputError, match=r"^cell 3:\d+: bodies\.link\.mass: must be > 0"):
+    with pytest.raises(InputError, match=r"^cell 3:\d+: bodies\.link\.mass: must be >= 0"):
         nemc.compile(text=ROBOT_ARM.replace("mass: m", "mass: -1"), name="cell 3")
     with pytest.raises(TypeError):
         nemc.compile(EXAMPLES / "robot_arm.yaml", text=ROBOT_ARM)

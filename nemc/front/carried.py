@@ -63,12 +63,15 @@ def carried(bodies: Mapping[str, Body], joints: Sequence[Joint]) -> Iterator[Car
 
 
 def subtree(root: str, children: Mapping[str, list[str]]) -> list[str]:
-    found, pending = [], [root]
+    """ROOT and the bodies below it, each once: a graph the joints' check refused (a body its
+    own child, a body with two parents) may hold cycles, and ends here too."""
+    found, pending = {root: None}, [root]
     while pending:
-        body = pending.pop()
-        found.append(body)
-        pending.extend(children.get(body, ()))
-    return found
+        for child in children.get(pending.pop(), ()):
+            if child not in found:
+                found[child] = None
+                pending.append(child)
+    return list(found)
 
 
 def check_carried(ctx: Context) -> None:
