@@ -140,3 +140,18 @@ def test_near_the_flat_position_the_right_hand_side_is_the_physical_branchs(
             accel = -7.0 / 6.0 * G / L * math.cos(theta)
             np.testing.assert_allclose(dy[1::2], [accel, 0, accel, 0, accel], atol=1e-9)
             np.testing.assert_allclose(dy[0::2], y[1::2], atol=1e-9)
+
+
+def test_a_state_returned_near_the_flat_position_is_on_the_physical_branch() -> None:
+    """A state near the flat position, off the constraints by an integrator's error, is
+    returned on the parallelogram branch: positions and rates (simulate's returned states are
+    brought onto the constraints the same way)."""
+    energy = 1.5 + 3.5 * G * L
+    rng = np.random.default_rng(49)
+    for theta in (1e-3, -1e-6, -math.pi + 2e-4):
+        rate = -math.sqrt((energy - 3.5 * G * L * math.sin(theta)) / 1.5)
+        exact = np.array([theta, rate, 0, 0, theta, rate, 0, 0, theta, rate])
+        y = exact + rng.uniform(-1e-12, 1e-12, exact.size)
+        projected = model().loops.projected(np.array([0.0]), y.reshape(-1, 1),
+                                            model().parameter_vector())
+        np.testing.assert_allclose(projected[:, 0], exact, atol=1e-9)
