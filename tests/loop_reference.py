@@ -948,3 +948,24 @@ def extended_precision_run(ref: LoopReference, t_span: Sequence[float], y0: np.n
             k[s] = rhs(t + c[s] * h, y + h * (a[s, :s] @ k[:s]))
         y = y + h * (b @ k)
     return y
+
+
+def double_fourbar_crank(t_end: float, rtol: float = 1e-13) -> tuple[float, float]:
+    """The crank angle and rate at T_END of the IFToMM benchmark A02, the double four-bar of
+    examples/double_fourbar.yaml, from its one minimal coordinate, not from constraints: on its
+    parallelogram branch the three cranks stay parallel at the angle theta and the two couplers
+    translate with the cranks' tips, so (m = 1 kg, L = 1 m uniform rods, g = 9.81)
+    T = 3 * (1/2) (m L^2 / 3) dtheta^2 + 2 * (1/2) m L^2 dtheta^2 = (3/2) m L^2 dtheta^2,
+    V = 3 m g (L/2) sin(theta) + 2 m g L sin(theta) = (7/2) m g L sin(theta), and Lagrange's
+    equation is ddtheta = -(7/6) (g / L) cos(theta), from theta = pi/2, dtheta = -1 (the tip B0
+    moving right at 1 m/s). Solved by scipy's DOP853 at RTOL (atol 1e-15)."""
+    from scipy.integrate import solve_ivp
+
+    g, length = 9.81, 1.0
+
+    def pendulum(_t: float, y: np.ndarray) -> list[float]:
+        return [y[1], -7.0 / 6.0 * g / length * math.cos(y[0])]
+
+    run = solve_ivp(pendulum, (0.0, t_end), [math.pi / 2, -1.0], method="DOP853", rtol=rtol,
+                    atol=1e-15)
+    return float(run.y[0, -1]), float(run.y[1, -1])

@@ -35,7 +35,7 @@ METHODS = ("nemc.DOP853", "nemc.Radau", "nemc.Vern9", "nemc.Taylor")  # enum nem
 # the model's own rhs at the same tolerance is as far (fourbar 4.8e-5, prismatic_cart_pendulum
 # 9e-4, free_body_on_spring 6.8e-6), and the FMU's error falls with CVode's tolerance
 # (docs/decisions/0033-fmu-export.md has the table).
-BDF_LIMITED = {"andrews", "bouncing_ball", "fourbar", "free_body_on_spring",
+BDF_LIMITED = {"andrews", "bouncing_ball", "double_fourbar", "fourbar", "free_body_on_spring",
                "prismatic_cart_pendulum", "slider_crank"}
 FMI2_ERROR, FMI2_DISCARD = 3, 2
 

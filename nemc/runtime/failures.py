@@ -78,6 +78,8 @@ def loop_failure(equations: Sequence[str], status: int) -> str | None:
                 " (the loop cannot close here: a configuration the mechanism cannot reach, "
                 "or the motion left the branch it was on)")
     if -3000 < status <= -2000:
-        return (f"constraint {loop_equation(equations, status)!r} cannot hold its acceleration "
-                "here: a singular (locked) configuration of the loop")
+        return (f"constraint {loop_equation(equations, status)!r} loses rank here and the "
+                "motion does not carry the mechanism out of it: a singular (locked) "
+                "configuration of the loop, at rest in it or moving within it (which branch it "
+                "would leave on is not determined)")
     return None

@@ -106,8 +106,8 @@ class Loops:
         weakest = self.constraint_equations[int(np.abs(left[:, -1]).argmax())]
         return (f" Near t={t:.9g} constraint {weakest!r} is at a singular configuration (its "
                 f"equations lose rank: smallest singular value {ratio:.2g} of the largest), "
-                "where the accelerations are ill-conditioned; a looser tolerance, or a method "
-                "that steps over it (nemc.Vern9), may pass it")
+                "where the accelerations are ill-conditioned (a configuration passed at speed "
+                "is extrapolated through: decision 0036)")
 
     # -- assembly -------------------------------------------------------------------------
 
