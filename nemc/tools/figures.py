@@ -8,12 +8,14 @@ YAML declares (`units:`), angles in degrees when it says `angle: deg`; legends s
 panel, never on the data; colours are distinct within a panel. Curves come from a dense
 sampling of the same run (several points per solver step), so fast motion does not alias.
 
-`nemc simulate --plot`, `res.plot()` and `make run` all draw through plot_result().
+`nemc simulate --plot`, `res.plot()` and `make run` all draw through plot_result(). What it
+returns is a `ShownFigure`: a notebook shows it as its image with no `%matplotlib inline`.
 """
 
 from __future__ import annotations
 
 import fnmatch
+import io
 import math
 import os
 from collections.abc import Sequence
@@ -32,8 +34,20 @@ POINTS_PER_STEP = 12  # dense sampling: curve points per solver step
 MIN_POINTS, MAX_POINTS = 1500, 200_000
 PANEL_SIZE = (6.4, 2.3)  # inches, one panel
 DPI = 150
+NOTEBOOK_DPI = 100  # a notebook's image: matplotlib's inline backend's size
 COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
            "#17becf", "#7f7f7f", "#bcbd22")
+
+
+class ShownFigure(Figure):
+    """A matplotlib figure that a notebook shows as its image. nemc draws on figures of its
+    own, not pyplot's, so no backend displays them: IPython asks `_repr_png_` instead (with
+    `%matplotlib inline` its own formatter for figures answers first, with the same image)."""
+
+    def _repr_png_(self) -> bytes:
+        buffer = io.BytesIO()
+        self.savefig(buffer, format="png", dpi=NOTEBOOK_DPI)
+        return buffer.getvalue()
 
 
 @dataclass
@@ -210,12 +224,12 @@ def grid(state: int, outputs: int) -> list[tuple[int, int]]:
     return [(k // 2, k % 2) for k in range(count)] if count > 4 else [(k, 0) for k in range(count)]
 
 
-def draw(state: list[Panel], outputs: list[Panel], title: str) -> Figure:
+def draw(state: list[Panel], outputs: list[Panel], title: str) -> ShownFigure:
     """The report figure: panels on the grid above."""
     places = grid(len(state), len(outputs))
     rows = max(r for r, _ in places) + 1
     columns = max(c for _, c in places) + 1
-    fig = Figure(figsize=(PANEL_SIZE[0] * columns, PANEL_SIZE[1] * rows + 0.4),
+    fig = ShownFigure(figsize=(PANEL_SIZE[0] * columns, PANEL_SIZE[1] * rows + 0.4),
                  layout="constrained")
     fig.suptitle(title)
     for panel, (r, c) in zip(state + outputs, places):
