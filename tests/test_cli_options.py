@@ -4,9 +4,11 @@ nemc compile --jacobian --taylor, each checked against what it must produce."""
 from __future__ import annotations
 
 import csv
+import importlib.metadata
 import json
 import math
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -145,3 +147,15 @@ def test_the_command_line_keeps_numpys_blas_to_one_thread_unless_told(monkeypatc
     assert main(["simulate", COMPOUND, "--t-eval", "0,"]) == 0
     assert os.environ["OPENBLAS_NUM_THREADS"] == "3"
     capsys.readouterr()
+
+
+def test_version_is_the_packages(capsys) -> None:
+    """`nemc --version` prints the installed package's version, which is pyproject.toml's and
+    the one nemc stamps into generated code (vocabulary.NEMC_VERSION)."""
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0
+    pyproject = (EXAMPLES.parent / "pyproject.toml").read_text()
+    declared = re.search(r'^version = "([^"]+)"', pyproject, re.MULTILINE).group(1)
+    assert capsys.readouterr().out == f"nemc {declared}\n"
+    assert importlib.metadata.version("nemc") == declared == nemc.__version__

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import fnmatch
+import importlib.metadata
 import math
 import os
 import re
@@ -76,8 +77,20 @@ def figure_path(text: str) -> str:
     return text
 
 
+def installed_version() -> str:
+    """nemc's version from the package metadata pip wrote, or the source tree's own
+    (vocabulary.NEMC_VERSION) when nemc runs from a tree it was not installed from."""
+    from ..vocabulary import NEMC_VERSION
+
+    try:
+        return importlib.metadata.version("nemc")
+    except importlib.metadata.PackageNotFoundError:
+        return NEMC_VERSION
+
+
 def make_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="nemc", description="Newton-Euler Mechanism Compiler")
+    parser.add_argument("--version", action="version", version=f"nemc {installed_version()}")
     commands = parser.add_subparsers(dest="command", required=True)
     comp = commands.add_parser("compile", help="derive, emit C, compile; write DIR/<name>/")
     comp.add_argument("mechanism")
