@@ -16,9 +16,11 @@ import math
 import os
 import re
 import sys
-from collections.abc import Iterator, Sequence
+import time
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager, suppress
 from pathlib import Path
+from typing import Any
 
 from ..errors import BuildError, InputError, OutputRefused
 from .fit_cli import add_fit_parser, cmd_fit
@@ -337,6 +339,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from ..pipeline import compile_mechanism
     from ..runtime.model import ModelError
     from ..runtime.runs import INTERRUPTED
+    from ..vocabulary import SCIPY_METHODS
     from . import report
 
     model = compile_mechanism(args.mechanism).model
@@ -344,13 +347,21 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     try:
         run = run_settings(model, args)
         outputs = chosen_outputs(model, args.outputs)
-        result = model.simulate(run["t_span"], run["y0"], method=args.method, rtol=args.rtol,
-                                atol=args.atol, params=params, t_eval=run["t_eval"],
-                                inputs=dict(args.inputs) or None)
+
+        def simulate(method: str | None) -> Any:
+            return model.simulate(run["t_span"], run["y0"], method=method, rtol=args.rtol,
+                                  atol=args.atol, params=params, t_eval=run["t_eval"],
+                                  inputs=dict(args.inputs) or None)
+
+        if model.scene.get("method") in SCIPY_METHODS:  # its import outside the time measured
+            import scipy.integrate  # noqa: F401
+        result, seconds = timed(simulate, args.method)
     except (ModelError, ValueError) as error:
         print(f"{args.mechanism}: --set/options: {error}", file=sys.stderr)
         return 2
     print(report.table(model, result, outputs))
+    if args.method is None and result.success:
+        note_native_speed(result, seconds, simulate)
     if result.status == INTERRUPTED:  # Ctrl-C: what was computed is printed (and written)
         if args.csv:
             with writing(Path(args.csv)):
@@ -508,6 +519,40 @@ def writing(path: Path) -> Iterator[None]:
             with suppress(OSError):
                 path.unlink()
         raise OSError(error.errno, error.strerror or str(error), str(path)) from None
+
+
+# scipy's methods whose native port takes the same steps, to rounding (tests/test_native.py): a
+# scene naming the scipy one still runs scipy's; `nemc simulate` notes what the port takes
+SCIPY_PORTS = {"DOP853": "nemc.DOP853", "Radau": "nemc.Radau"}
+
+
+def timed(call: Callable[[Any], Any], argument: Any) -> tuple[Any, float]:
+    """call(argument) and its wall time in seconds."""
+    start = time.perf_counter()
+    value = call(argument)
+    return value, time.perf_counter() - start
+
+
+def note_native_speed(result: Any, seconds: float, simulate: Callable[[Any], Any]) -> None:
+    """When the scene names one of scipy's methods, its loop in Python over the compiled C, one
+    line on stderr with what the native choice takes on the same run, measured now: the
+    native port (the same steps to rounding, SCIPY_PORTS) or else the default, auto (decision
+    0037). A scipy name still means scipy's method: the note only says what it costs."""
+    from ..vocabulary import AUTO, SCIPY_METHODS
+
+    if result.method not in SCIPY_METHODS:
+        return
+    port = SCIPY_PORTS.get(result.method)
+    native, native_seconds = timed(simulate, port or AUTO)
+    if not native.success:
+        return
+    what = (f"{port} takes the same steps in C" if port else
+            f"the default, auto ({native.method} here), at the same tolerances")
+    fix = f"write `method: {port}`, or leave method out for auto" if port else (
+        "leave method out for auto")
+    print(f"nemc: note: the scene's method {result.method} is scipy's, its loop in Python: "
+          f"{1e3 * seconds:.3g} ms; {what}: {1e3 * native_seconds:.3g} ms, "
+          f"{seconds / max(native_seconds, 1e-9):.0f}x faster ({fix})", file=sys.stderr)
 
 
 def print_error_estimate(model, result, params: dict) -> None:
