@@ -124,6 +124,9 @@ def make_parser() -> argparse.ArgumentParser:
     sim.add_argument("--panels", type=panel_list, metavar="KINDS",
                      help="what --plot draws, comma-separated: state, reactions, drives, energy,"
                      " points, accelerations, expressions (default: all)")
+    sim.add_argument("--x", metavar="NAME",
+                     help="what --plot draws the curves against: t (default), a state entry"
+                     " (q1, 'dot(q1)') or an output (A.drive)")
     sim.add_argument("--error-estimate", action="store_true",
                      help="also print the run's error against DOP853 at rtol/1000, atol/1000")
     show = commands.add_parser("show", help="print the derived equations of motion")
@@ -347,6 +350,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     try:
         run = run_settings(model, args)
         outputs = chosen_outputs(model, args.outputs)
+        checked_x(model, args.x)
 
         def simulate(method: str | None) -> Any:
             return model.simulate(run["t_span"], run["y0"], method=method, rtol=args.rtol,
@@ -378,7 +382,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             report.write_mat(model, result, Path(args.mat), outputs)
     if args.plot:
         with writing(Path(args.plot)):
-            report.plot(result, Path(args.plot), panels=args.panels, outputs=outputs)
+            report.plot(result, Path(args.plot), panels=args.panels, outputs=outputs, x=args.x)
         print(f"figure written to {args.plot}")
     if not result.success:
         print(f"integration failed: {result.message}", file=sys.stderr)
@@ -524,6 +528,14 @@ def writing(path: Path) -> Iterator[None]:
 # scipy's methods whose native port takes the same steps, to rounding (tests/test_native.py): a
 # scene naming the scipy one still runs scipy's; `nemc simulate` notes what the port takes
 SCIPY_PORTS = {"DOP853": "nemc.DOP853", "Radau": "nemc.Radau"}
+
+
+def checked_x(model: Any, name: str | None) -> None:
+    """--x names t, a state entry or an output (ValueError otherwise, listing them)."""
+    known = ("t", *model.state_names, *model.output_names)
+    if name is not None and name not in known:
+        raise ValueError(f"--x: no state entry or output {name!r}; choose from "
+                         f"{', '.join(known)}")
 
 
 def timed(call: Callable[[Any], Any], argument: Any) -> tuple[Any, float]:

@@ -230,7 +230,7 @@ def draw(state: list[Panel], outputs: list[Panel], title: str) -> ShownFigure:
     rows = max(r for r, _ in places) + 1
     columns = max(c for _, c in places) + 1
     fig = ShownFigure(figsize=(PANEL_SIZE[0] * columns, PANEL_SIZE[1] * rows + 0.4),
-                 layout="constrained")
+                      layout="constrained")
     fig.suptitle(title)
     for panel, (r, c) in zip(state + outputs, places):
         draw_panel(fig.add_subplot(rows, columns, r * columns + c + 1), panel)
@@ -258,8 +258,32 @@ def draw_panel(ax: Any, panel: Panel) -> None:
                   frameon=False, fontsize="small", borderaxespad=0.2, handlelength=1.8)
 
 
+def against(panels: list[Panel], model: Any, res: SimulationResult, labels: Labels,
+            x: str) -> list[Panel]:
+    """The panels drawn against X (a state entry or an output) instead of t: each curve over
+    time takes X's values at the same times; the paths and the phase portrait keep their axes,
+    and a panel of X alone against itself is left out."""
+    columns = {"t": res.t, **dict(zip(model.state_names, res.y)), **res.outputs}
+    if x not in columns:
+        raise ValueError(f"x: no state entry or output {x!r}; choose from "
+                         f"{', '.join(columns)}")
+    values = np.asarray(columns[x], dtype=float) * labels.scale(x)
+    tlabel = labels.axis("t", "t")
+    xlabel = labels.axis(math_label(x) if x in model.state_names else x, x)
+    drawn = []
+    for panel in panels:
+        if panel.path or panel.xlabel != tlabel:
+            drawn.append(panel)
+            continue
+        curves = [Curve(c.label, values, c.y) for c in panel.curves if c.label != x]
+        if curves:
+            drawn.append(Panel(panel.ylabel, curves, xlabel, legend=panel.legend))
+    return drawn
+
+
 def figure(res: SimulationResult, *, panels: Sequence[str] | None = None,
-           outputs: Sequence[str] | None = None, dense_curves: bool = True) -> Figure:
+           outputs: Sequence[str] | None = None, dense_curves: bool = True,
+           x: str | None = None) -> Figure:
     """The report figure of a run: the panels of the kinds asked for (default: all)."""
     model = res.model
     if model is None:
@@ -272,6 +296,8 @@ def figure(res: SimulationResult, *, panels: Sequence[str] | None = None,
     labels = Labels(model)
     state = state_panels(model, run, labels) if "state" in kinds else []
     drawn = output_panels(model, run, labels, selected_outputs(model, outputs), kinds)
+    if x is not None and x != "t":
+        state, drawn = against(state, model, run, labels, x), against(drawn, model, run, labels, x)
     if not state and not drawn:
         raise ValueError("nothing to draw: no panel of the kinds asked for has data")
     title = f"{model.name} ({run.method}, rtol {run.rtol:g}, atol {run.atol:g})"
