@@ -39,6 +39,7 @@ def test_a_notebook_shows_the_figure_and_a_light_animation(tmp_path: Path) -> No
     page = [o["data"] for o in outputs[2] if o["output_type"] == "execute_result"][0]
     html = page["text/html"]
     assert "<canvas" in html and "<script>" in html
+    assert "background:url(data:image/png;base64," in html  # the first frame without scripts
     assert len(html.encode()) < ANIMATION_BUDGET, len(html.encode())
     assert "://" not in html and "<link" not in html  # nothing fetched: it plays offline
 

@@ -513,16 +513,21 @@ PLAYER_JS = """
 def player_html(scene: Scene, fps: float, title: str = "", size: float = 5.0) -> str:
     """A compact, self-contained player: a canvas, a play/pause button and a slider, the
     frames stored as the PNG rectangles where each differs from the one before (no
-    JavaScript library and nothing fetched: it plays offline)."""
+    JavaScript library and nothing fetched: it plays offline); without scripts (a notebook
+    viewer that strips them), the first frame."""
     frames = quantized_frames(scene, title, size, dpi=PLAYER_DPI)
     width, height = frames[0].size
     element = f"nemc-player-{uuid.uuid4().hex}"
     unit = f" {scene.time_unit}" if scene.time_unit else ""
     times = [f"t = {t:.3f}{unit}" for t in scene.t]
-    script = PLAYER_JS % {"id": json.dumps(element), "patches": json.dumps(patches(frames)),
+    stored = patches(frames)
+    script = PLAYER_JS % {"id": json.dumps(element), "patches": json.dumps(stored),
                           "times": json.dumps(times), "interval": f"{1000.0 / fps:.3f}"}
+    # the first frame as the canvas's background: what a viewer that runs no script shows
+    first = f"background:url({stored[0][2]}) 0 0 / 100% 100%"
     return (f'<div id="{element}" style="display:inline-block">'
-            f'<canvas width="{width}" height="{height}" style="max-width:100%"></canvas><br>'
+            f'<canvas width="{width}" height="{height}" style="max-width:100%;{first}">'
+            f"</canvas><br>"
             f'<button type="button" style="width:3em">&#9654;</button> '
             f'<input type="range" min="0" max="{len(frames) - 1}" value="0" step="1" '
             f'style="width:60%;vertical-align:middle"> <span></span>'
