@@ -364,8 +364,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         print(f"{args.mechanism}: --set/options: {error}", file=sys.stderr)
         return 2
     print(report.table(model, result, outputs))
-    if args.method is None and result.success:
-        note_native_speed(result, seconds, simulate)
     if result.status == INTERRUPTED:  # Ctrl-C: what was computed is printed (and written)
         if args.csv:
             with writing(Path(args.csv)):
@@ -387,6 +385,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if not result.success:
         print(f"integration failed: {result.message}", file=sys.stderr)
         return 1
+    if args.method is None:  # last: what was asked for is written before the extra run
+        note_native_speed(result, seconds, simulate)
     return 0
 
 
@@ -549,13 +549,19 @@ def note_native_speed(result: Any, seconds: float, simulate: Callable[[Any], Any
     """When the scene names one of scipy's methods, its loop in Python over the compiled C, one
     line on stderr with what the native choice takes on the same run, measured now: the
     native port (the same steps to rounding, SCIPY_PORTS) or else the default, auto (decision
-    0037). A scipy name still means scipy's method: the note only says what it costs."""
+    0037). A scipy name still means scipy's method: the note only says what it costs, and a
+    native run that fails or is refused gives no note."""
     from ..vocabulary import AUTO, SCIPY_METHODS
 
     if result.method not in SCIPY_METHODS:
         return
+    from ..runtime.model import ModelError
+
     port = SCIPY_PORTS.get(result.method)
-    native, native_seconds = timed(simulate, port or AUTO)
+    try:
+        native, native_seconds = timed(simulate, port or AUTO)
+    except (ModelError, ArithmeticError):  # the scene's own run stands; no note to give
+        return
     if not native.success:
         return
     what = (f"{port} takes the same steps in C" if port else
