@@ -82,13 +82,18 @@ def sweep(model: Model, y0s: Any = None, **options: Any) -> SweepResult:
 
 
 def __getattr__(name: str) -> Any:
-    """nemc.Experiment, nemc.FitError and nemc.FitResult, imported when first named."""
+    """nemc.Experiment, nemc.FitError and nemc.FitResult, and nemc.BuildNotice (the warning of
+    a call that compiled a build of its own), imported when first named."""
     if name in ("Experiment", "FitError", "FitResult"):
         from .runtime import fitting
 
         return getattr(fitting, name)
+    if name == "BuildNotice":
+        from .runtime.failures import BuildNotice
+
+        return BuildNotice
     raise AttributeError(f"module 'nemc' has no attribute {name!r}")
 
 
-__all__ = ["Experiment", "FitError", "FitResult", "compile", "feedback", "fit", "sweep",
-           "__version__"]
+__all__ = ["BuildNotice", "Experiment", "FitError", "FitResult", "compile", "feedback", "fit",
+           "sweep", "__version__"]

@@ -154,6 +154,7 @@ def compile_source(
                                chunk_steps=chunk_steps, linearization=True)
         return write_fmu(built.package, target, fmi, kind, fmu_facts(built.model))
 
+    model.fresh_build_seconds = None if cached else sum(timings.values())
     model.part_compiler = compile_parts
     model.fmu_exporter = export_fmu
     model.system_drivers = system_drivers

@@ -8,6 +8,7 @@ two threads, with events and impacts, backwards and over empty intervals: test_s
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -247,3 +248,33 @@ def test_a_lane_whose_last_coefficients_vanish_equals_its_run() -> None:
                              rtol=1e-10, atol=1e-12)
     assert_same(lanes, one_by_one)
     assert lanes.success.all() and lanes.nfev[0] > 2
+
+
+def test_the_ensemble_that_builds_its_lanes_says_so_once() -> None:
+    """The first simulate_many that compiles the lanes warns (nemc.BuildNotice, at the caller's
+    line) what it built and how long that took, which is within the call's own time; the next
+    call, and a new model of the same text (its build loaded from the cache), say nothing."""
+    import time
+    import warnings
+
+    text = (EXAMPLES / "compound_pendulum.yaml").read_text() + "# the build notice's own key\n"
+    model = nemc.compile(text=text, name="notice.yaml")
+    assert not model.has_part("lanes")
+    y0s = np.array([[0.1 * k, 0.0] for k in range(1, 9)])
+    options = dict(t_span=(0.0, 1.0), t_eval=[1.0], method="nemc.Taylor", lanes=True)
+    start = time.perf_counter()
+    with pytest.warns(nemc.BuildNotice) as record:
+        first = model.simulate_many(y0s, **options)
+    elapsed = time.perf_counter() - start
+    assert [Path(w.filename) for w in record] == [Path(__file__)]
+    message = str(record[0].message)
+    found = re.fullmatch(r"simulate_many built compound_pendulum's code for nemc\.Taylor in "
+                         r"SIMD lanes in ([\d.]+) s, once: later calls and sessions load it "
+                         r"from nemc's cache", message)
+    assert found and 0 < float(found[1]) <= elapsed + 0.05, (message, elapsed)  # to 0.1 s
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", nemc.BuildNotice)
+        again = model.simulate_many(y0s, **options)
+        cached = nemc.compile(text=text, name="notice.yaml").simulate_many(y0s, **options)
+    np.testing.assert_array_equal(first.y, again.y)
+    np.testing.assert_array_equal(first.y, cached.y)

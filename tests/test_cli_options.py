@@ -4,9 +4,11 @@ nemc compile --jacobian --taylor, each checked against what it must produce."""
 from __future__ import annotations
 
 import csv
+import importlib.metadata
 import json
 import math
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -145,3 +147,46 @@ def test_the_command_line_keeps_numpys_blas_to_one_thread_unless_told(monkeypatc
     assert main(["simulate", COMPOUND, "--t-eval", "0,"]) == 0
     assert os.environ["OPENBLAS_NUM_THREADS"] == "3"
     capsys.readouterr()
+
+
+def test_version_is_the_packages(capsys) -> None:
+    """`nemc --version` prints the installed package's version, which is pyproject.toml's and
+    the one nemc stamps into generated code (vocabulary.NEMC_VERSION)."""
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0
+    pyproject = (EXAMPLES.parent / "pyproject.toml").read_text()
+    declared = re.search(r'^version = "([^"]+)"', pyproject, re.MULTILINE).group(1)
+    assert capsys.readouterr().out == f"nemc {declared}\n"
+    assert importlib.metadata.version("nemc") == declared == nemc.__version__
+
+
+NOTE = re.compile(r"nemc: note: the scene's method (\S+) is scipy's, its loop in Python: "
+                  r"[\d.e+]+ ms; (.*): [\d.e+-]+ ms, \d+x faster \((.*)\)\n")
+
+
+def test_a_scene_naming_scipys_method_is_told_what_the_native_one_takes(tmp_path: Path,
+                                                                         capsys) -> None:
+    """A scene's scipy name runs scipy's method (the table is scipy's run: its rows equal the
+    Python API's with method DOP853), and one line on stderr says what nemc.DOP853, which takes
+    the same steps, takes; RK45 has no port: the note measures auto. A method from --method,
+    or a native one, gets no note."""
+    text = Path(COMPOUND).read_text()
+    scene = tmp_path / "compound_dop853.yaml"
+    scene.write_text(text.replace("  method: RK45", "  method: DOP853  #"))
+    assert main(["simulate", str(scene)]) == 0
+    out, err = capsys.readouterr()
+    found = NOTE.fullmatch(err)
+    assert found and found[1] == "DOP853", err
+    assert found[2] == "nemc.DOP853 takes the same steps in C"
+    assert found[3] == "write `method: nemc.DOP853`, or leave method out for auto"
+    _, rows = table(out)
+    scipy = nemc.compile(scene).simulate(method="DOP853")
+    assert np.allclose(rows[:, 1], scipy.y[0], rtol=1e-5, atol=1e-6)  # 6 digits printed
+    assert main(["simulate", COMPOUND]) == 0
+    found = NOTE.fullmatch(capsys.readouterr().err)
+    assert found and found[1] == "RK45" and found[3] == "leave method out for auto"
+    assert re.fullmatch(r"the default, auto \(nemc\.\S+ here\), at the same tolerances", found[2])
+    for method in ("DOP853", "auto"):
+        assert main(["simulate", COMPOUND, "--method", method]) == 0
+        assert "note" not in capsys.readouterr().err

@@ -129,3 +129,27 @@ def test_result_plot_writes_the_same_figure(tmp_path: Path) -> None:
     final = fig.axes[0].lines[0].get_ydata()[-1]
     assert final == pytest.approx(29.53, abs=0.01)  # the 5.4 steady state (see the example)
     assert (tmp_path / "arm.png").stat().st_size > 10_000
+
+
+def test_curves_drawn_against_a_state_entry_or_an_output(capsys) -> None:
+    """x="q1": every curve over time takes q1's values at the same times (in degrees, as the
+    YAML's units say); the panel of q1 against itself is left out; --x checks its name."""
+    from nemc.tools.cli import main
+
+    res = model_of("double_pendulum").simulate()
+    over_time, against_q1 = figure(res), figure(res, x="q1")
+    q1, q2 = (ax.lines[0] for ax in over_time.axes[:2])
+    assert len(against_q1.axes) == len(over_time.axes) - 1
+    assert labels(against_q1)[0] == r"$q_{2}$ (deg)"
+    for ax in against_q1.axes:
+        assert ax.get_xlabel() == r"$q_{1}$ (deg)"
+        np.testing.assert_array_equal(ax.lines[0].get_xdata(), q1.get_ydata())
+    np.testing.assert_array_equal(against_q1.axes[0].lines[0].get_ydata(), q2.get_ydata())
+    energy = figure(res, panels=["energy"], x="energy.kinetic").axes[0]
+    assert [line.get_label() for line in energy.lines[:2]] == ["energy.potential",
+                                                               "energy.total"]
+    with pytest.raises(ValueError, match=r"x: no state entry or output 'q9'; choose from t, q1"):
+        figure(res, x="q9")
+    assert main(["simulate", str(EXAMPLES / "double_pendulum.yaml"), "--plot", "x.png",
+                 "--x", "A.Fq"]) == 2
+    assert "--x: no state entry or output 'A.Fq'" in capsys.readouterr().err

@@ -338,7 +338,11 @@ def test_fourbar_constraints_hold_over_1000_s_without_growth() -> None:
     model = compiled(example_path("fourbar"))
     rtol, atol = 1e-9, 1e-9
     times = np.linspace(0.0, 1000.0, 4001)
-    res = model.simulate(t_span=(0.0, 1000.0), t_eval=times, rtol=rtol, atol=atol)
+    # scipy's DOP853, which the scene named until issue 52 (the examples now name no method).
+    # The native methods also stay far below atol, but their position residual grows from 1e-14
+    # to 2-4e-12 over the 1000 s (scipy's: to 9e-14): reported in issue 52, not asserted here.
+    res = model.simulate(t_span=(0.0, 1000.0), t_eval=times, rtol=rtol, atol=atol,
+                         method="DOP853")
     assert res.success, res.message
     assert np.all(np.isfinite(res.y))
     residuals = np.array([max_residual(model, t, res.y[:, k]) for k, t in enumerate(times)])

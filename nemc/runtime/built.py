@@ -63,6 +63,9 @@ class BuiltModel:
         # builds them once per size; None in a standalone package).
         self.system_drivers: Callable[[int], Any] | None = None
         self._variants: dict[str, BuiltModel] = {}  # compiled_with's, by the part asked for
+        # the seconds its compile took when the pipeline built it now rather than loaded it
+        # from the cache, until a BuildNotice reported them (None: nothing to report)
+        self.fresh_build_seconds: float | None = None
         self._native_builds: dict[str, BuiltModel] = {}  # native.native_build's, by method
         self._stiffness_build: tuple[int, BuiltModel | None] = (-1, None)  # auto.stiffness_build's
         self._rhs_cache: tuple[Any, Any, Any] = (None, None, None)  # rhs(): (p, its ways)

@@ -5,6 +5,7 @@ with the same results to the last bit as one after the other."""
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -22,6 +23,7 @@ from . import runs
 from .auto import checked_auto_choice
 from .built import DEFAULT_T_SPAN, BuiltModel
 from .checks import (
+    _user_stacklevel,
     checked_max_events,
     checked_span,
     checked_threads,
@@ -29,7 +31,7 @@ from .checks import (
     native_tolerances,
     real_array,
 )
-from .failures import ModelError
+from .failures import BuildNotice, ModelError
 from .inputs import RunInputs
 from .native import native_build, new_run, table_inputs
 from .results import EnsembleResult
@@ -64,6 +66,7 @@ def simulate_many(model: BuiltModel, call: EnsembleCall) -> EnsembleResult:
     span = checked_span(model.scene["t_span"] or DEFAULT_T_SPAN if call.t_span is None
                         else call.t_span)
     method, lanes = call.method, call.lanes
+    at_hand = model._builds_at_hand()  # a build made after this, this call made
     inputs = None  # (parameters, starts, tables), made once
     if method is None or (isinstance(method, str) and method == AUTO):
         inputs = ps, starts, _ = ensemble_inputs(model, call.y0s, call.params, call.inputs)
@@ -79,8 +82,21 @@ def simulate_many(model: BuiltModel, call: EnsembleCall) -> EnsembleResult:
     if not in_lanes:  # (a lanes build that could not have them says why Taylor cannot)
         build = native_build(build, method)
     if build is not model:  # a build with the method's part: it runs the ensemble
+        if all(build is not other for other in at_hand):
+            note_build(build, method + (" in SIMD lanes" if in_lanes else ""))
         return simulate_many(build, replace(call, method=method, lanes=lanes))
     return run_ensemble(model, call, span, method, in_lanes, inputs)
+
+
+def note_build(build: BuiltModel, method: str) -> None:
+    """A BuildNotice, once, when the ensemble's build was compiled by this call for METHOD
+    (not loaded from the cache): the user sees why the first call took seconds, and that later
+    ones will not."""
+    seconds, build.fresh_build_seconds = build.fresh_build_seconds, None
+    if seconds is not None:
+        warnings.warn(BuildNotice(
+            f"simulate_many built {build.name}'s code for {method} in {seconds:.1f} s, once: "
+            "later calls and sessions load it from nemc's cache"), stacklevel=_user_stacklevel())
 
 
 def run_ensemble(model: BuiltModel, call: EnsembleCall, span: tuple[float, float],

@@ -1,6 +1,7 @@
-"""What the runtime raises, and what a status of the model's C means in words: the caller's
-mistakes (ModelError) and equations that cannot be evaluated at a state (IntegrationFailure),
-whose message says the likely cause, a closed loop's constraint by name included."""
+"""What the runtime raises or warns of, and what a status of the model's C means in words: the
+caller's mistakes (ModelError), equations that cannot be evaluated at a state
+(IntegrationFailure), whose message says the likely cause, a closed loop's constraint by name
+included, and a call's compile of seconds (BuildNotice)."""
 
 from __future__ import annotations
 
@@ -14,6 +15,11 @@ SERIES_NOT_FINITE = -3  # the model status NEMC_SERIES_NOT_FINITE (templates/mod
 
 class ModelError(ValueError):
     """A call the model cannot honour: wrong shapes, unknown or invalid parameters."""
+
+
+class BuildNotice(UserWarning):
+    """A call compiled a build of its own now (sympy and the C compiler: seconds, once; later
+    calls and sessions load it from the cache): what it built and how long that took."""
 
 
 class IntegrationFailure(ArithmeticError):

@@ -8,14 +8,22 @@ compiled model (`Model.positions_array`, the C function `<name>_positions`), nev
 geometry: a frame shows what the model computes. Frames are spaced for real time (`speed` 1)
 at `fps` frames per second.
 
-Writers: Pillow for .gif, ffmpeg for .mp4 (when it is installed), to_jshtml for .html; with no
-file, an object a notebook displays inline.
+Writers: Pillow for .gif, ffmpeg for .mp4 (when it is installed), and for .html and a notebook
+nemc's own player (a canvas, a play button and a slider; the frames stored as the PNG rectangles
+where each differs from the one before; no JavaScript library, nothing fetched, so it plays
+offline and stays small: matplotlib's to_jshtml stores every frame whole and loads its buttons'
+icons from a CDN).
 """
 
 from __future__ import annotations
 
+import base64
+import io
+import json
 import math
 import os
+import uuid
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,7 +32,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..runtime.model import SimulationResult
-from .figures import dense, pretty_unit
+from .figures import ShownFigure, dense, pretty_unit
 
 FPS = 25  # a GIF stores frame delays in 1/100 s: 25 frames/s is exactly real time
 BODY_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
@@ -32,6 +40,7 @@ BODY_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b"
 INK = "#222222"
 SPRING_COILS = 8
 MAX_FRAMES = 3000
+PLAYER_DPI = 80  # the notebook's player: 400 px for the default 5 in, as small as reads well
 
 
 @dataclass
@@ -341,7 +350,7 @@ class Artist:
 
 def new_axes(scene: Scene, size: float = 5.0) -> tuple[Figure, Any]:
     """A figure with equal scales spanning every frame of the scene."""
-    fig = Figure(figsize=(size, size), layout="constrained")
+    fig = ShownFigure(figsize=(size, size), layout="constrained")
     ax = fig.add_subplot()
     lo, hi = scene.extent()
     middle, half = (lo + hi) / 2, max(float(np.max(hi - lo)) / 2, 1e-9) * 1.15
@@ -369,13 +378,17 @@ def render_frame(model: Any, t: float, y: Any, params: dict | None = None,
 
 
 class Inline:
-    """An animation a notebook shows inline (its HTML is the animation's to_jshtml)."""
+    """An animation a notebook shows inline: its HTML is nemc's own compact player
+    (`player_html`), drawn once when first shown."""
 
-    def __init__(self, animation: Any):
-        self.animation = animation
+    def __init__(self, scene: Scene, fps: float, title: str = "", size: float = 5.0):
+        self.scene, self.fps, self.title, self.size = scene, fps, title, size
+        self._html: str | None = None
 
     def _repr_html_(self) -> str:
-        return self.animation.to_jshtml()
+        if self._html is None:
+            self._html = player_html(self.scene, self.fps, self.title, self.size)
+        return self._html
 
 
 def animation_of(scene: Scene, fps: float = FPS, title: str = "", size: float = 5.0) -> Any:
@@ -399,38 +412,131 @@ def laid_out(scene: Scene, title: str = "", size: float = 5.0) -> tuple[Figure, 
     return fig, ax, artist
 
 
-def write_gif(scene: Scene, path: Path, fps: float, title: str = "", size: float = 5.0) -> None:
-    """A GIF drawn the fast way: the axes once, then each frame's moving artists over it
-    (matplotlib's own writers redraw the whole figure, ticks and all, for every frame)."""
+def rendered_frames(scene: Scene, title: str = "", size: float = 5.0,
+                    dpi: float | None = None) -> Iterator[Any]:
+    """The scene's frames as RGB images (PIL), drawn the fast way: the axes once, then each
+    frame's moving artists over them (matplotlib's own writers redraw the whole figure, ticks
+    and all, for every frame)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from PIL import Image
 
     fig, ax, artist = laid_out(scene, title, size)
+    if dpi is not None:
+        fig.set_dpi(dpi)
     canvas = FigureCanvasAgg(fig)
     moving = artist.dynamic()
     for item in moving:
         item.set_animated(True)
     canvas.draw()
     background = canvas.copy_from_bbox(fig.bbox)
-
-    def frame(k: int) -> Any:
+    for k in range(len(scene.t)):
         artist.update(k)
         canvas.restore_region(background)
         for item in moving:
             fig.draw_artist(item)
-        return Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba()
-                                ).convert("RGB")
+        yield Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba()
+                               ).convert("RGB")
 
-    # one palette for every frame, from the last (whose traces are complete)
-    palette = frame(len(scene.t) - 1).quantize(colors=96, method=Image.Quantize.FASTOCTREE)
-    frames = [frame(k).quantize(palette=palette, dither=Image.Dither.NONE)
-              for k in range(len(scene.t))]
+
+def quantized_frames(scene: Scene, title: str = "", size: float = 5.0,
+                     dpi: float | None = None) -> list[Any]:
+    """The frames in one palette of 96 colours, taken from the last frame (whose traces are
+    complete): what the GIF and the notebook's player store."""
+    from PIL import Image
+
+    frames = list(rendered_frames(scene, title, size, dpi))
+    palette = frames[-1].quantize(colors=96, method=Image.Quantize.FASTOCTREE)
+    return [frame.quantize(palette=palette, dither=Image.Dither.NONE) for frame in frames]
+
+
+def write_gif(scene: Scene, path: Path, fps: float, title: str = "", size: float = 5.0) -> None:
+    """A GIF of the scene, real time at `fps`, looping."""
+    frames = quantized_frames(scene, title, size)
     frames[0].save(path, save_all=True, append_images=frames[1:], duration=1000.0 / fps,
                    loop=0)
 
 
+def png_uri(image: Any) -> str:
+    """An image as a data: URI of its PNG (palette images stay palette PNGs: small)."""
+    buffer = io.BytesIO()
+    image.save(buffer, format="PNG", optimize=True)
+    return "data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode("ascii")
+
+
+def patches(frames: list[Any]) -> list[tuple[int, int, str]]:
+    """The first frame whole, then each frame as the rectangle where it differs from the one
+    before: (left, top, PNG data URI). Drawn in order onto one canvas they give every frame."""
+    found = [(0, 0, png_uri(frames[0]))]
+    for before, now in zip(frames, frames[1:]):
+        changed = np.argwhere(np.asarray(before) != np.asarray(now))
+        if changed.size == 0:
+            found.append((0, 0, ""))
+            continue
+        (top, left), (bottom, right) = changed.min(axis=0), changed.max(axis=0) + 1
+        box = (int(left), int(top), int(right), int(bottom))
+        found.append((box[0], box[1], png_uri(now.crop(box))))
+    return found
+
+
+PLAYER_JS = """
+(function () {
+  var root = document.getElementById(%(id)s), patches = %(patches)s, times = %(times)s;
+  var canvas = root.querySelector("canvas"), ctx = canvas.getContext("2d");
+  var slider = root.querySelector("input"), button = root.querySelector("button");
+  var label = root.querySelector("span"), shown = -1, timer = null, images = [], loaded = 0;
+  function draw(k) {
+    if (k < shown) { shown = -1; }
+    for (var i = shown + 1; i <= k; i++) {
+      if (patches[i][2]) { ctx.drawImage(images[i], patches[i][0], patches[i][1]); }
+    }
+    shown = k; slider.value = k; label.textContent = times[k];
+  }
+  function stop() { clearInterval(timer); timer = null; button.textContent = "\\u25B6"; }
+  function play() {
+    if (shown >= patches.length - 1) { draw(0); }
+    button.textContent = "\\u275A\\u275A";
+    timer = setInterval(function () {
+      if (shown >= patches.length - 1) { stop(); } else { draw(shown + 1); }
+    }, %(interval)s);
+  }
+  button.onclick = function () { if (timer) { stop(); } else { play(); } };
+  slider.oninput = function () { stop(); draw(parseInt(slider.value, 10)); };
+  patches.forEach(function (p, i) {
+    var image = new Image(); images.push(image);
+    image.onload = image.onerror = function () { if (++loaded === patches.length) { play(); } };
+    if (p[2]) { image.src = p[2]; } else { image.onload(); }
+  });
+})();
+"""
+
+
+def player_html(scene: Scene, fps: float, title: str = "", size: float = 5.0) -> str:
+    """A compact, self-contained player: a canvas, a play/pause button and a slider, the
+    frames stored as the PNG rectangles where each differs from the one before (no
+    JavaScript library and nothing fetched: it plays offline); without scripts (a notebook
+    viewer that strips them), the first frame."""
+    frames = quantized_frames(scene, title, size, dpi=PLAYER_DPI)
+    width, height = frames[0].size
+    element = f"nemc-player-{uuid.uuid4().hex}"
+    unit = f" {scene.time_unit}" if scene.time_unit else ""
+    times = [f"t = {t:.3f}{unit}" for t in scene.t]
+    stored = patches(frames)
+    script = PLAYER_JS % {"id": json.dumps(element), "patches": json.dumps(stored),
+                          "times": json.dumps(times), "interval": f"{1000.0 / fps:.3f}"}
+    # the first frame as the canvas's background: what a viewer that runs no script shows
+    first = f"background:url({stored[0][2]}) 0 0 / 100% 100%"
+    return (f'<div id="{element}" style="display:inline-block">'
+            f'<canvas width="{width}" height="{height}" style="max-width:100%;{first}">'
+            f"</canvas><br>"
+            f'<button type="button" style="width:3em">&#9654;</button> '
+            f'<input type="range" min="0" max="{len(frames) - 1}" value="0" step="1" '
+            f'style="width:60%;vertical-align:middle"> <span></span>'
+            f"<script>{script}</script></div>")
+
+
 def save(animation: Any, path: Path, fps: float) -> None:
-    """Write the animation: .mp4 (ffmpeg), .html (to_jshtml); .gif: write_gif."""
+    """Write the animation as .mp4 (ffmpeg); .gif and .html are nemc's own (write_gif,
+    write_html)."""
     from matplotlib import animation as anim
 
     suffix = path.suffix.lower()
@@ -439,12 +545,15 @@ def save(animation: Any, path: Path, fps: float) -> None:
             raise ValueError("writing .mp4 needs ffmpeg, which is not installed here: write a"
                              " .gif or .html instead (or install ffmpeg)")
         animation.save(path, writer=anim.FFMpegWriter(fps=fps))
-    elif suffix in (".html", ".htm"):
-        page = animation.to_jshtml(fps=fps)
-        path.write_text(f"<!DOCTYPE html>\n<html><head><meta charset='utf-8'></head><body>\n"
-                        f"{page}\n</body></html>\n")
     else:
         raise ValueError(f"cannot write {path.name}: choose a .gif, .mp4 or .html file")
+
+
+def write_html(scene: Scene, path: Path, fps: float, title: str = "", size: float = 5.0) -> None:
+    """A web page of the player alone (`player_html`): it plays offline."""
+    page = player_html(scene, fps, title, size)
+    path.write_text(f"<!DOCTYPE html>\n<html><head><meta charset='utf-8'></head><body>\n"
+                    f"{page}\n</body></html>\n")
 
 
 def animate_result(res: SimulationResult, path: str | os.PathLike | None = None, *,
@@ -456,11 +565,13 @@ def animate_result(res: SimulationResult, path: str | os.PathLike | None = None,
         raise ValueError(f"fps and speed must be > 0, got {fps} and {speed}")
     scene = scene_of_result(res, fps, speed, traces)
     title = res.model.name + (f" (speed x{speed:g})" if speed != 1 else "")
-    if path is not None and Path(path).suffix.lower() == ".gif":
-        write_gif(scene, Path(path), fps, title, size)
-        return Path(path)
-    animation = animation_of(scene, fps, title, size)
     if path is None:
-        return Inline(animation)
-    save(animation, Path(path), fps)
+        return Inline(scene, fps, title, size)
+    suffix = Path(path).suffix.lower()
+    if suffix == ".gif":
+        write_gif(scene, Path(path), fps, title, size)
+    elif suffix in (".html", ".htm"):
+        write_html(scene, Path(path), fps, title, size)
+    else:
+        save(animation_of(scene, fps, title, size), Path(path), fps)
     return Path(path)

@@ -11,13 +11,16 @@ from __future__ import annotations
 
 import argparse
 import fnmatch
+import importlib.metadata
 import math
 import os
 import re
 import sys
-from collections.abc import Iterator, Sequence
+import time
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager, suppress
 from pathlib import Path
+from typing import Any
 
 from ..errors import BuildError, InputError, OutputRefused
 from .fit_cli import add_fit_parser, cmd_fit
@@ -76,8 +79,20 @@ def figure_path(text: str) -> str:
     return text
 
 
+def installed_version() -> str:
+    """nemc's version from the package metadata pip wrote, or the source tree's own
+    (vocabulary.NEMC_VERSION) when nemc runs from a tree it was not installed from."""
+    from ..vocabulary import NEMC_VERSION
+
+    try:
+        return importlib.metadata.version("nemc")
+    except importlib.metadata.PackageNotFoundError:
+        return NEMC_VERSION
+
+
 def make_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="nemc", description="Newton-Euler Mechanism Compiler")
+    parser.add_argument("--version", action="version", version=f"nemc {installed_version()}")
     commands = parser.add_subparsers(dest="command", required=True)
     comp = commands.add_parser("compile", help="derive, emit C, compile; write DIR/<name>/")
     comp.add_argument("mechanism")
@@ -109,6 +124,9 @@ def make_parser() -> argparse.ArgumentParser:
     sim.add_argument("--panels", type=panel_list, metavar="KINDS",
                      help="what --plot draws, comma-separated: state, reactions, drives, energy,"
                      " points, accelerations, expressions (default: all)")
+    sim.add_argument("--x", metavar="NAME",
+                     help="what --plot draws the curves against: t (default), a state entry"
+                     " (q1, 'dot(q1)') or an output (A.drive)")
     sim.add_argument("--error-estimate", action="store_true",
                      help="also print the run's error against DOP853 at rtol/1000, atol/1000")
     show = commands.add_parser("show", help="print the derived equations of motion")
@@ -324,6 +342,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from ..pipeline import compile_mechanism
     from ..runtime.model import ModelError
     from ..runtime.runs import INTERRUPTED
+    from ..vocabulary import SCIPY_METHODS
     from . import report
 
     model = compile_mechanism(args.mechanism).model
@@ -331,9 +350,16 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     try:
         run = run_settings(model, args)
         outputs = chosen_outputs(model, args.outputs)
-        result = model.simulate(run["t_span"], run["y0"], method=args.method, rtol=args.rtol,
-                                atol=args.atol, params=params, t_eval=run["t_eval"],
-                                inputs=dict(args.inputs) or None)
+        checked_x(model, args.x)
+
+        def simulate(method: str | None) -> Any:
+            return model.simulate(run["t_span"], run["y0"], method=method, rtol=args.rtol,
+                                  atol=args.atol, params=params, t_eval=run["t_eval"],
+                                  inputs=dict(args.inputs) or None)
+
+        if model.scene.get("method") in SCIPY_METHODS:  # its import outside the time measured
+            import scipy.integrate  # noqa: F401
+        result, seconds = timed(simulate, args.method)
     except (ModelError, ValueError) as error:
         print(f"{args.mechanism}: --set/options: {error}", file=sys.stderr)
         return 2
@@ -354,11 +380,13 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             report.write_mat(model, result, Path(args.mat), outputs)
     if args.plot:
         with writing(Path(args.plot)):
-            report.plot(result, Path(args.plot), panels=args.panels, outputs=outputs)
+            report.plot(result, Path(args.plot), panels=args.panels, outputs=outputs, x=args.x)
         print(f"figure written to {args.plot}")
     if not result.success:
         print(f"integration failed: {result.message}", file=sys.stderr)
         return 1
+    if args.method is None:  # last: what was asked for is written before the extra run
+        note_native_speed(result, seconds, simulate)
     return 0
 
 
@@ -495,6 +523,55 @@ def writing(path: Path) -> Iterator[None]:
             with suppress(OSError):
                 path.unlink()
         raise OSError(error.errno, error.strerror or str(error), str(path)) from None
+
+
+# scipy's methods whose native port takes the same steps, to rounding (tests/test_native.py): a
+# scene naming the scipy one still runs scipy's; `nemc simulate` notes what the port takes
+SCIPY_PORTS = {"DOP853": "nemc.DOP853", "Radau": "nemc.Radau"}
+
+
+def checked_x(model: Any, name: str | None) -> None:
+    """--x names t, a state entry or an output (ValueError otherwise, listing them)."""
+    known = ("t", *model.state_names, *model.output_names)
+    if name is not None and name not in known:
+        raise ValueError(f"--x: no state entry or output {name!r}; choose from "
+                         f"{', '.join(known)}")
+
+
+def timed(call: Callable[[Any], Any], argument: Any) -> tuple[Any, float]:
+    """call(argument) and its wall time in seconds."""
+    start = time.perf_counter()
+    value = call(argument)
+    return value, time.perf_counter() - start
+
+
+def note_native_speed(result: Any, seconds: float, simulate: Callable[[Any], Any]) -> None:
+    """When the scene names one of scipy's methods, its loop in Python over the compiled C, one
+    line on stderr with what the native choice takes on the same run, measured now: the
+    native port (the same steps to rounding, SCIPY_PORTS) or else the default, auto (decision
+    0037). A scipy name still means scipy's method: the note only says what it costs, and a
+    native run that fails or is refused gives no note."""
+    from ..vocabulary import AUTO, SCIPY_METHODS
+
+    if result.method not in SCIPY_METHODS:
+        return
+    from ..runtime.model import ModelError
+
+    port = SCIPY_PORTS.get(result.method)
+    try:  # twice, the faster: the first native run in a process also imports what it needs
+        native, native_seconds = min((timed(simulate, port or AUTO) for _ in range(2)),
+                                     key=lambda run: run[1])
+    except (ModelError, ArithmeticError):  # the scene's own run stands; no note to give
+        return
+    if not native.success:
+        return
+    what = (f"{port} takes the same steps in C" if port else
+            f"the default, auto ({native.method} here), at the same tolerances")
+    fix = f"write `method: {port}`, or leave method out for auto" if port else (
+        "leave method out for auto")
+    print(f"nemc: note: the scene's method {result.method} is scipy's, its loop in Python: "
+          f"{1e3 * seconds:.3g} ms; {what}: {1e3 * native_seconds:.3g} ms, "
+          f"{seconds / max(native_seconds, 1e-9):.0f}x faster ({fix})", file=sys.stderr)
 
 
 def print_error_estimate(model, result, params: dict) -> None:

@@ -8,12 +8,14 @@ YAML declares (`units:`), angles in degrees when it says `angle: deg`; legends s
 panel, never on the data; colours are distinct within a panel. Curves come from a dense
 sampling of the same run (several points per solver step), so fast motion does not alias.
 
-`nemc simulate --plot`, `res.plot()` and `make run` all draw through plot_result().
+`nemc simulate --plot`, `res.plot()` and `make run` all draw through plot_result(). What it
+returns is a `ShownFigure`: a notebook shows it as its image with no `%matplotlib inline`.
 """
 
 from __future__ import annotations
 
 import fnmatch
+import io
 import math
 import os
 from collections.abc import Sequence
@@ -32,8 +34,20 @@ POINTS_PER_STEP = 12  # dense sampling: curve points per solver step
 MIN_POINTS, MAX_POINTS = 1500, 200_000
 PANEL_SIZE = (6.4, 2.3)  # inches, one panel
 DPI = 150
+NOTEBOOK_DPI = 100  # a notebook's image: matplotlib's inline backend's size
 COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
            "#17becf", "#7f7f7f", "#bcbd22")
+
+
+class ShownFigure(Figure):
+    """A matplotlib figure that a notebook shows as its image. nemc draws on figures of its
+    own, not pyplot's, so no backend displays them: IPython asks `_repr_png_` instead (with
+    `%matplotlib inline` its own formatter for figures answers first, with the same image)."""
+
+    def _repr_png_(self) -> bytes:
+        buffer = io.BytesIO()
+        self.savefig(buffer, format="png", dpi=NOTEBOOK_DPI)
+        return buffer.getvalue()
 
 
 @dataclass
@@ -210,13 +224,13 @@ def grid(state: int, outputs: int) -> list[tuple[int, int]]:
     return [(k // 2, k % 2) for k in range(count)] if count > 4 else [(k, 0) for k in range(count)]
 
 
-def draw(state: list[Panel], outputs: list[Panel], title: str) -> Figure:
+def draw(state: list[Panel], outputs: list[Panel], title: str) -> ShownFigure:
     """The report figure: panels on the grid above."""
     places = grid(len(state), len(outputs))
     rows = max(r for r, _ in places) + 1
     columns = max(c for _, c in places) + 1
-    fig = Figure(figsize=(PANEL_SIZE[0] * columns, PANEL_SIZE[1] * rows + 0.4),
-                 layout="constrained")
+    fig = ShownFigure(figsize=(PANEL_SIZE[0] * columns, PANEL_SIZE[1] * rows + 0.4),
+                      layout="constrained")
     fig.suptitle(title)
     for panel, (r, c) in zip(state + outputs, places):
         draw_panel(fig.add_subplot(rows, columns, r * columns + c + 1), panel)
@@ -244,8 +258,32 @@ def draw_panel(ax: Any, panel: Panel) -> None:
                   frameon=False, fontsize="small", borderaxespad=0.2, handlelength=1.8)
 
 
+def against(panels: list[Panel], model: Any, res: SimulationResult, labels: Labels,
+            x: str) -> list[Panel]:
+    """The panels drawn against X (a state entry or an output) instead of t: each curve over
+    time takes X's values at the same times; the paths and the phase portrait keep their axes,
+    and a panel of X alone against itself is left out."""
+    columns = {"t": res.t, **dict(zip(model.state_names, res.y)), **res.outputs}
+    if x not in columns:
+        raise ValueError(f"x: no state entry or output {x!r}; choose from "
+                         f"{', '.join(columns)}")
+    values = np.asarray(columns[x], dtype=float) * labels.scale(x)
+    tlabel = labels.axis("t", "t")
+    xlabel = labels.axis(math_label(x) if x in model.state_names else x, x)
+    drawn = []
+    for panel in panels:
+        if panel.path or panel.xlabel != tlabel:
+            drawn.append(panel)
+            continue
+        curves = [Curve(c.label, values, c.y) for c in panel.curves if c.label != x]
+        if curves:
+            drawn.append(Panel(panel.ylabel, curves, xlabel, legend=panel.legend))
+    return drawn
+
+
 def figure(res: SimulationResult, *, panels: Sequence[str] | None = None,
-           outputs: Sequence[str] | None = None, dense_curves: bool = True) -> Figure:
+           outputs: Sequence[str] | None = None, dense_curves: bool = True,
+           x: str | None = None) -> Figure:
     """The report figure of a run: the panels of the kinds asked for (default: all)."""
     model = res.model
     if model is None:
@@ -258,6 +296,8 @@ def figure(res: SimulationResult, *, panels: Sequence[str] | None = None,
     labels = Labels(model)
     state = state_panels(model, run, labels) if "state" in kinds else []
     drawn = output_panels(model, run, labels, selected_outputs(model, outputs), kinds)
+    if x is not None and x != "t":
+        state, drawn = against(state, model, run, labels, x), against(drawn, model, run, labels, x)
     if not state and not drawn:
         raise ValueError("nothing to draw: no panel of the kinds asked for has data")
     title = f"{model.name} ({run.method}, rtol {run.rtol:g}, atol {run.atol:g})"

@@ -113,8 +113,9 @@ def write_mat(model: Model, result: SimulationResult, path: Path,
 
 
 def plot(result: SimulationResult, path: Path, panels: Sequence[str] | None = None,
-         outputs: Sequence[str] | None = None) -> None:
-    """The report figure (nemc.figures): the book's layout of the state, outputs by kind."""
+         outputs: Sequence[str] | None = None, x: str | None = None) -> None:
+    """The report figure (nemc.figures): the book's layout of the state, outputs by kind;
+    against X (a state entry or an output) instead of t when given."""
     from .figures import plot_result
 
-    plot_result(result, path, panels=panels, outputs=outputs)
+    plot_result(result, path, panels=panels, outputs=outputs, x=x)
