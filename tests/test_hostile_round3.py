@@ -97,3 +97,37 @@ def test_an_output_that_is_another_file_is_written(tmp_path: Path, capsys,
     capsys.readouterr()
     assert (tmp_path / "other" / "m.yaml").read_text().startswith("t")
     assert digest(tmp_path / "m.yaml") == digest(TINY)
+
+
+# ---- 2. a sweep store's lost chunk is "not run" --------------------------------------------
+
+SWEEP = ["sweep", "m.yaml", "--grid", "m=1:3:5", "--random", "L=0.3:0.6", "--runs", "2",
+         "--seed", "7", "--chunk", "3", "--t-end", "0.4", "--times", "4", "--out", "s.zarr"]
+
+
+@pytest.mark.parametrize("variable", ["status", "y", "y0", "nfev", "message"])
+def test_a_lost_chunk_of_a_sweep_store_is_run_again(variable: str, tmp_path: Path, capsys,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """10 runs in chunks of 3 (the last one short); one chunk file of VARIABLE deleted (a
+    seeded pick): that chunk reads as not run (never as a success with NaN states) and only
+    its runs are run again, to the same numbers."""
+    xr = pytest.importorskip("xarray")
+    rng = __import__("random").Random(f"lost-{variable}")
+    monkeypatch.chdir(tmp_path)
+    shutil.copy(TINY, tmp_path / "m.yaml")
+    assert main(SWEEP) == 0
+    capsys.readouterr()
+    whole = xr.open_zarr("s.zarr", consolidated=False).load()
+    assert whole.sizes["run"] == 10 and (whole.status.values == 0).all()
+    chunk = rng.randrange(4)
+    lost = sorted((tmp_path / "s.zarr" / variable / "c").glob(f"{chunk}*"))
+    assert len(lost) == 1, lost
+    shutil.rmtree(lost[0]) if lost[0].is_dir() else lost[0].unlink()
+    if variable == "status":  # any reader: zarr's fill value
+        status = xr.open_zarr("s.zarr", consolidated=False).status.values
+        assert list(status != 0) == [run // 3 == chunk for run in range(10)]
+    assert main(SWEEP) == 0  # the same command again: it continues
+    runs_again = min(3, 10 - 3 * chunk)
+    assert f"10 runs ({10 - runs_again} done before)" in capsys.readouterr().out
+    again = xr.open_zarr("s.zarr", consolidated=False).load()
+    assert again.identical(whole)
