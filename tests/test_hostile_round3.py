@@ -131,3 +131,38 @@ def test_a_lost_chunk_of_a_sweep_store_is_run_again(variable: str, tmp_path: Pat
     assert f"10 runs ({10 - runs_again} done before)" in capsys.readouterr().out
     again = xr.open_zarr("s.zarr", consolidated=False).load()
     assert again.identical(whole)
+
+
+# ---- 3. an event exactly zero at t_end: every method sees it -------------------------------
+
+def every_method() -> list[str]:
+    from nemc.runtime.model import METHODS
+
+    return list(dict.fromkeys([*METHODS, "auto"]))
+
+
+@pytest.fixture(scope="module")
+def at_the_end() -> tuple:
+    import nemc
+
+    return (nemc.compile(CASES / "events_at_the_end.yaml"),
+            nemc.compile(CASES / "event_stops_at_the_end.yaml"))
+
+
+@pytest.mark.parametrize("method", every_method())
+def test_every_method_sees_an_event_exactly_at_t_end(method: str, at_the_end: tuple) -> None:
+    """Functions exactly zero at t_end (T, seeded draws): each crossing in its direction is
+    found at T by every method, as scipy's methods find it (scipy counts a value reaching 0
+    as a crossing); a direction it does not cross in is not; a stopping one stops, status 1."""
+    import random
+
+    records, stops = at_the_end
+    rng = random.Random(51)
+    for end in (1.25, *(round(rng.uniform(0.01, 4), rng.randrange(1, 6)) for _ in range(4))):
+        run = records.simulate((0, end), method=method, params={"T": end})
+        assert run.success and run.status == 0, (end, run.message)
+        found = {name: times.tolist() for name, (times, _) in run.events.items()}
+        assert found == {"up": [end], "down": [end], "either": [end], "never": []}, (end, found)
+        stop = stops.simulate((0, end), method=method, params={"T": end})
+        assert stop.status == 1 and stop.t[-1] == end, (end, stop.message)
+        assert stop.events["halt"][0].tolist() == [end]
