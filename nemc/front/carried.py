@@ -63,11 +63,15 @@ def carried(bodies: Mapping[str, Body], joints: Sequence[Joint]) -> Iterator[Car
 
 
 def subtree(root: str, children: Mapping[str, list[str]]) -> list[str]:
-    found, pending = [], [root]
+    """ROOT and the bodies below it, each once (a cycle of joints, refused elsewhere with its
+    line, is walked once round: it looped here, its memory growing without end)."""
+    found, pending, seen = [], [root], {root}
     while pending:
         body = pending.pop()
         found.append(body)
-        pending.extend(children.get(body, ()))
+        below = [child for child in children.get(body, ()) if child not in seen]
+        seen.update(below)
+        pending.extend(below)
     return found
 
 
