@@ -11,8 +11,10 @@ import os
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from nemc.runtime.model import ModelError
 from nemc.tools.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -166,3 +168,83 @@ def test_every_method_sees_an_event_exactly_at_t_end(method: str, at_the_end: tu
         stop = stops.simulate((0, end), method=method, params={"T": end})
         assert stop.status == 1 and stop.t[-1] == end, (end, stop.message)
         assert stop.events["halt"][0].tolist() == [end]
+
+
+# ---- 4. crashes of the derivation ------------------------------------------------------------
+
+LAWS = {  # motion law -> (f(t), f''(t) where it exists), the kinks at t = 1, pi (and 0.5, 1.5)
+    "w*t": (lambda t: 1.5 * t, lambda t: 0 * t),
+    "abs(sin(t))": (lambda t: abs(np.sin(t)), lambda t: -abs(np.sin(t))),
+    "sign(t - 1)*t**2": (lambda t: np.sign(t - 1) * t**2, lambda t: 2 * np.sign(t - 1)),
+    "max(t**2, t)": (lambda t: np.maximum(t**2, t), lambda t: np.where(t > 1, 2.0, 0.0)),
+    "min(t, 1)*t": (lambda t: np.minimum(t, 1) * t, lambda t: np.where(t < 1, 2.0, 0.0)),
+    "abs(t - 1)**3": (lambda t: abs(t - 1)**3, lambda t: 6 * abs(t - 1)),
+    "max(0, min(1, t - 0.5))": (lambda t: np.clip(t - 0.5, 0, 1), lambda t: 0 * t),
+}
+
+
+@pytest.mark.parametrize("law", sorted(LAWS))
+def test_a_tree_with_every_coordinate_driven_is_an_inverse_dynamic_analysis(
+        law: str, tmp_path: Path) -> None:
+    """No state: `simulate` computes the drives at each time (method "kinematic"), and they
+    are the closed forms: the rod's (m L^2/3) f'' + m g L/2 cos f, the slider's M (s'' + g).
+    Motion laws with abs, sign, min and max compile (their derivatives where they exist)."""
+    import nemc
+
+    text = (CASES / "every_coordinate_driven.yaml").read_text()
+    file = tmp_path / "driven.yaml"
+    file.write_text(text.replace("motion: w*t", f"motion: '{law}'"))
+    model = nemc.compile(file)
+    times = np.linspace(0.05, 3.95, 53)
+    times = times[np.min(abs(times[:, None] - [0.5, 1, 1.5, np.pi]), axis=1) > 1e-3]
+    run = model.simulate((0, 4), t_eval=times)
+    assert run.success and run.method == "kinematic" and run.y.shape == (0, len(times))
+    f, f2 = LAWS[law]
+    m, big_m, length, a, w, g = 2, 3, 0.8, 0.2, 5, 9.81
+    rod = m * length**2 / 3 * f2(times) + m * g * length / 2 * np.cos(f(times))
+    slider = big_m * (-a * w**2 * np.sin(w * times) + g)
+    np.testing.assert_allclose(run.outputs["O.drive"], rod, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(run.outputs["S.drive"], slider, rtol=1e-12, atol=1e-12)
+    with pytest.raises(ModelError, match="no degree of freedom left by its drives"):
+        model.simulate_many(np.zeros((2, 0)))
+
+
+@pytest.mark.parametrize("method", ["RK45", "nemc.DOP853", "nemc.Vern9", "nemc.Radau"])
+def test_events_and_impact_laws_may_name_driven_coordinates(method: str) -> None:
+    """s = A sin(W t) driven: `s - A/2` rises at asin(1/2)/W, `dot(s) - 1` falls at
+    acos(1/(A W))/W; the impact law reads dot(s) and s."""
+    import nemc
+
+    model = nemc.compile(CASES / "events_on_a_driven_coordinate.yaml")
+    run = model.simulate(method=method, rtol=1e-10, atol=1e-12)
+    assert run.success, run.message
+    np.testing.assert_allclose(run.events["rises"][0], [np.arcsin(0.5) / 20], rtol=1e-9)
+    np.testing.assert_allclose(run.events["fast"][0], [np.arccos(0.5) / 20], rtol=1e-9)
+    assert len(run.events["kick"][0]) >= 1
+    np.testing.assert_allclose(run.events["kick"][1][:, 0], 0.2999, atol=1e-9)
+
+
+def test_an_impact_law_setting_a_driven_coordinate_is_refused_at_its_line(capsys) -> None:
+    file = CASES / "impact_sets_a_driven_coordinate.yaml"
+    assert main(["check", str(file)]) == 2
+    assert capsys.readouterr().err == (
+        f"{file}:13: simulation.events.stop_it.action.dot(s): s is driven (joints.S.motion): "
+        "its value is prescribed; an impact law cannot set it\n")
+
+
+@pytest.mark.parametrize("torque", ["q**3", "2*q**5 + dot(q)**2", "exp(q)*dot(q)"])
+def test_a_blow_up_is_a_failed_run_under_every_method(torque: str, tmp_path: Path) -> None:
+    """A finite-time blow-up ends every method's run with a message (LSODA's steps shrink to
+    length 0: its message divided by them)."""
+    import nemc
+    from nemc.runtime.model import METHODS
+
+    file = tmp_path / "blow.yaml"
+    file.write_text(TINY.read_text().replace("gravity: [0, -9.81]", "") +
+                    f"loads: [{{torque: '{torque}', body: rod}}]\n"
+                    "simulation: {t_span: [0, 10], initial: {q: 1, dot(q): 1}}\n")
+    model = nemc.compile(file)
+    for method in METHODS:
+        run = model.simulate(method=method)
+        assert not run.success and run.status < 0 and run.t[-1] < 10, method
+        assert run.message and "Traceback" not in run.message, method

@@ -61,6 +61,9 @@ class EnsembleCall:
 def simulate_many(model: BuiltModel, call: EnsembleCall) -> EnsembleResult:
     """The ensemble of CALL: its method chosen ("auto", or None: ensemble_method's), then run
     by the build that has what the method needs (its lanes, its Jacobian, ...)."""
+    if not model.state_names:  # every coordinate driven: as a closed loop without freedom
+        raise ModelError("simulate_many: this mechanism has no degree of freedom left by its "
+                         "drives (a kinematic analysis): use simulate")
     span = checked_span(model.scene["t_span"] or DEFAULT_T_SPAN if call.t_span is None
                         else call.t_span)
     method, lanes = call.method, call.lanes

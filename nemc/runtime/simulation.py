@@ -54,6 +54,8 @@ def simulate(model: BuiltModel, arguments: tuple, t_eval: Any) -> SimulationResu
     """The run of simulate()'s ARGUMENTS (as RUN_ARGUMENTS names them) at the times T_EVAL:
     each resolved against the scene, then the defaults, and checked, in this order."""
     spec = run_spec(model, arguments, t_eval)
+    if not model.state_names:  # every coordinate driven: nothing to integrate
+        return kinematic_run(model, spec)
     if not model.has_loops:
         return integrate(model, spec)
     y0 = arguments[1]
@@ -178,7 +180,10 @@ def kinematic_run(model: BuiltModel, spec: RunSpec) -> SimulationResult:
     t_span), the outputs (drives, reactions) there."""
     times = np.linspace(*spec.span, KINEMATIC_POINTS) if spec.times is None else np.asarray(
         spec.times)
-    t, y, failure = model.loops.kinematic_states(times.astype(float), spec.state0, spec.p)
+    if model.has_loops:
+        t, y, failure = model.loops.kinematic_states(times.astype(float), spec.state0, spec.p)
+    else:  # a tree whose every coordinate is driven: its state is empty
+        t, y, failure = times.astype(float), np.empty((0, len(times))), None
     return SimulationResult(
         t=t, y=y, outputs=lazy_outputs(model, t, y, spec.p, spec.inputs), nfev=0, njev=0,
         nlu=0,
