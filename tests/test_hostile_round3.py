@@ -248,3 +248,89 @@ def test_a_blow_up_is_a_failed_run_under_every_method(torque: str, tmp_path: Pat
         run = model.simulate(method=method)
         assert not run.success and run.status < 0 and run.t[-1] < 10, method
         assert run.message and "Traceback" not in run.message, method
+
+
+# ---- 5. bad option values: one line, before anything is allocated ----------------------------
+
+def cli(args: list[str], capsys) -> tuple[int, str, str]:
+    """main(ARGS): its exit status (argparse's too), stdout and stderr."""
+    try:
+        status = main(args)
+    except SystemExit as stop:
+        status = stop.code
+    captured = capsys.readouterr()
+    return status, captured.out, captured.err
+
+
+BAD_OPTIONS = [  # (arguments after the command's mechanism m.yaml, part of the message)
+    (["simulate", "--t-eval", "1e-9"], "--t-eval: t_eval {step: 1e-09} over t_span [0.0, 10.0] "
+                                       "gives more than 1000000 times"),
+    (["simulate", "--t-eval", "1e-300", "--t-end", "1e300"], "gives more than 1000000 times"),
+    (["sweep", "--grid", "m=1:2:2", "--seed", "-1"], "--seed: expected a whole number >= 0"),
+    (["sweep", "--grid", "m=1:2:2", "--seed", "1e3"], "--seed: expected a whole number"),
+    (["sweep", "--grid", "m=1:2:2", "--times", "1000000000"], "--times: at most 1000000"),
+    (["sweep", "--grid", "m=1:2:1000000000"], "1000000000 runs would hold"),
+    (["sweep", "--grid", "m=1:2:100000", "--grid", "L=1:2:100000"], "10000000000 runs would"),
+    (["sweep", "--random", "m=1:2", "--runs", "999999999999"], "runs would hold"),
+    (["sweep", "--grid", "m=1:2:2", "--dask", "local:abc"], "local:N: expected N"),
+    (["sweep", "--grid", "m=1:2:2", "--dask", "local:0"], "local:N: expected N"),
+    (["sweep", "--grid", "m=1:2:2", "--dask", "local:-3"], "local:N: expected N"),
+    (["sweep", "--grid", "m=1:2:2", "--dask", "local:99999"], "local:N: expected N"),
+    (["animate", "--fps", "1e-9"], "--fps: expected frames per second from 0.01 to 1000"),
+    (["animate", "--fps", "1e9"], "--fps: expected frames per second from 0.01 to 1000"),
+    (["stress", "--horizon", "1e-300"], "--horizon: the long horizon must be at least"),
+    (["stress", "--horizon", "9.99"], "--horizon: the long horizon must be at least"),
+]
+
+
+@pytest.mark.parametrize("args, message", BAD_OPTIONS)
+def test_bad_option_values_are_one_line_refusals(args: list[str], message: str, tmp_path: Path,
+                                                 capsys, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Exit status 2, one line naming the option (argparse adds its usage), no traceback, no
+    file written; the work bounded (a refusal, not a MemoryError or a hang)."""
+    from budgets import work_of
+
+    monkeypatch.chdir(tmp_path)
+    shutil.copy(TINY, tmp_path / "m.yaml")
+    before = folder_state(tmp_path)
+    work = work_of(lambda: cli([args[0], "m.yaml", *args[1:]], capsys))
+    assert work.error is None, work.error
+    status, out, err = work.result
+    assert status == 2 and out == "" and message in err, err
+    assert "Traceback" not in err and len([e for e in err.splitlines() if "usage" not in e
+                                           and not e.startswith(" ")]) == 1, err
+    assert work.peak_bytes < 200e6
+    assert folder_state(tmp_path) == before
+
+
+def test_an_unsplittable_cc_is_a_one_line_build_error(tmp_path: Path, capsys,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("CC", 'gcc "')
+    monkeypatch.setenv("NEMC_CACHE", str(tmp_path / "cache"))  # a build, not a cached one
+    status, out, err = cli(["compile", str(TINY), "-o", str(tmp_path / "out")], capsys)
+    assert status == 1 and err == "nemc: CC='gcc \"': not a command line (No closing quotation)\n"
+
+
+@pytest.mark.parametrize("call", ["broadcast y0s", "per-run parameter", "long t_eval",
+                                  "ensemble times"])
+def test_api_calls_too_large_are_refused_before_allocating(call: str) -> None:
+    """10^9 runs, 10^8 output times, 10^9 results of an ensemble: a ModelError naming the
+    size and the budget, holding no more than a few megabytes."""
+    from budgets import work_of
+
+    import nemc
+
+    model = nemc.compile(TINY)
+    y0 = model.initial_state()
+    calls = {
+        "broadcast y0s": lambda: model.simulate_many(np.broadcast_to(y0, (10**9, 2))),
+        "per-run parameter": lambda: model.simulate_many(
+            params={"m": np.broadcast_to(2.0, (10**9,))}),
+        "long t_eval": lambda: model.simulate((0, 1), t_eval=np.broadcast_to(0.5, (10**8,))),
+        "ensemble times": lambda: model.simulate_many(np.zeros((1000, 2)), t_span=(0, 1),
+                                                      t_eval=np.linspace(0, 1, 10**6)),
+    }
+    work = work_of(calls[call])
+    assert isinstance(work.error, ModelError), work.error
+    assert "over nemc's budget of 1.34e+08 (1 GiB)" in str(work.error)
+    assert work.peak_bytes < 20e6

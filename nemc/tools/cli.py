@@ -144,14 +144,24 @@ def add_stress_parser(commands: argparse._SubParsersAction) -> None:
                         default=[], metavar="NAME=VALUE", help="override a parameter")
 
 
+def frame_rate(text: str) -> float:
+    """--fps: 0.01 to 1000 frames a second (a GIF holds a frame at most 655 s; 1e-9 gave an
+    OverflowError)."""
+    value = finite_number(text)
+    if not 0.01 <= value <= 1000:
+        raise argparse.ArgumentTypeError(f"expected frames per second from 0.01 to 1000, got "
+                                         f"{text!r}")
+    return value
+
+
 def add_animate_parser(commands: argparse._SubParsersAction) -> None:
     animate = commands.add_parser("animate", help="run the scene and draw the mechanism moving")
     animate.add_argument("mechanism")
     animate.add_argument("--out", help="the file: .gif, .mp4 (needs ffmpeg) or .html "
                          "(default: generated/<name>.gif)")
     add_run_options(animate)
-    animate.add_argument("--fps", type=positive_number, default=25.0,
-                         help="frames per second (25)")
+    animate.add_argument("--fps", type=frame_rate, default=25.0,
+                         help="frames per second, 0.01 to 1000 (25)")
     animate.add_argument("--speed", type=positive_number, default=1.0,
                          help="model time per second of animation (1: real time)")
     animate.add_argument("--trace", type=name_list, metavar="POINTS",
@@ -221,7 +231,8 @@ def add_sweep_parser(commands: argparse._SubParsersAction) -> None:
                        metavar="NAME=LOW:HIGH", help="uniform random values (repeatable)")
     sweep.add_argument("--runs", type=positive_int,
                        help="random draws (per grid point, with --grid); default 1")
-    sweep.add_argument("--seed", type=int, default=0, help="of the random draws (0)")
+    sweep.add_argument("--seed", type=whole_number, default=0,
+                       help="of the random draws, a whole number >= 0 (0)")
     sweep.add_argument("--set", dest="params", type=parse_assignment, action="append",
                        default=[], metavar="NAME=VALUE", help="the same value for every run")
     sweep.add_argument("--t-end", type=finite_number, help="end time (the scene's by default)")
@@ -231,15 +242,46 @@ def add_sweep_parser(commands: argparse._SubParsersAction) -> None:
                        "(default: the scene's if native, else auto's choice)")
     sweep.add_argument("--rtol", type=positive_number)
     sweep.add_argument("--atol", type=positive_number)
-    sweep.add_argument("--dask", metavar="ADDRESS", help="a Dask scheduler (tcp://host:8786), "
-                       "or local[:N] for N local worker processes; default: this machine's "
-                       "threads")
+    sweep.add_argument("--dask", type=dask_address, metavar="ADDRESS",
+                       help="a Dask scheduler (tcp://host:8786), or local[:N] for N local "
+                       "worker processes (N <= 4 x cores); default: this machine's threads")
     sweep.add_argument("--out", help="FILE.zarr, FILE.nc or FILE.npz (default "
                        "<name>-sweep.zarr); the same command again resumes it")
     sweep.add_argument("--resume", action="store_true",
                        help="require an interrupted sweep in --out to continue")
     sweep.add_argument("--chunk", type=positive_int, metavar="RUNS", help="runs per task")
     sweep.add_argument("--threads", type=positive_int, help="threads without --dask (cores)")
+
+
+def whole_number(text: str) -> int:
+    """A whole number >= 0 (a seed)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
+    return value
+
+
+MAX_LOCAL_WORKERS_PER_CORE = 4  # --dask local:N: at most this many worker processes a core
+
+
+def dask_address(text: str) -> str:
+    """--dask: local, local:N (1 <= N <= 4 x the cores: each worker is a process), or a
+    scheduler's address (distributed checks it)."""
+    name, colon, count = text.partition(":")
+    if name != "local" or not colon:
+        return text
+    most = MAX_LOCAL_WORKERS_PER_CORE * (os.cpu_count() or 1)
+    try:
+        workers = int(count)
+    except ValueError:
+        workers = 0
+    if not 1 <= workers <= most:
+        raise argparse.ArgumentTypeError(f"local:N: expected N, the worker processes, a whole "
+                                         f"number from 1 to {most}, got {text!r}")
+    return text
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -460,9 +502,14 @@ def run_settings(model, args: argparse.Namespace) -> dict:
     t_eval = None
     if getattr(args, "t_eval", None) is not None:
         kind, values = args.t_eval
-        if kind == "step":
-            count = int(math.floor((end - span[0]) / values[0] * (1 + 1e-12))) + 1
-            t_eval = span[0] + values[0] * np.arange(count)
+        if kind == "step":  # at most checks.MAX_STEP_TIMES, counted before any is made
+            from ..runtime.checks import step_times
+            from ..runtime.failures import ModelError
+
+            try:
+                t_eval = step_times((span[0], end), values[0])
+            except ModelError as error:
+                raise ValueError(f"--t-eval: {error}") from None
         else:
             t_eval = np.array(values)
             if np.any(t_eval < span[0]) or np.any(t_eval > end) or np.any(np.diff(t_eval) <= 0):
