@@ -7,8 +7,12 @@ of the derivation; bad option values; the cache's stray extensions; messages."""
 from __future__ import annotations
 
 import hashlib
+import importlib.machinery
+import json
 import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -334,3 +338,44 @@ def test_api_calls_too_large_are_refused_before_allocating(call: str) -> None:
     assert isinstance(work.error, ModelError), work.error
     assert "over nemc's budget of 1.34e+08 (1 GiB)" in str(work.error)
     assert work.peak_bytes < 20e6
+
+
+# ---- 6. the cache loads exactly the extension its manifest verified --------------------------
+
+def other_model(tmp_path: Path, name: str, mass: str) -> Path:
+    """TINY renamed NAME with the rod's mass MASS: another model, another build."""
+    file = tmp_path / f"{name}.yaml"
+    file.write_text(TINY.read_text().replace("name: tiny", f"name: {name}")
+                    .replace("m: 2", f"m: {mass}"))
+    return file
+
+
+def load_in_a_child(source: str, cache: Path) -> subprocess.CompletedProcess:
+    """A fresh process (an extension is imported once a process) running SOURCE."""
+    return subprocess.run([sys.executable, "-c", source], capture_output=True, text=True,
+                          timeout=300, env={**os.environ, "NEMC_CACHE": str(cache),
+                                            "PYTHONPATH": str(ROOT)})
+
+
+def test_a_stray_extension_beside_a_cached_build_is_never_loaded(tmp_path: Path) -> None:
+    """Another model's extension copied into a cache entry under every name an interpreter
+    imports (this one's own suffix first, which a glob may also find first): the entry still
+    verifies, and loading it gives its own model, whose accelerations are its own."""
+    cache = tmp_path / "cache"
+    mine, theirs = other_model(tmp_path, "mine", "2"), other_model(tmp_path, "theirs", "7")
+    code = ("import sys, nemc; m = nemc.compile(sys.argv[1]); print(m.name, "
+            "m.rhs(0.0, [0.5, 0.0])[1])")
+    for file in (mine, theirs):
+        done = load_in_a_child(code.replace("sys.argv[1]", repr(str(file))), cache)
+        assert done.returncode == 0, done.stderr
+    expected = load_in_a_child(code.replace("sys.argv[1]", repr(str(mine))), cache).stdout
+    entries = {json.loads((p / "model.json").read_text())["name"]: p
+               for p in cache.iterdir() if (p / "model.json").is_file()}
+    stray = next(entries["theirs"].glob("_native.*.so"))
+    for suffix in importlib.machinery.EXTENSION_SUFFIXES:
+        target = entries["mine"] / f"_native{suffix}"
+        if not target.exists():
+            shutil.copy(stray, target)
+    done = load_in_a_child(code.replace("sys.argv[1]", repr(str(mine))), cache)
+    assert done.returncode == 0 and done.stdout == expected, done.stderr
+    assert expected.startswith("mine ")
