@@ -379,3 +379,40 @@ def test_a_stray_extension_beside_a_cached_build_is_never_loaded(tmp_path: Path)
     done = load_in_a_child(code.replace("sys.argv[1]", repr(str(mine))), cache)
     assert done.returncode == 0 and done.stdout == expected, done.stderr
     assert expected.startswith("mine ")
+
+
+# ---- 7. messages ----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("method", ["RK45", "LSODA", "nemc.DOP853", "nemc.Vern9", "nemc.Radau",
+                                    "nemc.Taylor"])
+def test_a_nan_event_function_or_impact_law_is_named_once(method: str, capsys) -> None:
+    """An event's function turning nan, and (B < 0: the function stays finite) an impact
+    law's nan value: the message names each, says "integration failed" once, and never
+    blames the accelerations."""
+    file = CASES / "event_function_not_finite.yaml"
+    for b, cause in (("0.3", "an event's function (simulation.events, `when`) is not finite"),
+                     ("-0.5", "an impact law (simulation.events, `action`) gives a new value "
+                              "that is not finite")):
+        status, out, err = cli(["simulate", str(file), "--method", method, "--set", f"B={b}"],
+                               capsys)
+        assert status == 1 and err.startswith("integration failed: at t=") and cause in err, err
+        assert err.count("integration failed") == 1 and "accelerations" not in err, err
+        assert len(err.splitlines()) == 1
+
+
+@pytest.mark.parametrize("command, option", [
+    (["simulate", "--t-end", "0.1"], "--csv"), (["simulate", "--t-end", "0.1"], "--mat"),
+    (["animate", "--t-end", "0.1"], "--out"), (["stress"], "--out"), (["compile"], "-o"),
+    (["linearize"], "--out"), (["export"], "--fmu"), (["sweep", "--grid", "m=1:2:2"], "--out"),
+])
+def test_an_empty_output_name_is_refused(command: list[str], option: str, tmp_path: Path,
+                                         capsys, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`--csv ''` was silently ignored (and `animate --out ''` wrote the default file)."""
+    monkeypatch.chdir(tmp_path)
+    shutil.copy(TINY, tmp_path / "m.yaml")
+    before = folder_state(tmp_path)
+    for empty in ("", " "):
+        status, out, err = cli([command[0], "m.yaml", *command[1:], option, empty], capsys)
+        assert status == 2 and out == "" and "expected a file name, got" in err, err
+        assert len(err.splitlines()) == 1
+    assert folder_state(tmp_path) == before

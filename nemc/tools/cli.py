@@ -193,7 +193,7 @@ def cmd_animate(args: argparse.Namespace) -> int:
     print(f"animation written to {out} ({result.method}, t = {result.t[0]:g} .. "
           f"{result.t[-1]:g})")
     if not result.success:
-        print(f"integration failed: {result.message}", file=sys.stderr)
+        print(failure_line(result.message), file=sys.stderr)
         return 1
     return 0
 
@@ -400,9 +400,16 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             report.plot(result, Path(args.plot), panels=args.panels, outputs=outputs)
         print(f"figure written to {args.plot}")
     if not result.success:
-        print(f"integration failed: {result.message}", file=sys.stderr)
+        print(failure_line(result.message), file=sys.stderr)
         return 1
     return 0
+
+
+def failure_line(message: str) -> str:
+    """The line saying a run failed, MESSAGE's prefix not doubled (a run whose equations could
+    not be evaluated says "integration failed: ..." itself)."""
+    prefix = "integration failed: "
+    return message if message.startswith(prefix) else prefix + message
 
 
 def add_run_options(command: argparse.ArgumentParser) -> None:

@@ -1,6 +1,7 @@
 """The files a command reads and writes, checked before it runs: no output option may name a
 file the command reads (the mechanism, fit's data), whatever the spelling (a relative path, a
-symbolic or hard link: compared by `os.path.samefile`), and no output option may be empty.
+symbolic or hard link: compared by `os.path.samefile`), and no output option may be empty
+(`--csv ''` was silently ignored).
 One guard for every command, in `nemc.tools.cli.main` (issue 51: `--csv X.yaml` wrote the table
 over the mechanism file)."""
 
@@ -24,8 +25,8 @@ def same_file(a: str, b: str) -> bool:
 
 
 def output_refusal(args: argparse.Namespace) -> str | None:
-    """The one-line refusal of ARGS' outputs (None when they are fine): an output naming a
-    file the command reads, or an empty file name."""
+    """The one-line refusal of ARGS' outputs (None when they are fine): an empty file name, or
+    an output naming a file the command reads."""
     inputs = [(name, getattr(args, name)) for name in INPUT_OPTIONS
               if isinstance(getattr(args, name, None), str)]
     for option in OUTPUT_OPTIONS:
@@ -33,6 +34,8 @@ def output_refusal(args: argparse.Namespace) -> str | None:
         if not isinstance(path, str):
             continue
         flag = "-o/--output" if option == "output" else f"--{option}"
+        if not path.strip():  # `if args.csv:` skipped it: no file, no word
+            return f"{flag}: expected a file name, got {path!r}"
         for name, read in inputs:
             if same_file(path, read):
                 return (f"{flag} {path}: is the file nemc reads ({name} {read}); writing it "
