@@ -416,3 +416,40 @@ def test_an_empty_output_name_is_refused(command: list[str], option: str, tmp_pa
         assert status == 2 and out == "" and "expected a file name, got" in err, err
         assert len(err.splitlines()) == 1
     assert folder_state(tmp_path) == before
+
+
+def damage(store: Path, how: str, rng) -> None:
+    """Damage one metadata file of STORE (picked by RNG) in the way HOW says."""
+    files = sorted(store.rglob("zarr.json"))
+    target = files[rng.randrange(len(files))] if how != "chunk_runs" else store / "zarr.json"
+    if how == "truncated":
+        target.write_bytes(target.read_bytes()[:rng.randrange(1, 40)])
+    elif how == "garbage":
+        target.write_bytes(bytes(rng.randrange(256) for _ in range(30)))
+    elif how == "chunk_runs":
+        meta = json.loads(target.read_text())
+        meta["attributes"]["chunk_runs"] = "three"
+        target.write_text(json.dumps(meta))
+    else:  # a variable's folder gone
+        shutil.rmtree(store / rng.choice(["y", "y0", "nfev", "message", "status"]))
+
+
+@pytest.mark.parametrize("how", ["truncated", "garbage", "chunk_runs", "variable deleted"])
+def test_a_damaged_sweep_store_is_a_one_line_refusal(how: str, tmp_path: Path, capsys,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    """A sweep store whose metadata was edited, cut or deleted: the same command says the
+    store is damaged (exit status 2, one line) and leaves it as it is."""
+    pytest.importorskip("xarray")
+    import random
+
+    monkeypatch.chdir(tmp_path)
+    shutil.copy(TINY, tmp_path / "m.yaml")
+    assert main(SWEEP) == 0
+    capsys.readouterr()
+    damage(tmp_path / "s.zarr", how, random.Random(how))
+    before = folder_state(tmp_path)
+    status, out, err = cli(SWEEP, capsys)
+    assert status == 2 and out == "", err  # the group's own metadata cut: not a sweep's
+    assert "s.zarr: the sweep store is damaged" in err or "is not a nemc sweep" in err, err
+    assert len(err.splitlines()) == 1 and "Traceback" not in err
+    assert folder_state(tmp_path) == before

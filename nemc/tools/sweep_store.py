@@ -54,6 +54,19 @@ class SweepStoreError(ValueError):
     """An output that cannot be used: another sweep's, not nemc's, or of an unknown format."""
 
 
+@contextlib.contextmanager
+def damaged_store(path: Path) -> Iterator[None]:
+    """Reading the store at PATH back: metadata nemc cannot read (edited, cut, deleted) is a
+    SweepStoreError naming the store, not a traceback (issue 51)."""
+    try:
+        yield
+    except SweepStoreError:
+        raise
+    except (ValueError, KeyError, TypeError, AttributeError, OSError) as error:
+        raise SweepStoreError(f"{path}: the sweep store is damaged ({type(error).__name__}: "
+                              f"{error}); remove it to run the sweep afresh") from None
+
+
 def require(module: str) -> Any:
     """Import an optional package of the sweep extra, or say how to install it."""
     import importlib
@@ -221,7 +234,8 @@ class ZarrStore:
             raise SweepStoreError(
                 f"{self.path_} holds a different sweep (other model, inputs or settings): "
                 "choose another output, or remove it to start this sweep afresh")
-        return int(attrs["chunk_runs"])
+        with damaged_store(self.path_):
+            return int(attrs["chunk_runs"])
 
     def _create(self, layout: Layout) -> None:
         """Write the whole empty store in a temporary folder, then publish it by a rename."""
@@ -242,11 +256,12 @@ class ZarrStore:
 
     def status(self) -> np.ndarray:
         """Each run's status, NOT_RUN for the runs of a chunk whose files are not all there."""
-        group = require("zarr").open_group(str(self.path_), mode="r")
-        status = group["status"][:]
-        for a, b in self.layout.chunks():
-            if np.any(status[a:b] != NOT_RUN) and not self._chunk_whole(group, a):
-                status[a:b] = NOT_RUN
+        with damaged_store(self.path_):
+            group = require("zarr").open_group(str(self.path_), mode="r")
+            status = group["status"][:]
+            for a, b in self.layout.chunks():
+                if np.any(status[a:b] != NOT_RUN) and not self._chunk_whole(group, a):
+                    status[a:b] = NOT_RUN
         return status
 
     def _chunk_whole(self, group: Any, start: int) -> bool:
@@ -269,9 +284,10 @@ class ZarrStore:
         chunk against 4 ms here, measured); the layout and encoding are xarray's own, from
         the template."""
         if self.arrays is None:
-            group = require("zarr").open_group(str(self.path_), mode="r+")
-            self.arrays = {name: group[name].with_config({"write_empty_chunks": True})
-                           for name in (*CHUNK_VARIABLES, "status")}  # a file: written
+            with damaged_store(self.path_):
+                group = require("zarr").open_group(str(self.path_), mode="r+")
+                self.arrays = {name: group[name].with_config({"write_empty_chunks": True})
+                               for name in (*CHUNK_VARIABLES, "status")}  # a file: written
         rows = slice(out.start, out.stop)
         with interrupt_deferred():
             for name in CHUNK_VARIABLES:
@@ -283,7 +299,8 @@ class ZarrStore:
 
 
 def open_zarr(path: Path) -> Any:
-    return require("xarray").open_zarr(path, consolidated=False)
+    with damaged_store(path):
+        return require("xarray").open_zarr(path, consolidated=False)
 
 
 def with_status(dataset: Any, status: np.ndarray) -> Any:
