@@ -453,3 +453,15 @@ def test_a_damaged_sweep_store_is_a_one_line_refusal(how: str, tmp_path: Path, c
     assert "s.zarr: the sweep store is damaged" in err or "is not a nemc sweep" in err, err
     assert len(err.splitlines()) == 1 and "Traceback" not in err
     assert folder_state(tmp_path) == before
+
+
+@pytest.mark.parametrize("value", ["2", "1", "1e308"])
+def test_an_rtol_no_run_takes_is_refused_by_check_at_its_line(value: str, tmp_path: Path,
+                                                              capsys) -> None:
+    """`rtol: 2` passed check and every run refused it, blamed on --set/options."""
+    file = tmp_path / "rtol.yaml"
+    file.write_text((CASES / "rtol_not_relative.yaml").read_text().replace("rtol: 2",
+                                                                          f"rtol: {value}"))
+    status, out, err = cli(["check", str(file)], capsys)
+    assert status == 2 and err.startswith(f"{file}:7: simulation.rtol: must be a number > 0 "
+                                          "and < 1 (a relative error)"), err

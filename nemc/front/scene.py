@@ -34,6 +34,10 @@ def read_simulation(ctx: Context, node: Node) -> Simulation:
         method = read_choice(ctx, entries["method"], "simulation.method", METHODS, "method")
     tolerances = {key: _positive(ctx, entries[key], join_path("simulation", key))
                   if key in entries else None for key in ("rtol", "atol")}
+    if tolerances["rtol"] is not None and not tolerances["rtol"] < 1:  # as every run refuses
+        ctx.problem(entries["rtol"].line, "simulation.rtol", "must be a number > 0 and < 1 (a "
+                    f"relative error), got {tolerances['rtol']:g}")
+        tolerances["rtol"] = None
     guess = {}
     if "guess" in entries:
         guess = _initial(ctx, entries["guess"], "simulation.guess", rates=False)
