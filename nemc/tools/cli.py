@@ -309,15 +309,27 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         print(f"{args.mechanism}: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as stop:  # SweepInterrupted, or Ctrl-C while setting up
-        kept = f"{stop.done} of {stop.runs} runs" if isinstance(stop, sweeps.SweepInterrupted) \
-            else "the finished runs"
-        print(f"\ninterrupted: {kept} kept in {out}; run the same command again to continue",
-              file=sys.stderr)
+        print(f"\n{interrupted_sweep(stop, out)}", file=sys.stderr)
         return 130
     except ImportError as error:
         print(f"nemc: {error}", file=sys.stderr)
         return 1
     return report_sweep(result)
+
+
+def interrupted_sweep(stop: KeyboardInterrupt, out: str) -> str:
+    """What a Ctrl-C kept: the runs done, the finished runs of a store that exists, or
+    nothing (before the store was made: it said runs were kept there)."""
+    from .sweep_store import partial_path
+    from .sweeps import SweepInterrupted
+
+    if isinstance(stop, SweepInterrupted):
+        return (f"interrupted: {stop.done} of {stop.runs} runs kept in {out}; run the same "
+                "command again to continue")
+    if os.path.lexists(out) or os.path.lexists(partial_path(Path(out))):
+        return (f"interrupted: the finished runs kept in {out}; run the same command again to "
+                "continue")
+    return f"interrupted before the sweep began: nothing kept, no {out} written"
 
 
 def report_sweep(result) -> int:
