@@ -481,3 +481,32 @@ def test_ctrl_c_before_the_sweep_store_exists_says_nothing_was_kept(
     status, out, err = cli(SWEEP, capsys)
     assert status == 130 and "interrupted before the sweep began: nothing kept" in err, err
     assert not (tmp_path / "s.zarr").exists() and "kept in" not in err
+
+
+def test_the_sweep_that_loses_the_race_to_create_a_store_names_it(
+        tmp_path: Path, capsys, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Another sweep publishes the store between this one's scratch folder and its rename:
+    the message names the store (it named this process's scratch folder), the other's store
+    is untouched, no scratch folder is left."""
+    from nemc.tools import sweep_store
+
+    monkeypatch.chdir(tmp_path)
+    shutil.copy(TINY, tmp_path / "m.yaml")
+    rename = os.rename
+
+    def the_other_sweep_first(source, target):
+        if Path(target).name == "s.zarr" and not Path(target).exists():
+            Path(target).mkdir()
+            (Path(target) / "zarr.json").write_text("{}")
+        rename(source, target)
+
+    monkeypatch.setattr(sweep_store.os, "rename", the_other_sweep_first)
+    status, out, err = cli(SWEEP, capsys)
+    assert status == 2 and "s.zarr: another sweep created it at the same time" in err, err
+    assert ".tmp-" not in err and len(err.splitlines()) == 1
+    assert folder_state(tmp_path / "s.zarr") == {"zarr.json": digest_of_text("{}")}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.yaml", "s.zarr"]
+
+
+def digest_of_text(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()

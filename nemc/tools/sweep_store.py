@@ -250,7 +250,7 @@ class ZarrStore:
             with interrupt_deferred():
                 dataset.to_zarr(scratch, mode="w-", compute=False, encoding=encoding,
                                 consolidated=False)
-                os.rename(scratch, self.path_)
+                publish(scratch, self.path_)
         finally:
             shutil.rmtree(scratch, ignore_errors=True)
 
@@ -296,6 +296,18 @@ class ZarrStore:
 
     def finish(self) -> Any:
         return with_status(open_zarr(self.path_), self.status())
+
+
+def publish(scratch: Path, path: Path) -> None:
+    """SCRATCH renamed PATH; when another process published PATH first (two sweeps started at
+    once), a SweepStoreError naming PATH, not this process's scratch folder."""
+    try:
+        os.rename(scratch, path)
+    except OSError as error:
+        if not os.path.lexists(path):
+            raise
+        raise SweepStoreError(f"{path}: another sweep created it at the same time ({error.strerror}"
+                              "); run the command again to continue that sweep") from None
 
 
 def open_zarr(path: Path) -> Any:
