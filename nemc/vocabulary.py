@@ -99,6 +99,7 @@ def auto_method(coordinates: int, rtol: float, has_taylor: bool, stiff_steps: fl
 # (nemc/build/ writes them; the front end refuses a model named like one: a model named _native
 # could not import its own extension)
 COMPLETE = "BUILD_OK"  # the cache's manifest: the build finished
+PACKAGE_MARKER = ".nemc-package.json"  # an exported package's list of the files nemc wrote
 RHS_CALL = "_rhs_call"  # Model.rhs's own extension (templates/rhs_call.c.tmpl)
 DRIVERS = "nemc_drivers"  # the native integrators' C (templates/drivers.c.tmpl)
 RUN_HEADER = "nemc_run"  # the header every model shares

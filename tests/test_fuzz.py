@@ -1,14 +1,18 @@
 """Fuzzing the loader: random YAML documents, random expressions and mutations of the valid
 example files. The only outcomes allowed are a valid Mechanism or an InputError whose every
-problem is located (the file, a line inside it, a message). Validation only: no C compiled."""
+problem is located (the file, a line inside it, a message). Validation only, but for the last
+test (slow): what validation accepts is compiled and run."""
 
 from __future__ import annotations
 
+import os
 import re
+import tempfile
 from pathlib import Path
 
+import pytest
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
 from nemc.errors import InputError
@@ -154,3 +158,39 @@ def test_every_example_is_valid() -> None:
     """The mutations start from valid files (else the fuzz would only test refusals)."""
     for name, text in EXAMPLES.items():
         assert isinstance(assert_clean(text), Mechanism), name
+
+
+# ---- compiled and run (issue 51): what check accepts never ends in a traceback ---------------
+
+RUN_FUZZ = settings(FUZZ, max_examples=int(os.environ.get("NEMC_FUZZ_RUNS", "300")))
+
+
+@pytest.mark.slow
+@RUN_FUZZ
+@given(mutated_examples())
+def test_what_check_accepts_compiles_and_runs(text: str) -> None:
+    """A mutated example that `check` accepts is compiled and run briefly (its first 1% of
+    t_span, at most 20,000 steps) by its scene's method: the outcome is a result (successful
+    or not, with a message) or nemc's own ModelError, never another exception."""
+    import nemc
+    from nemc.runtime.model import ModelError
+
+    mechanism = assert_clean(text)
+    assume(mechanism is not None)
+    with tempfile.TemporaryDirectory() as folder:
+        file = Path(folder) / FILE
+        file.write_text(text)
+        try:
+            model = nemc.compile(file)
+        except InputError:  # refused by a later stage: located, as check's
+            event("refused at compile")
+            return
+        t0, t1 = model.scene["t_span"] or (0.0, 10.0)
+        try:
+            run = model.simulate((t0, t0 + (t1 - t0) / 100), max_steps=20_000)
+        except ModelError as error:
+            event("run refused")
+            assert str(error)
+            return
+    event("ran" if run.success else "failed with a message")
+    assert run.success or run.message

@@ -259,8 +259,12 @@ def cached_package(key: str) -> Path | None:
 
 
 def compiler() -> list[str]:
-    """The C compiler command: $CC as the environment gives it now (a command line), or gcc."""
-    return shlex.split(os.environ.get("CC", "")) or ["gcc"]
+    """The C compiler command: $CC as the environment gives it now (a command line), or gcc;
+    a $CC the shell's rules cannot split (an unclosed quote) is a BuildError naming it."""
+    try:
+        return shlex.split(os.environ.get("CC", "")) or ["gcc"]
+    except ValueError as error:
+        raise BuildError(f"CC={os.environ['CC']!r}: not a command line ({error})") from None
 
 
 # Lanes per batch of nemc.Taylor's ensembles (templates/batch.c.tmpl): one vector register of

@@ -22,8 +22,9 @@ from pathlib import Path
 
 from ..errors import OutputRefused
 from ..vocabulary import NEMC_VERSION as __version__
+from ..vocabulary import PACKAGE_MARKER
 
-MARKER = ".nemc-package.json"
+MARKER = PACKAGE_MARKER
 LEGACY_MARKER = "BUILD_OK"  # the cache's manifest, copied into packages exported before MARKER
 LEGACY_RUNTIME_FILES = ("_runtime.py", "methods.py", "loops_runtime.py", "runs.py")
 STAGING_PREFIX = ".nemc-export-"

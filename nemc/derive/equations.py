@@ -155,6 +155,8 @@ def mass_and_forcing(mech: m.Mechanism) -> tuple[sympy.Matrix, sympy.Matrix]:
 def newton_euler(mech: m.Mechanism, kin: Kinematics) -> tuple[sympy.Matrix, sympy.Matrix]:
     """M and f of M qdd = f from the projected Newton-Euler equations of every body."""
     n = len(kin.q)
+    if n == 0:  # every coordinate driven: no equation of motion (an inverse-dynamic analysis)
+        return sympy.zeros(0, 0), sympy.zeros(0, 1)
     residual = sympy.zeros(n, 1)  # sum of projections of (m a_C - F, I alpha - T); = 0
     for body in mech.bodies:
         v_c = kin.rate(kin.position(body.name, body.com))
@@ -288,7 +290,7 @@ def fastest_dynamics(forms: Mapping[str, Program]) -> str:
 
 def with_motions(mech: m.Mechanism) -> m.Mechanism:
     """The mechanism with the driven coordinates (and their rates) replaced by their prescribed
-    values wherever loads and output expressions name them."""
+    values wherever loads, output expressions, events' functions and impact laws name them."""
     motions = motion_substitutions(mech)
     if not motions:
         return mech
@@ -298,8 +300,11 @@ def with_motions(mech: m.Mechanism) -> m.Mechanism:
 
     outputs = dataclasses.replace(mech.outputs, expressions=tuple(
         (name, prescribe(expr)) for name, expr in mech.outputs.expressions))
+    events = tuple(dataclasses.replace(event, when=prescribe(event.when), law=tuple(
+        (name, prescribe(expr)) for name, expr in event.law)) for event in mech.simulation.events)
     return dataclasses.replace(mech, loads=tuple(load.map_expressions(prescribe)
-                                                 for load in mech.loads), outputs=outputs)
+                                                 for load in mech.loads), outputs=outputs,
+                               simulation=dataclasses.replace(mech.simulation, events=events))
 
 
 def multipliers_by_constraint(mech: m.Mechanism, multipliers: tuple[sympy.Symbol, ...]

@@ -102,7 +102,7 @@ class Kinematics:
         total = sympy.diff(expr, m.TIME)
         for q, u, a in zip(self.q, self.u, self.qdd):
             total += sympy.diff(expr, q) * u + sympy.diff(expr, u) * a
-        return total
+        return where_it_exists(total)
 
     def partials(self, expr: sympy.Matrix | sympy.Expr) -> list:
         """Partial velocities: d expr / d dq_k for every rate, expr being a velocity."""
@@ -143,11 +143,27 @@ class SymbolicFrame:
         return tuple(exprs)
 
 
+def where_it_exists(derivative: sympy.Expr | sympy.Matrix) -> sympy.Expr | sympy.Matrix:
+    """A derivative taken where it exists: sympy's DiracDelta terms (from the kinks and steps
+    of abs, sign, min and max: the derivative of sign or of a Heaviside step) are 0 everywhere
+    else, and C cannot print them (issue 51: such motion laws crashed the compile). The
+    impulse at the kink itself is not in the equations."""
+    if not derivative.has(sympy.DiracDelta):
+        return derivative
+    return derivative.replace(lambda e: isinstance(e, sympy.DiracDelta), lambda e: sympy.S.Zero)
+
+
+def time_derivative(expr: sympy.Expr) -> sympy.Expr:
+    """d expr / dt where it exists (where_it_exists)."""
+    return where_it_exists(sympy.diff(expr, m.TIME))
+
+
 def prescribed_motion(joint: Joint) -> tuple[sympy.Expr, sympy.Expr, sympy.Expr]:
-    """A driven joint's coordinate, rate and acceleration: its motion and their derivatives."""
+    """A driven joint's coordinate, rate and acceleration: its motion and their derivatives
+    (where they exist: a motion with a kink, abs(sin(t)), has a step in its rate)."""
     motion = sympy.sympify(joint.motion)
-    rate = sympy.diff(motion, m.TIME)
-    return motion, rate, sympy.diff(rate, m.TIME)
+    rate = time_derivative(motion)
+    return motion, rate, time_derivative(rate)
 
 
 def motion_substitutions(mech: m.Mechanism) -> dict[sympy.Symbol, sympy.Expr]:

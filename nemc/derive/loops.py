@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import sympy
 
 from ..front import mechanism as m
-from .kinematics import Kinematics
+from .kinematics import Kinematics, time_derivative
 
 
 @dataclass(frozen=True)
@@ -68,7 +68,7 @@ def loop_equations(mech: m.Mechanism, kin: Kinematics,
     for value, velocity in zip(values, velocities):
         if velocity is None:  # Phi(q, t): its gradient and time derivative
             rows.append([sympy.diff(value, q) for q in kin.q])
-            rates.append(sympy.diff(value, m.TIME))
+            rates.append(time_derivative(value))
         else:  # A(q, t) dq + a(q, t): A's row and a
             rows.append([sympy.diff(velocity, v) for v in kin.u])
             rates.append(velocity.xreplace({v: sympy.S.Zero for v in kin.u}))

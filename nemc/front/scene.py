@@ -34,6 +34,10 @@ def read_simulation(ctx: Context, node: Node) -> Simulation:
         method = read_choice(ctx, entries["method"], "simulation.method", METHODS, "method")
     tolerances = {key: _positive(ctx, entries[key], join_path("simulation", key))
                   if key in entries else None for key in ("rtol", "atol")}
+    if tolerances["rtol"] is not None and not tolerances["rtol"] < 1:  # as every run refuses
+        ctx.problem(entries["rtol"].line, "simulation.rtol", "must be a number > 0 and < 1 (a "
+                    f"relative error), got {tolerances['rtol']:g}")
+        tolerances["rtol"] = None
     guess = {}
     if "guess" in entries:
         guess = _initial(ctx, entries["guess"], "simulation.guess", rates=False)
@@ -95,8 +99,7 @@ def _initial(ctx: Context, node: Node, path: str = "simulation.initial",
     if not node.is_map:
         ctx.problem(node.line, path, f"expected a mapping {what} -> value, {described(node)}")
         return {}
-    driven = {q: joint.name for joint in ctx.joints.values() if joint.driven
-              for q in joint.coordinates}
+    driven = driven_coordinates(ctx)
     free = [q for q in ctx.coordinates if q not in driven]
     states = [name for q in free for name in ((q, f"dot({q})") if rates else (q,))]
     initial: dict[str, sympy.Expr] = {}
@@ -219,6 +222,12 @@ def _event(ctx: Context, name: str, node: Node, path: str) -> Event | None:
     return Event(name, when, direction, action, law, ctx.loc(node, path))  # type: ignore
 
 
+def driven_coordinates(ctx: Context) -> dict[str, str]:
+    """Each driven coordinate -> its joint's name (its value is the joint's motion)."""
+    return {q: joint.name for joint in ctx.joints.values() if joint.driven
+            for q in joint.coordinates}
+
+
 def _event_action(ctx: Context, node: Node, path: str
                   ) -> tuple[str | None, tuple[tuple[str, sympy.Expr], ...]]:
     """record, stop, or an impact law {q or dot(q): new value, ...} (action "impact")."""
@@ -234,13 +243,20 @@ def _event_action(ctx: Context, node: Node, path: str
                                      "{q or dot(q): expression}")
         return None, ()
     states = [name for q in ctx.coordinates for name in (q, f"dot({q})")]
+    driven = driven_coordinates(ctx)
     law: dict[str, sympy.Expr] = {}
     ok = True
     for key, value in entries_of(node).items():
         match = re.fullmatch(r"dot\(\s*(\w+)\s*\)", key)
         state = f"dot({match.group(1)})" if match else key
         key_path, line = join_path(path, key), node.key_lines[key]
-        if state not in states:
+        coordinate = match.group(1) if match else key
+        if coordinate in driven:
+            ctx.problem(line, key_path, f"{coordinate} is driven (joints.{driven[coordinate]}"
+                                        ".motion): its value is prescribed; an impact law "
+                                        "cannot set it")
+            ok = False
+        elif state not in states:
             ctx.problem(line, key_path, f"unknown coordinate or rate {key!r}"
                                         f"{suggestion(key, states)}; an impact law sets "
                                         "coordinates q and rates dot(q)")

@@ -19,6 +19,18 @@ EPS = float(np.finfo(float).eps)
 MIN_RTOL = 100 * EPS  # as scipy's solve_ivp: a smaller rtol is raised to this
 FLOAT64 = np.dtype(np.float64)  # native float64's dtype, one object: checked with `is`
 MAX_STEP_TIMES = 1_000_000  # times a scene's t_eval {step} may give (memory: n_state doubles each)
+MAX_RESULT_VALUES = 2**27  # the numbers one call's results may hold (1 GiB of doubles): checked
+#                            before anything is allocated (issue 51: raw MemoryErrors)
+
+
+def within_budget(what: str, values: int) -> None:
+    """Refuse a call whose results would hold more than MAX_RESULT_VALUES numbers, before
+    allocating them: WHAT says what would be that large."""
+    if values > MAX_RESULT_VALUES:
+        raise ModelError(f"{what} would hold {values:.3g} numbers ({values * 8 / 2**30:.3g} "
+                         f"GiB), over nemc's budget of {MAX_RESULT_VALUES:.3g} "
+                         f"({MAX_RESULT_VALUES * 8 / 2**30:g} GiB) for one call: fewer runs "
+                         "or output times")
 
 
 def real_array(value: Any, what: str) -> np.ndarray:
@@ -240,5 +252,6 @@ def ensemble_columns(params: Any) -> dict[str, np.ndarray]:
         if array.ndim > 1:
             raise ModelError(f"parameter {name!r}: expected a number or a 1-d array of one value"
                              f" per run, got shape {array.shape}")
+        within_budget(f"parameter {name!r} of {array.size} values", array.size)
         columns[name] = np.atleast_1d(array.astype(float))
     return columns

@@ -30,6 +30,7 @@ from .checks import (
     ensemble_columns,
     native_tolerances,
     real_array,
+    within_budget,
 )
 from .failures import BuildNotice, ModelError
 from .inputs import RunInputs
@@ -63,6 +64,9 @@ class EnsembleCall:
 def simulate_many(model: BuiltModel, call: EnsembleCall) -> EnsembleResult:
     """The ensemble of CALL: its method chosen ("auto", or None: ensemble_method's), then run
     by the build that has what the method needs (its lanes, its Jacobian, ...)."""
+    if not model.state_names:  # every coordinate driven: as a closed loop without freedom
+        raise ModelError("simulate_many: this mechanism has no degree of freedom left by its "
+                         "drives (a kinematic analysis): use simulate")
     span = checked_span(model.scene["t_span"] or DEFAULT_T_SPAN if call.t_span is None
                         else call.t_span)
     method, lanes = call.method, call.lanes
@@ -110,6 +114,8 @@ def run_ensemble(model: BuiltModel, call: EnsembleCall, span: tuple[float, float
                      dtype=float)
     given = model.loops.given_mask(call.y0s)
     ps, y0s, tables = inputs or ensemble_inputs(model, call.y0s, call.params, call.inputs)
+    within_budget(f"simulate_many of {len(y0s)} runs at {len(times)} times",
+                  len(y0s) * len(times) * model.n_state)
     if model.has_loops:  # each run from its assembled state
         ps = np.ascontiguousarray(model.loops.started_runs(span[0], y0s, ps))
         y0s = model.loops.assembled_runs(span[0], y0s, given, ps)
@@ -198,7 +204,9 @@ def ensemble_inputs(model: BuiltModel, y0s: Any, params: Mapping[str, Any] | Non
     if isinstance(inputs, Mapping):
         sizes |= {len(v) for v in inputs.values() if per_run(v) and len(v) != 1}
     if y0s is not None:
-        y0s = real_array(y0s, "y0s").astype(float)
+        y0s = real_array(y0s, "y0s")
+        within_budget(f"y0s of shape {y0s.shape}", y0s.size)
+        y0s = y0s.astype(float)
         if y0s.ndim != 2 or y0s.shape[1] != model.n_state or not len(y0s):
             raise ModelError(f"y0s must have shape (k, {model.n_state}), got {y0s.shape}")
         sizes.add(len(y0s))
@@ -208,6 +216,7 @@ def ensemble_inputs(model: BuiltModel, y0s: Any, params: Mapping[str, Any] | Non
     k = sizes.pop() if sizes else 1
     if k == 0:
         raise ModelError("simulate_many: no runs (params hold empty arrays)")
+    within_budget(f"simulate_many of {k} runs", k * (model.n_state + len(model.parameter_names)))
     sets = [{name: v[i % len(v)] for name, v in columns.items()} for i in
             range(k if any(len(v) > 1 for v in columns.values()) else 1)]
     ps = np.array([model.parameter_vector(s) for s in sets])

@@ -10,7 +10,20 @@ from typing import Any
 
 import numpy as np
 
-SERIES_NOT_FINITE = -3  # the model status NEMC_SERIES_NOT_FINITE (templates/model.h.tmpl)
+SERIES_NOT_FINITE = -3  # the model status NEMC_SERIES_NOT_FINITE (templates/nemc_run.h.tmpl)
+EVENT_NOT_FINITE = -4  # NEMC_EVENT_NOT_FINITE: an event's function
+LAW_NOT_FINITE = -5  # NEMC_LAW_NOT_FINITE: an impact law's new value
+STATUS_CAUSES = {  # what these statuses mean, whatever the state (the state is checked first)
+    SERIES_NOT_FINITE: "nemc.Taylor's series overflows here (a Taylor coefficient, or the "
+                       "series' value at the step's end, is not finite): the solution blows up, "
+                       "or it moves too fast for the series at this tolerance (try nemc.Vern9 "
+                       "or nemc.DOP853)",
+    EVENT_NOT_FINITE: "an event's function (simulation.events, `when`) is not finite here: it "
+                      "gives inf or nan at this state (e.g. sqrt or log of a negative number, "
+                      "a division by zero)",
+    LAW_NOT_FINITE: "an impact law (simulation.events, `action`) gives a new value that is "
+                    "not finite at this state (e.g. a division by zero)",
+}
 
 
 class ModelError(ValueError):
@@ -42,10 +55,8 @@ def failure_cause(y: np.ndarray, status: int, state_names: Sequence[str],
                 "(or the initial state holds inf or nan)")
     if known:
         return known
-    if status == SERIES_NOT_FINITE:
-        return ("nemc.Taylor's series overflows here (a Taylor coefficient, or the series' value "
-                "at the step's end, is not finite): the solution blows up, or it moves too fast "
-                "for the series at this tolerance (try nemc.Vern9 or nemc.DOP853)")
+    if status in STATUS_CAUSES:
+        return STATUS_CAUSES[status]
     if status > 0:
         return (f"the articulated inertia through joint {status} (counting from 1 in file "
                 "order) is not positive: the mass matrix is singular or not positive definite "

@@ -142,6 +142,12 @@ class Ending:
     interval: float = math.nan  # chattering: the time between its last two impacts
 
 
+def steps_to_go(remaining: float, h: float) -> float:
+    """The steps of length H that REMAINING takes: inf when the steps shrank to nothing (a
+    blow-up under LSODA: its last steps had length 0, and the message divided by it)."""
+    return remaining / h if h > 0 else math.inf
+
+
 def ending_message(end: Ending) -> str:
     """What happened and what to do, for every status but the equations failing."""
     at = f"at t = {end.t:.9g}"
@@ -155,11 +161,13 @@ def ending_message(end: Ending) -> str:
         return (f"stiff from t = {end.stiff_from:.6g}: stopped {at} after {end.steps:,} steps, "
                 f"the step held near {end.h_recent:.2g} by {end.method}'s stability (h|lambda| "
                 f"~ {end.stiffness:.2g}), not by accuracy; the rest would take "
-                f"~{remaining / end.h_recent:.1e} steps: try nemc.Radau (or scipy's Radau, BDF)")
+                f"~{steps_to_go(remaining, end.h_recent):.1e} steps: try nemc.Radau (or scipy's "
+                "Radau, BDF)")
     if end.status == TOO_SLOW:
         return (f"stopped {at} after {end.steps:,} steps: at the pace of the last ones (steps of "
                 f"~{end.h_recent:.2g}) reaching t = {end.span[1]:g} would take "
-                f"~{remaining / end.h_recent:.1e} steps, over {PACE_FACTOR:g} x max_steps "
+                f"~{steps_to_go(remaining, end.h_recent):.1e} steps, over {PACE_FACTOR:g} x "
+                "max_steps "
                 f"({end.max_steps:,}). The motion is too fast to follow over this interval (a "
                 f"very stiff spring, a tiny mass or inertia, or a blow-up: |y| = {size:.3g}): "
                 "check the parameters; if the problem is stiff (fast motion that decays), try "

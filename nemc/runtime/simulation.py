@@ -32,6 +32,7 @@ from .checks import (
     checked_tolerances,
     real_array,
     step_times,
+    within_budget,
 )
 from .failures import ModelError
 from .inputs import RunInputs
@@ -54,6 +55,8 @@ def simulate(model: BuiltModel, arguments: tuple, t_eval: Any) -> SimulationResu
     """The run of simulate()'s ARGUMENTS (as RUN_ARGUMENTS names them) at the times T_EVAL:
     each resolved against the scene, then the defaults, and checked, in this order."""
     spec = run_spec(model, arguments, t_eval)
+    if not model.state_names:  # every coordinate driven: nothing to integrate
+        return kinematic_run(model, spec)
     if not model.has_loops:
         return integrate(model, spec)
     y0 = arguments[1]
@@ -84,7 +87,7 @@ def run_spec(model: BuiltModel, arguments: tuple, t_eval: Any) -> RunSpec:
     method = checked_method(scene["method"] or DEFAULT_METHOD if method is None else method,
                             METHODS)
     rtol, atol = tolerances(scene, rtol, atol)
-    times = run_times(scene, span, t_eval)
+    times = run_times(scene, span, t_eval, per_time=model.n_state + 1)
     state0 = initial_state(model, y0, params)
     settings = checked_settings(scene, span, max_step, tstops, max_steps)
     if varying is not None and varying.tables:  # every step lands on the tables' samples
@@ -178,7 +181,10 @@ def kinematic_run(model: BuiltModel, spec: RunSpec) -> SimulationResult:
     t_span), the outputs (drives, reactions) there."""
     times = np.linspace(*spec.span, KINEMATIC_POINTS) if spec.times is None else np.asarray(
         spec.times)
-    t, y, failure = model.loops.kinematic_states(times.astype(float), spec.state0, spec.p)
+    if model.has_loops:
+        t, y, failure = model.loops.kinematic_states(times.astype(float), spec.state0, spec.p)
+    else:  # a tree whose every coordinate is driven: its state is empty
+        t, y, failure = times.astype(float), np.empty((0, len(times))), None
     return SimulationResult(
         t=t, y=y, outputs=lazy_outputs(model, t, y, spec.p, spec.inputs), nfev=0, njev=0,
         nlu=0,
@@ -191,16 +197,20 @@ def kinematic_run(model: BuiltModel, spec: RunSpec) -> SimulationResult:
 # -- the arguments, resolved and checked -------------------------------------------------------
 
 def run_times(scene: Mapping[str, Any], span: tuple[float, ...],
-              t_eval: Sequence[float] | str | None) -> np.ndarray | None:
+              t_eval: Sequence[float] | str | None, per_time: int = 1) -> np.ndarray | None:
     """The checked times of the returned states: t_eval, else the scene's (its step from
     t0 towards t1, or its list within t_span, in the span's direction), else None (the
-    solver's steps; also for t_eval SOLVER_STEPS)."""
+    solver's steps; also for t_eval SOLVER_STEPS). The results hold PER_TIME numbers a time:
+    within the budget (checks.within_budget), checked before anything is allocated."""
     if isinstance(t_eval, str) and t_eval == SOLVER_STEPS:  # the solver's own steps
         return None
     if t_eval is not None:
+        within_budget(f"t_eval of {np.size(t_eval)} times", np.size(t_eval) * per_time)
         return checked_times(real_array(t_eval, "t_eval"), span)
     if scene["t_eval_step"]:
-        return step_times(span, float(scene["t_eval_step"]))
+        times = step_times(span, float(scene["t_eval_step"]))
+        within_budget(f"t_eval of {times.size} times", times.size * per_time)
+        return times
     if scene["t_eval"] is not None:
         times = np.asarray(scene["t_eval"], dtype=float)
         inside = times[(times >= min(span)) & (times <= max(span))]

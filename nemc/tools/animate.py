@@ -144,7 +144,8 @@ def scene_of(model: Any, t: np.ndarray, y: np.ndarray, params: dict | None = Non
 def frame_times(t0: float, t1: float, fps: float, speed: float) -> np.ndarray:
     """Real time times speed: a frame every speed/fps units of model time."""
     step = speed / fps
-    count = min(MAX_FRAMES, int(math.floor((t1 - t0) / step * (1 + 1e-12))) + 1)
+    frames = (t1 - t0) / step * (1 + 1e-12)  # inf for a speed of 1e-300: no int of it
+    count = MAX_FRAMES if not frames < MAX_FRAMES else int(math.floor(frames)) + 1
     return t0 + step * np.arange(count)
 
 

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import BuildError, InputError, OutputRefused
+from .files import output_refusal
 from .fit_cli import add_fit_parser, cmd_fit
 from .fmu_cli import add_export_parser, cmd_export
 from .plant_cli import add_linearize_parser, cmd_linearize
@@ -161,14 +162,24 @@ def add_stress_parser(commands: argparse._SubParsersAction) -> None:
                         default=[], metavar="NAME=VALUE", help="override a parameter")
 
 
+def frame_rate(text: str) -> float:
+    """--fps: 0.01 to 1000 frames a second (a GIF holds a frame at most 655 s; 1e-9 gave an
+    OverflowError)."""
+    value = finite_number(text)
+    if not 0.01 <= value <= 1000:
+        raise argparse.ArgumentTypeError(f"expected frames per second from 0.01 to 1000, got "
+                                         f"{text!r}")
+    return value
+
+
 def add_animate_parser(commands: argparse._SubParsersAction) -> None:
     animate = commands.add_parser("animate", help="run the scene and draw the mechanism moving")
     animate.add_argument("mechanism")
     animate.add_argument("--out", help="the file: .gif, .mp4 (needs ffmpeg) or .html "
                          "(default: generated/<name>.gif)")
     add_run_options(animate)
-    animate.add_argument("--fps", type=positive_number, default=25.0,
-                         help="frames per second (25)")
+    animate.add_argument("--fps", type=frame_rate, default=25.0,
+                         help="frames per second, 0.01 to 1000 (25)")
     animate.add_argument("--speed", type=positive_number, default=1.0,
                          help="model time per second of animation (1: real time)")
     animate.add_argument("--trace", type=name_list, metavar="POINTS",
@@ -200,7 +211,7 @@ def cmd_animate(args: argparse.Namespace) -> int:
     print(f"animation written to {out} ({result.method}, t = {result.t[0]:g} .. "
           f"{result.t[-1]:g})")
     if not result.success:
-        print(f"integration failed: {result.message}", file=sys.stderr)
+        print(failure_line(result.message), file=sys.stderr)
         return 1
     return 0
 
@@ -238,7 +249,8 @@ def add_sweep_parser(commands: argparse._SubParsersAction) -> None:
                        metavar="NAME=LOW:HIGH", help="uniform random values (repeatable)")
     sweep.add_argument("--runs", type=positive_int,
                        help="random draws (per grid point, with --grid); default 1")
-    sweep.add_argument("--seed", type=int, default=0, help="of the random draws (0)")
+    sweep.add_argument("--seed", type=whole_number, default=0,
+                       help="of the random draws, a whole number >= 0 (0)")
     sweep.add_argument("--set", dest="params", type=parse_assignment, action="append",
                        default=[], metavar="NAME=VALUE", help="the same value for every run")
     sweep.add_argument("--t-end", type=finite_number, help="end time (the scene's by default)")
@@ -248,15 +260,46 @@ def add_sweep_parser(commands: argparse._SubParsersAction) -> None:
                        "(default: the scene's if native, else auto's choice)")
     sweep.add_argument("--rtol", type=positive_number)
     sweep.add_argument("--atol", type=positive_number)
-    sweep.add_argument("--dask", metavar="ADDRESS", help="a Dask scheduler (tcp://host:8786), "
-                       "or local[:N] for N local worker processes; default: this machine's "
-                       "threads")
+    sweep.add_argument("--dask", type=dask_address, metavar="ADDRESS",
+                       help="a Dask scheduler (tcp://host:8786), or local[:N] for N local "
+                       "worker processes (N <= 4 x cores); default: this machine's threads")
     sweep.add_argument("--out", help="FILE.zarr, FILE.nc or FILE.npz (default "
                        "<name>-sweep.zarr); the same command again resumes it")
     sweep.add_argument("--resume", action="store_true",
                        help="require an interrupted sweep in --out to continue")
     sweep.add_argument("--chunk", type=positive_int, metavar="RUNS", help="runs per task")
     sweep.add_argument("--threads", type=positive_int, help="threads without --dask (cores)")
+
+
+def whole_number(text: str) -> int:
+    """A whole number >= 0 (a seed)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
+    return value
+
+
+MAX_LOCAL_WORKERS_PER_CORE = 4  # --dask local:N: at most this many worker processes a core
+
+
+def dask_address(text: str) -> str:
+    """--dask: local, local:N (1 <= N <= 4 x the cores: each worker is a process), or a
+    scheduler's address (distributed checks it)."""
+    name, colon, count = text.partition(":")
+    if name != "local" or not colon:
+        return text
+    most = MAX_LOCAL_WORKERS_PER_CORE * (os.cpu_count() or 1)
+    try:
+        workers = int(count)
+    except ValueError:
+        workers = 0
+    if not 1 <= workers <= most:
+        raise argparse.ArgumentTypeError(f"local:N: expected N, the worker processes, a whole "
+                                         f"number from 1 to {most}, got {text!r}")
+    return text
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -284,15 +327,27 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         print(f"{args.mechanism}: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as stop:  # SweepInterrupted, or Ctrl-C while setting up
-        kept = f"{stop.done} of {stop.runs} runs" if isinstance(stop, sweeps.SweepInterrupted) \
-            else "the finished runs"
-        print(f"\ninterrupted: {kept} kept in {out}; run the same command again to continue",
-              file=sys.stderr)
+        print(f"\n{interrupted_sweep(stop, out)}", file=sys.stderr)
         return 130
     except ImportError as error:
         print(f"nemc: {error}", file=sys.stderr)
         return 1
     return report_sweep(result)
+
+
+def interrupted_sweep(stop: KeyboardInterrupt, out: str) -> str:
+    """What a Ctrl-C kept: the runs done, the finished runs of a store that exists, or
+    nothing (before the store was made: it said runs were kept there)."""
+    from .sweep_store import partial_path
+    from .sweeps import SweepInterrupted
+
+    if isinstance(stop, SweepInterrupted):
+        return (f"interrupted: {stop.done} of {stop.runs} runs kept in {out}; run the same "
+                "command again to continue")
+    if os.path.lexists(out) or os.path.lexists(partial_path(Path(out))):
+        return (f"interrupted: the finished runs kept in {out}; run the same command again to "
+                "continue")
+    return f"interrupted before the sweep began: nothing kept, no {out} written"
 
 
 def report_sweep(result) -> int:
@@ -383,11 +438,18 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             report.plot(result, Path(args.plot), panels=args.panels, outputs=outputs, x=args.x)
         print(f"figure written to {args.plot}")
     if not result.success:
-        print(f"integration failed: {result.message}", file=sys.stderr)
+        print(failure_line(result.message), file=sys.stderr)
         return 1
     if args.method is None:  # last: what was asked for is written before the extra run
         note_native_speed(result, seconds, simulate)
     return 0
+
+
+def failure_line(message: str) -> str:
+    """The line saying a run failed, MESSAGE's prefix not doubled (a run whose equations could
+    not be evaluated says "integration failed: ..." itself)."""
+    prefix = "integration failed: "
+    return message if message.startswith(prefix) else prefix + message
 
 
 def add_run_options(command: argparse.ArgumentParser) -> None:
@@ -487,9 +549,14 @@ def run_settings(model, args: argparse.Namespace) -> dict:
     t_eval = None
     if getattr(args, "t_eval", None) is not None:
         kind, values = args.t_eval
-        if kind == "step":
-            count = int(math.floor((end - span[0]) / values[0] * (1 + 1e-12))) + 1
-            t_eval = span[0] + values[0] * np.arange(count)
+        if kind == "step":  # at most checks.MAX_STEP_TIMES, counted before any is made
+            from ..runtime.checks import step_times
+            from ..runtime.failures import ModelError
+
+            try:
+                t_eval = step_times((span[0], end), values[0])
+            except ModelError as error:
+                raise ValueError(f"--t-eval: {error}") from None
         else:
             t_eval = np.array(values)
             if np.any(t_eval < span[0]) or np.any(t_eval > end) or np.any(np.diff(t_eval) <= 0):
@@ -680,6 +747,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     # own setting wins.
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     args = make_parser().parse_args(argv)
+    refusal = output_refusal(args)
+    if refusal:
+        print(f"nemc: {refusal}", file=sys.stderr)
+        return 2
     try:
         return COMMANDS[args.command](args)
     except InputError as error:

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..runtime import runs
-from ..runtime.model import Model, SimulationResult
+from ..runtime.model import DEFAULT_T_SPAN, Model, SimulationResult
 from . import stress as s
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
@@ -94,11 +94,22 @@ def study(path: str | Path, horizon: float = 1000.0, lyapunov_time: float = 300.
         finished.progress.close()
 
 
+def check_horizon(model: Model, horizon: float) -> None:
+    """The long horizon is at least the scene's own interval: its energy drift is sampled at
+    HORIZON_SAMPLES times after the scene's start (a horizon of 1e-300 s gave equal times and
+    a LinAlgError)."""
+    t0, t1 = model.scene["t_span"] or DEFAULT_T_SPAN
+    if not horizon >= abs(t1 - t0):
+        raise s.runtime.ModelError(f"--horizon: the long horizon must be at least the scene's "
+                                   f"interval, {abs(t1 - t0):g} s, got {horizon:g} s")
+
+
 def measure(path: str | Path, horizon: float, lyapunov_time: float, params: dict,
             contrast: dict | None, finished: Finished, compile_mechanism, start: float) -> Study:
     """study()'s measurements, in order, each reported to `finished`."""
     finished.start("compiling")
     model = compile_mechanism(path, True, energy=True, mass_matrix=True).model
+    check_horizon(model, horizon)
     finished.start("the scene's own run")
     own = model.simulate(params=params)
     if not own.success:

@@ -10,7 +10,10 @@ The dataset (dimensions run, state, time):
 
 A zarr store is created whole in a temporary folder and published by one rename; status is
 created as NOT_RUN and each chunk's status is written after its other variables, so a chunk
-counts as done only once all of it is on disk (zarr writes each chunk file atomically). An
+counts as done only once all of it is on disk (zarr writes each chunk file atomically). A
+missing chunk file means "not run": status's zarr fill value is NOT_RUN (a lost status chunk
+reads so), every chunk's files are written even when they hold only the fill value, and a done
+chunk missing one of its files (a lost `y` chunk) reads as NOT_RUN (issue 51). An
 interrupted sweep keeps its finished chunks; the same sweep (same fingerprint) resumes them.
 nemc never overwrites a file it did not write: an existing output that is not this sweep is
 refused.
@@ -49,6 +52,19 @@ EXTRAS_HINT = "pip install 'nemc[sweep]' (dask[distributed], xarray, zarr, h5net
 
 class SweepStoreError(ValueError):
     """An output that cannot be used: another sweep's, not nemc's, or of an unknown format."""
+
+
+@contextlib.contextmanager
+def damaged_store(path: Path) -> Iterator[None]:
+    """Reading the store at PATH back: metadata nemc cannot read (edited, cut, deleted) is a
+    SweepStoreError naming the store, not a traceback (issue 51)."""
+    try:
+        yield
+    except SweepStoreError:
+        raise
+    except (ValueError, KeyError, TypeError, AttributeError, OSError) as error:
+        raise SweepStoreError(f"{path}: the sweep store is damaged ({type(error).__name__}: "
+                              f"{error}); remove it to run the sweep afresh") from None
 
 
 def require(module: str) -> Any:
@@ -218,7 +234,8 @@ class ZarrStore:
             raise SweepStoreError(
                 f"{self.path_} holds a different sweep (other model, inputs or settings): "
                 "choose another output, or remove it to start this sweep afresh")
-        return int(attrs["chunk_runs"])
+        with damaged_store(self.path_):
+            return int(attrs["chunk_runs"])
 
     def _create(self, layout: Layout) -> None:
         """Write the whole empty store in a temporary folder, then publish it by a rename."""
@@ -228,17 +245,33 @@ class ZarrStore:
         encoding = {name: {"chunks": (layout.chunk_runs, *dataset[name].shape[1:]),
                            **({"compressors": None} if name in UNCOMPRESSED else {})}
                     for name in dataset.variables if dataset[name].dims[:1] == ("run",)}
+        encoding["status"]["fill_value"] = NOT_RUN  # a missing status chunk: not run
         try:
             with interrupt_deferred():
                 dataset.to_zarr(scratch, mode="w-", compute=False, encoding=encoding,
                                 consolidated=False)
-                os.rename(scratch, self.path_)
+                publish(scratch, self.path_)
         finally:
             shutil.rmtree(scratch, ignore_errors=True)
 
     def status(self) -> np.ndarray:
-        zarr = require("zarr")
-        return zarr.open_group(str(self.path_), mode="r")["status"][:]
+        """Each run's status, NOT_RUN for the runs of a chunk whose files are not all there."""
+        with damaged_store(self.path_):
+            group = require("zarr").open_group(str(self.path_), mode="r")
+            status = group["status"][:]
+            for a, b in self.layout.chunks():
+                if np.any(status[a:b] != NOT_RUN) and not self._chunk_whole(group, a):
+                    status[a:b] = NOT_RUN
+        return status
+
+    def _chunk_whole(self, group: Any, start: int) -> bool:
+        """Whether the files of the chunk starting at run START are all in the store."""
+        for name in (*CHUNK_VARIABLES, "status"):
+            array = group[name]
+            index = (start // array.chunks[0],) + (0,) * (array.ndim - 1)
+            if not (self.path_ / name / array.metadata.encode_chunk_key(index)).is_file():
+                return False
+        return True
 
     def done_chunks(self) -> set[int]:
         status = self.status()
@@ -251,8 +284,10 @@ class ZarrStore:
         chunk against 4 ms here, measured); the layout and encoding are xarray's own, from
         the template."""
         if self.arrays is None:
-            group = require("zarr").open_group(str(self.path_), mode="r+")
-            self.arrays = {name: group[name] for name in (*CHUNK_VARIABLES, "status")}
+            with damaged_store(self.path_):
+                group = require("zarr").open_group(str(self.path_), mode="r+")
+                self.arrays = {name: group[name].with_config({"write_empty_chunks": True})
+                               for name in (*CHUNK_VARIABLES, "status")}  # a file: written
         rows = slice(out.start, out.stop)
         with interrupt_deferred():
             for name in CHUNK_VARIABLES:
@@ -260,11 +295,31 @@ class ZarrStore:
             self.arrays["status"][rows] = out.status.astype(np.int32)
 
     def finish(self) -> Any:
-        return open_zarr(self.path_)
+        return with_status(open_zarr(self.path_), self.status())
+
+
+def publish(scratch: Path, path: Path) -> None:
+    """SCRATCH renamed PATH; when another process published PATH first (two sweeps started at
+    once), a SweepStoreError naming PATH, not this process's scratch folder."""
+    try:
+        os.rename(scratch, path)
+    except OSError as error:
+        if not os.path.lexists(path):
+            raise
+        raise SweepStoreError(f"{path}: another sweep created it at the same time ({error.strerror}"
+                              "); run the command again to continue that sweep") from None
 
 
 def open_zarr(path: Path) -> Any:
-    return require("xarray").open_zarr(path, consolidated=False)
+    with damaged_store(path):
+        return require("xarray").open_zarr(path, consolidated=False)
+
+
+def with_status(dataset: Any, status: np.ndarray) -> Any:
+    """DATASET with STATUS (the store's, chunks whose files are lost not run)."""
+    if np.array_equal(np.asarray(dataset["status"].values), status):
+        return dataset
+    return dataset.assign(status=(("run",), status, dataset["status"].attrs))
 
 
 def read_zarr_attrs(path: Path) -> dict | None:
@@ -318,7 +373,7 @@ class ConvertedStore(ZarrStore):
         if self.complete is not None:
             return self.complete
         if np.any(self.status() == NOT_RUN):  # chunks failed: keep the partial store
-            return open_zarr(self.path_)
+            return with_status(open_zarr(self.path_), self.status())
         scratch = self.final.with_name(f".{self.final.name}.tmp-{os.getpid()}")
         try:
             with interrupt_deferred():

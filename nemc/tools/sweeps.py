@@ -22,6 +22,7 @@ import contextlib
 import dataclasses
 import hashlib
 import json
+import math
 import os
 import threading
 import time
@@ -33,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from ..runtime.checks import MAX_STEP_TIMES, within_budget
 from ..runtime.model import (
     DEFAULT_ATOL,
     DEFAULT_RTOL,
@@ -696,12 +698,13 @@ def plan_runs(model: Model, grids: Sequence[Axis], randoms: Sequence[Axis], runs
     if runs is not None and not randoms:
         raise ModelError("--runs counts random draws: give --random NAME=LOW:HIGH")
     draws = runs or 1
+    total = math.prod(a.count for a in grids) * draws
+    within_budget(f"--grid and --runs: {total} runs", total * (len(names) + len(grids)))
     axes = [np.linspace(a.low, a.high, a.count) for a in grids]
     columns: dict[str, Any] = dict(shared)
     points = np.meshgrid(*axes, indexing="ij") if axes else []
     for axis, values in zip(grids, points):
         columns[axis.name] = np.repeat(values.reshape(-1), draws)
-    total = int(np.prod([a.count for a in grids])) * draws
     rng = np.random.default_rng(seed)
     for axis in randoms:
         columns[axis.name] = axis.low + (axis.high - axis.low) * rng.random(total)
@@ -714,7 +717,10 @@ def plan_runs(model: Model, grids: Sequence[Axis], randoms: Sequence[Axis], runs
 
 
 def output_times(t_span: Sequence[float], count: int) -> np.ndarray:
-    """COUNT output times equally spaced after the start, the last at the end."""
+    """COUNT output times equally spaced after the start, the last at the end (at most
+    MAX_STEP_TIMES, as a t_eval step may give)."""
+    if count > MAX_STEP_TIMES:
+        raise ModelError(f"--times: at most {MAX_STEP_TIMES} output times, got {count}")
     t0, t1 = float(t_span[0]), float(t_span[1])
     return t0 + (t1 - t0) * np.arange(1, count + 1) / count
 
