@@ -162,6 +162,32 @@ def test_an_interrupted_sweep_keeps_its_chunks_and_resumes(model, runs, tmp_path
     assert (again.resumed, again.ran) == (120, 0)
 
 
+def test_a_zarr_store_opens_without_a_warning_finished_or_not(model, runs, tmp_path):
+    """The store's metadata is consolidated when it is created: xarray's open_zarr reads it
+    without its warning (turned into an error here), before and after a resume."""
+    import warnings
+
+    import xarray as xr
+
+    y0s, params = runs
+    out = tmp_path / "runs.zarr"
+
+    def stop_after_one(report):
+        raise KeyboardInterrupt
+
+    with pytest.raises(SweepInterrupted):
+        sweep(model, y0s, params=params, out=out, chunk_runs=40, threads=1,
+              on_chunk=stop_after_one, progress=False, **SETTINGS)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        partial = xr.open_zarr(out)
+        assert np.sum(partial["status"].values == -9) == 80
+        sweep(model, y0s, params=params, out=out, chunk_runs=40, progress=False, **SETTINGS)
+        whole = xr.open_zarr(out)
+        assert np.array_equal(whole["y"].values, serial(model, y0s, params).y)
+        assert np.all(whole["status"].values == 0)
+
+
 def test_an_output_of_another_sweep_or_not_nemcs_is_refused(model, runs, tmp_path):
     y0s, params = runs
     out = tmp_path / "runs.zarr"
@@ -180,12 +206,12 @@ def test_an_output_of_another_sweep_or_not_nemcs_is_refused(model, runs, tmp_pat
 
 def test_refused_parameters_fail_their_runs_only(model, runs):
     y0s, _ = runs
-    masses = np.linspace(-1.0, 1.5, 20)  # the first 8 are not positive
+    masses = np.linspace(-1.0, 1.5, 20)  # the first 8 are negative
     result = sweep(model, y0s[:20], params={"m2": masses}, chunk_runs=6, progress=False,
                    **SETTINGS)
-    refused = masses <= 0
+    refused = masses < 0
     assert np.all(result.status[refused] == -3) and np.all(result.status[~refused] == 0)
-    assert result.failures(1)[0][2].startswith("inputs refused: bodies.link2.mass must be > 0")
+    assert result.failures(1)[0][2].startswith("inputs refused: bodies.link2.mass must be >= 0")
     reference = serial(model, y0s[:20][~refused], {"m2": masses[~refused]})
     assert np.array_equal(np.asarray(result.y)[~refused], reference.y)
     assert np.all(np.isnan(np.asarray(result.y)[refused]))
@@ -281,7 +307,7 @@ def test_cli_end_to_end_on_threads_and_on_a_local_cluster(model, tmp_path):
     on_cluster = cli(*grid, "--out", str(tmp_path / "b.zarr"), "--dask", "local:2",
                      "--chunk", "7")
     assert on_cluster.returncode == 0, on_cluster.stderr
-    other = xr.open_zarr(tmp_path / "b.zarr", consolidated=False)
+    other = xr.open_zarr(tmp_path / "b.zarr")
     assert np.array_equal(other["y"].values, data["y"].values)
 
 

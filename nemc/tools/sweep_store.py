@@ -26,6 +26,7 @@ import os
 import shutil
 import signal
 import threading
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -229,9 +230,12 @@ class ZarrStore:
                            **({"compressors": None} if name in UNCOMPRESSED else {})}
                     for name in dataset.variables if dataset[name].dims[:1] == ("run",)}
         try:
-            with interrupt_deferred():
+            with interrupt_deferred(), warnings.catch_warnings():
+                # zarr 3 notes that consolidated metadata is not yet in its format's spec;
+                # xarray and zarr read it, and without it every open_zarr warns
+                warnings.filterwarnings("ignore", "Consolidated metadata", UserWarning)
                 dataset.to_zarr(scratch, mode="w-", compute=False, encoding=encoding,
-                                consolidated=False)
+                                consolidated=True)
                 os.rename(scratch, self.path_)
         finally:
             shutil.rmtree(scratch, ignore_errors=True)
@@ -264,15 +268,25 @@ class ZarrStore:
 
 
 def open_zarr(path: Path) -> Any:
-    return require("xarray").open_zarr(path, consolidated=False)
+    """The store's dataset, read through its consolidated metadata (written when nemc
+    created it; a store of an older nemc has none and is read without)."""
+    consolidated = "consolidated_metadata" in (read_zarr_json(path) or {})
+    return require("xarray").open_zarr(path, consolidated=consolidated)
+
+
+def read_zarr_json(path: Path) -> dict | None:
+    """The zarr.json of the group at PATH, or None when it is not one."""
+    try:
+        group = json.loads((Path(path) / "zarr.json").read_text())
+    except (OSError, ValueError):
+        return None
+    return group if isinstance(group, dict) else None
 
 
 def read_zarr_attrs(path: Path) -> dict | None:
     """The attributes of the zarr group at PATH, or None when it is not one."""
-    try:
-        return json.loads((Path(path) / "zarr.json").read_text()).get("attributes", {})
-    except (OSError, ValueError, AttributeError):
-        return None
+    group = read_zarr_json(path)
+    return None if group is None else group.get("attributes", {})
 
 
 class ConvertedStore(ZarrStore):
