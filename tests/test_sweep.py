@@ -240,7 +240,9 @@ def test_the_plan_of_grids_and_random_draws(model):
         plan_runs(model, [parse_axis("q9=0:1:2", True)], [], None, 0, {})
     with pytest.raises(ValueError, match="NAME=START:STOP:N"):
         parse_axis("q1=0:1", True)
-    assert np.array_equal(output_times((0.0, 10.0), 2), [5.0, 10.0])
+    assert np.array_equal(output_times((0.0, 10.0), 2), [0.0, 10.0])
+    assert np.array_equal(output_times((1.0, 3.0), 5), [1.0, 1.5, 2.0, 2.5, 3.0])
+    assert np.array_equal(output_times((0.0, 10.0), 1), [10.0])  # the end only
 
 
 def test_core_nemc_imports_none_of_the_sweep_extra():
@@ -287,17 +289,18 @@ def cli(*args, **kwargs):
 
 def test_cli_end_to_end_on_threads_and_on_a_local_cluster(model, tmp_path):
     grid = ["--grid", "q1=-2:2:5", "--grid", "q2=-1:1:4", "--random", "m2=0.5:1.5",
-            "--runs", "3", "--t-end", "2", "--times", "4", "--rtol", "1e-8", "--atol", "1e-10"]
+            "--runs", "3", "--t-end", "2", "--times", "5", "--rtol", "1e-8", "--atol", "1e-10"]
     done = cli(*grid, "--out", str(tmp_path / "a.nc"))
     assert done.returncode == 0, done.stderr
     assert "60 runs (0 done before)" in done.stdout and "0 failed" in done.stdout
     import xarray as xr
 
     data = xr.open_dataset(tmp_path / "a.nc", engine="h5netcdf").load()
-    assert dict(data.sizes) == {"run": 60, "state": 4, "time": 4}
+    assert dict(data.sizes) == {"run": 60, "state": 4, "time": 5}
     q1 = np.repeat(np.linspace(-2, 2, 5), 4 * 3)
     assert np.array_equal(data["q1"].values, q1)
-    assert np.array_equal(data["time"].values, [0.5, 1.0, 1.5, 2.0])
+    assert np.array_equal(data["time"].values, [0.0, 0.5, 1.0, 1.5, 2.0])  # t = 0 included
+    assert np.array_equal(data["y"].isel(time=0).values, data["y0"].values)
     assert data.attrs["method"] == model.ensemble_method((0.0, 2.0), rtol=1e-8) == "nemc.Vern9"
     reference = model.simulate_many(
         data["y0"].values, params={"m2": data["m2"].values}, t_span=(0.0, 2.0),

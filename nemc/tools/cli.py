@@ -243,7 +243,8 @@ def add_sweep_parser(commands: argparse._SubParsersAction) -> None:
                        default=[], metavar="NAME=VALUE", help="the same value for every run")
     sweep.add_argument("--t-end", type=finite_number, help="end time (the scene's by default)")
     sweep.add_argument("--times", type=positive_int, metavar="N", help="N output times equally"
-                       " spaced up to the end, the last at the end (default: the scene's)")
+                       " spaced from the start to the end, both included (1: the end only; "
+                       "default: the scene's)")
     sweep.add_argument("--method", help="nemc.DOP853 nemc.Vern9 nemc.Taylor nemc.Radau or auto "
                        "(default: the scene's if native, else auto's choice)")
     sweep.add_argument("--rtol", type=positive_number)

@@ -714,9 +714,11 @@ def plan_runs(model: Model, grids: Sequence[Axis], randoms: Sequence[Axis], runs
 
 
 def output_times(t_span: Sequence[float], count: int) -> np.ndarray:
-    """COUNT output times equally spaced after the start, the last at the end."""
+    """`--times COUNT`: COUNT output times equally spaced from the start to the end, both
+    included (the start is the initial state, as simulate_many's default times and `nemc
+    simulate --t-eval STEP` include it); COUNT 1: the end only."""
     t0, t1 = float(t_span[0]), float(t_span[1])
-    return t0 + (t1 - t0) * np.arange(1, count + 1) / count
+    return np.array([t1]) if count == 1 else np.linspace(t0, t1, count)
 
 
 @contextlib.contextmanager
