@@ -188,6 +188,65 @@ def test_a_zarr_store_opens_without_a_warning_finished_or_not(model, runs, tmp_p
         assert np.all(whole["status"].values == 0)
 
 
+def test_an_analyst_opens_selects_combines_and_unstacks_without_warnings(model, tmp_path):
+    """A grid q1 x m2 (no random draws): the store opens, two selections of y merge (the
+    initial states are a variable, not a coordinate that would conflict), two halves concat
+    back to the whole, and nemc.open_sweep's grid equals xarray's own set_index + unstack."""
+    import warnings
+
+    import xarray as xr
+
+    grids = [parse_axis("q1=-1:1:3", True), parse_axis("m2=0.5:1.5:4", True)]
+    y0, params, attrs = plan_runs(model, grids, [], None, 0, {})
+    out = tmp_path / "grid.zarr"
+    sweep(model, y0, params=params, out=out, chunk_runs=5, attrs=attrs, progress=False,
+          **SETTINGS)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        flat = xr.open_zarr(out)
+        assert "y0" in flat.data_vars and "y0" not in flat.coords
+        end = flat["y"].isel(time=-1)
+        both = xr.merge([end.sel(state="q1", drop=True).rename("q1_end"),
+                         end.sel(state="q2", drop=True).rename("q2_end")])
+        assert np.array_equal(both["q2_end"].values, end.values[:, 2])
+        halves = xr.concat([flat.isel(run=slice(0, 5)), flat.isel(run=slice(5, None))], "run")
+        assert halves.identical(flat)
+        by_xarray = flat.set_index(run=["q1", "m2"]).unstack("run")
+        grid = nemc.open_sweep(out)
+        assert dict(grid["y"].sizes) == {"q1": 3, "m2": 4, "state": 4, "time": 3}
+        assert np.array_equal(grid["q1"].values, [-1.0, 0.0, 1.0])
+        assert np.array_equal(grid["m2"].values, np.linspace(0.5, 1.5, 4))
+        for name in ("y", "y0", "status", "nfev"):
+            assert np.array_equal(grid[name].values, by_xarray[name].transpose(
+                *grid[name].dims).values), name
+        point = grid.sel(q1=1.0, m2=1.5)
+        assert np.array_equal(point["y"].values, flat["y"].values[int(point["run"])])
+
+
+def test_open_sweep_puts_random_draws_along_draw_and_refuses_a_non_grid(model, tmp_path):
+    grids = [parse_axis("q1=-1:1:2", True), parse_axis("m2=0.5:1.5:3", True)]
+    y0, params, attrs = plan_runs(model, grids, [parse_axis("q2=0:0.5", False)], 2, 3, {})
+    result = sweep(model, y0, params=params, attrs=attrs, progress=False, **SETTINGS)
+    grid = nemc.open_sweep(result)
+    assert dict(grid["y"].sizes) == {"q1": 2, "m2": 3, "draw": 2, "state": 4, "time": 3}
+    assert grid["q2"].dims == ("q1", "m2", "draw")
+    flat = result.dataset
+    for run in range(12):  # run = (i * 3 + j) * 2 + d: the first axis slowest
+        i, j, d = np.unravel_index(run, (2, 3, 2))
+        assert np.array_equal(grid["y"].values[i, j, d], flat["y"].values[run])
+        assert grid["q2"].values[i, j, d] == flat["q2"].values[run]
+    by_name = nemc.open_sweep(result.dataset, grid=["q1"])  # the rest: 6 runs a point
+    assert dict(by_name["y"].sizes) == {"q1": 2, "draw": 6, "state": 4, "time": 3}
+    random_only = sweep(model, {"q1": np.linspace(-1, 1, 4) ** 3}, progress=False,
+                        **SETTINGS)
+    assert dict(nemc.open_sweep(random_only)["y"].sizes) == {"run": 4, "state": 4, "time": 3}
+    for wrong in (["m2", "q1"], ["m2"]):  # m2 repeats within q1's points
+        with pytest.raises(SweepStoreError, match="not the grid"):
+            nemc.open_sweep(result, grid=wrong)
+    with pytest.raises(SweepStoreError, match="not an input that varies"):
+        nemc.open_sweep(result, grid=["g"])
+
+
 def test_an_output_of_another_sweep_or_not_nemcs_is_refused(model, runs, tmp_path):
     y0s, params = runs
     out = tmp_path / "runs.zarr"

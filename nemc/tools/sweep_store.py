@@ -3,10 +3,11 @@ zarr store, then (for .nc and .npz) converted to the file asked for when the swe
 
 The dataset (dimensions run, state, time):
     y (run, state, time)   the states at the output times (NaN after a run stopped)
+    y0 (run, state)        the initial states (a variable: selections of y combine freely)
     status (run,)          0 success, < 0 failure, NOT_RUN not yet run (CF flag attributes)
     message (run,)         why a run failed ('' when it succeeded)
     nfev (run,)            right-hand-side evaluations
-    coordinates: run, state (names), time, y0 (run, state) and one per varying input
+    coordinates: run, state (names), time and one per varying input (run,)
 
 A zarr store is created whole in a temporary folder and published by one rename; status is
 created as NOT_RUN and each chunk's status is written after its other variables, so a chunk
@@ -128,11 +129,11 @@ def template(layout: Layout, lazy: bool) -> Any:
                     {"long_name": "why the run failed ('' when it succeeded)"}),
         "nfev": (("run",), empty((k,), 0, np.int64),
                  {"long_name": "right-hand-side evaluations"}),
+        "y0": (("run", "state"), empty((k, n_s), np.nan, np.float64),
+               {"long_name": "initial state"}),
     }
     coords = {
         "run": np.arange(k), "state": string_array(layout.state_names), "time": layout.times,
-        "y0": (("run", "state"), empty((k, n_s), np.nan, np.float64),
-               {"long_name": "initial state"}),
         **{input_name(name): (("run",), values) for name, values in layout.inputs.items()},
     }
     return xr.Dataset(data, coords=coords, attrs=dict(layout.attrs))
