@@ -99,7 +99,7 @@ def test_dask_sweep_to_zarr_equals_serial(model, runs, client, tmp_path):
     reference = serial(model, y0s, params)
     assert_same_runs(result, reference)
     data = result.dataset
-    assert dict(data.sizes) == {"run": 120, "state": 4, "time": 3}
+    assert dict(data.sizes) == {"run": 120, "state": 4, "time": 3, "output": 11}
     assert list(data["state"].values) == list(model.state_names)
     assert set(data["message"].values) == {""}
     assert data.attrs["method"] == "nemc.DOP853" and data.attrs["shared_inputs"] == '{"L1": 1.1}'
@@ -158,6 +158,8 @@ def test_an_interrupted_sweep_keeps_its_chunks_and_resumes(model, runs, tmp_path
     assert (resumed.resumed, resumed.ran) == (30, 90)
     assert_same_runs(resumed, serial(model, y0s, params))
     assert not Path(str(out) + ".partial.zarr").exists()
+    whole = sweep(model, y0s, params=params, chunk_runs=10, progress=False, **SETTINGS)
+    assert np.array_equal(resumed.dataset["outputs"].values, whole.dataset["outputs"].values)
     again = sweep(model, y0s, params=params, out=out, progress=False, **SETTINGS)
     assert (again.resumed, again.ran) == (120, 0)
 
@@ -245,6 +247,64 @@ def test_open_sweep_puts_random_draws_along_draw_and_refuses_a_non_grid(model, t
             nemc.open_sweep(result, grid=wrong)
     with pytest.raises(SweepStoreError, match="not an input that varies"):
         nemc.open_sweep(result, grid=["g"])
+
+
+@pytest.mark.parametrize("vary_mass", [False, True])  # one C call a chunk / a run
+def test_the_scenes_outputs_are_stored_beside_the_states(model, tmp_path, vary_mass):
+    """outputs (run, output, time) equal Model.outputs at each run's stored states (a call
+    per state); the total energy is conserved to the tolerance (an independent check); NaN
+    for a refused run; outputs=False stores the states only."""
+    q1 = np.linspace(-2.0, 2.0, 9)
+    masses = np.linspace(-0.6, 1.5, 9) if vary_mass else 1.2  # the first 3 refused
+    settings = {**SETTINGS, "t_eval": [0.0, 1.0, 2.0], "rtol": 1e-11, "atol": 1e-12}
+    result = sweep(model, {"q1": q1}, params={"m2": masses}, out=tmp_path / "o.zarr",
+                   chunk_runs=4, progress=False, **settings)
+    data = result.dataset
+    assert list(data["output"].values) == list(model.output_names)
+    assert data["outputs"].dims == ("run", "output", "time")
+    for run in range(9):
+        mass = float(np.atleast_1d(masses)[run % np.size(masses)])
+        if mass < 0:
+            assert result.status[run] == -3
+            assert np.all(np.isnan(data["outputs"].values[run]))
+            continue
+        expected = model.outputs(data["time"].values, data["y"].values[run], {"m2": mass})
+        stored = data["outputs"].values[run]
+        for k, name in enumerate(model.output_names):
+            assert np.allclose(stored[k], expected[name], rtol=1e-14, atol=1e-12), name
+        energy = data["outputs"].sel(output="energy.total").values[run]
+        assert np.max(np.abs(energy - energy[0])) < 1e-8 * max(1.0, abs(energy[0]))
+    states_only = sweep(model, {"q1": q1}, params={"m2": masses}, outputs=False,
+                        progress=False, **settings)
+    assert "outputs" not in states_only.dataset and "output" not in states_only.dataset.coords
+    assert np.array_equal(np.asarray(states_only.y), np.asarray(result.y), equal_nan=True)
+
+
+def test_outputs_take_each_runs_inputs_and_start():
+    """A model's inputs (per run, a table) and a gear pair (a coupling, its reaction an
+    output): the stored outputs are those simulate gives each run. (The gear pair's outputs
+    do not depend on where its relation was taken, so the start's offsets go untested.)"""
+    examples = EXAMPLE.parent
+    cart = nemc.compile(examples / "cart_pole.yaml")
+    gears = nemc.compile(examples / "gear_train.yaml")
+    times = [0.0, 0.25, 0.75, 1.0]
+    settings = dict(t_span=(0.0, 1.0), t_eval=times, method="nemc.DOP853", rtol=1e-10,
+                    atol=1e-12)
+    table = (np.array([0.0, 0.5, 1.0]), np.array([0.0, 2.0, -1.0]))
+    y0s = np.array([gears.initial_state()] * 3)
+    y0s[:, 0] += [0.0, 0.2, 0.4]
+    cases = [(cart, None, {"F": np.linspace(-1.0, 1.0, 3)}),
+             (cart, {"x": np.linspace(0.0, 0.1, 3)}, {"F": table}), (gears, y0s, None)]
+    for model, y0, inputs in cases:
+        data = sweep(model, y0, inputs=inputs, progress=False, **settings).dataset
+        for run in range(3):
+            given = None if inputs is None else {
+                "F": float(inputs["F"][run]) if isinstance(inputs["F"], np.ndarray)
+                else inputs["F"]}
+            alone = model.simulate(y0=data["y0"].values[run], inputs=given, **settings)
+            expected = np.array([alone.outputs[name] for name in model.output_names])
+            assert np.allclose(data["outputs"].values[run], expected, rtol=1e-13,
+                               atol=1e-13)
 
 
 def test_an_output_of_another_sweep_or_not_nemcs_is_refused(model, runs, tmp_path):
@@ -355,7 +415,7 @@ def test_cli_end_to_end_on_threads_and_on_a_local_cluster(model, tmp_path):
     import xarray as xr
 
     data = xr.open_dataset(tmp_path / "a.nc", engine="h5netcdf").load()
-    assert dict(data.sizes) == {"run": 60, "state": 4, "time": 5}
+    assert dict(data.sizes) == {"run": 60, "state": 4, "time": 5, "output": 11}
     q1 = np.repeat(np.linspace(-2, 2, 5), 4 * 3)
     assert np.array_equal(data["q1"].values, q1)
     assert np.array_equal(data["time"].values, [0.0, 0.5, 1.0, 1.5, 2.0])  # t = 0 included
@@ -366,10 +426,12 @@ def test_cli_end_to_end_on_threads_and_on_a_local_cluster(model, tmp_path):
         t_eval=data["time"].values, method="nemc.Vern9", rtol=1e-8, atol=1e-10, threads=1)
     assert np.array_equal(data["y"].values, reference.y)
     assert np.all(data["status"].values == 0)
+    assert np.all(np.isfinite(data["outputs"].values))
     on_cluster = cli(*grid, "--out", str(tmp_path / "b.zarr"), "--dask", "local:2",
-                     "--chunk", "7")
+                     "--chunk", "7", "--no-outputs")
     assert on_cluster.returncode == 0, on_cluster.stderr
     other = xr.open_zarr(tmp_path / "b.zarr")
+    assert "outputs" not in other
     assert np.array_equal(other["y"].values, data["y"].values)
 
 

@@ -258,6 +258,9 @@ def add_sweep_parser(commands: argparse._SubParsersAction) -> None:
                        help="require an interrupted sweep in --out to continue")
     sweep.add_argument("--chunk", type=positive_int, metavar="RUNS", help="runs per task")
     sweep.add_argument("--threads", type=positive_int, help="threads without --dask (cores)")
+    sweep.add_argument("--no-outputs", dest="outputs", action="store_false",
+                       help="store the states only, not the scene's outputs (energy, "
+                       "reactions, expressions) beside them")
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -280,7 +283,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             result = sweeps.sweep(model, y0, params=params, t_span=span, t_eval=times,
                                   method=args.method, rtol=args.rtol, atol=args.atol,
                                   client=client, out=out, resume=args.resume,
-                                  chunk_runs=args.chunk, threads=args.threads, attrs=attrs)
+                                  chunk_runs=args.chunk, threads=args.threads, attrs=attrs,
+                                  outputs=args.outputs)
     except (ModelError, sweeps.SweepStoreError) as error:
         print(f"{args.mechanism}: {error}", file=sys.stderr)
         return 2

@@ -4,10 +4,12 @@ zarr store, then (for .nc and .npz) converted to the file asked for when the swe
 The dataset (dimensions run, state, time):
     y (run, state, time)   the states at the output times (NaN after a run stopped)
     y0 (run, state)        the initial states (a variable: selections of y combine freely)
+    outputs (run, output, time)  the scene's outputs (energy, reactions, expressions), unless
+                           the sweep leaves them out (NaN where y is)
     status (run,)          0 success, < 0 failure, NOT_RUN not yet run (CF flag attributes)
     message (run,)         why a run failed ('' when it succeeded)
     nfev (run,)            right-hand-side evaluations
-    coordinates: run, state (names), time and one per varying input (run,)
+    coordinates: run, state (names), time, output (names) and one per varying input (run,)
 
 A zarr store is created whole in a temporary folder and published by one rename; status is
 created as NOT_RUN and each chunk's status is written after its other variables, so a chunk
@@ -41,11 +43,12 @@ STATUS_MEANINGS = {
     NOT_RUN: "not_run",
 }
 # Names the dataset uses itself; an input with one of these names is stored as "input_<name>".
-RESERVED = ("run", "state", "time", "y", "y0", "status", "message", "nfev")
+RESERVED = ("run", "state", "time", "y", "y0", "status", "message", "nfev", "output",
+            "outputs")
 FORMATS = (".zarr", ".nc", ".npz")
 CHUNK_VARIABLES = ("y", "y0", "nfev", "message")  # what a chunk fills; status after them
 # Stored without compression: zstd saved 3% on double-pendulum states at 5x the write time.
-UNCOMPRESSED = ("y", "y0", "nfev")
+UNCOMPRESSED = ("y", "y0", "nfev", "outputs")
 EXTRAS_HINT = "pip install 'nemc[sweep]' (dask[distributed], xarray, zarr, h5netcdf, tqdm)"
 
 
@@ -76,6 +79,7 @@ class ChunkOutput:
     messages: list[str]
     build_key: str = ""
     seconds: float = 0.0
+    outputs: np.ndarray | None = None  # (n, n_outputs, n_t): the scene's outputs, if stored
 
 
 @dataclass
@@ -88,6 +92,7 @@ class Layout:
     times: np.ndarray
     inputs: dict[str, np.ndarray]  # varying inputs: name -> (runs,) values
     attrs: dict[str, Any] = field(default_factory=dict)  # includes "nemc_sweep", the fingerprint
+    output_names: tuple[str, ...] = ()  # the scene's outputs stored beside the states
 
     def chunks(self) -> list[tuple[int, int]]:
         starts = range(0, self.runs, self.chunk_runs)
@@ -96,6 +101,10 @@ class Layout:
     @property
     def fingerprint(self) -> str:
         return str(self.attrs["nemc_sweep"])
+
+    def chunk_variables(self) -> tuple[str, ...]:
+        """What a chunk fills (its status is written after them)."""
+        return (*CHUNK_VARIABLES, *(("outputs",) if self.output_names else ()))
 
 
 def input_name(name: str) -> str:
@@ -132,8 +141,14 @@ def template(layout: Layout, lazy: bool) -> Any:
         "y0": (("run", "state"), empty((k, n_s), np.nan, np.float64),
                {"long_name": "initial state"}),
     }
+    if layout.output_names:
+        data["outputs"] = (("run", "output", "time"),
+                           empty((k, len(layout.output_names), n_t), np.nan, np.float64),
+                           {"long_name": "the scene's outputs at the output times (NaN where "
+                                         "y is)"})
     coords = {
         "run": np.arange(k), "state": string_array(layout.state_names), "time": layout.times,
+        **({"output": string_array(layout.output_names)} if layout.output_names else {}),
         **{input_name(name): (("run",), values) for name, values in layout.inputs.items()},
     }
     return xr.Dataset(data, coords=coords, attrs=dict(layout.attrs))
@@ -177,7 +192,7 @@ class MemoryStore:
 
     def write(self, out: ChunkOutput) -> None:
         rows = slice(out.start, out.stop)
-        for name in CHUNK_VARIABLES:
+        for name in self.layout.chunk_variables():
             self.data[name].values[rows] = chunk_values(out, name)
         self.data["status"].values[rows] = out.status
 
@@ -257,10 +272,11 @@ class ZarrStore:
         the template."""
         if self.arrays is None:
             group = require("zarr").open_group(str(self.path_), mode="r+")
-            self.arrays = {name: group[name] for name in (*CHUNK_VARIABLES, "status")}
+            self.arrays = {name: group[name]
+                           for name in (*self.layout.chunk_variables(), "status")}
         rows = slice(out.start, out.stop)
         with interrupt_deferred():
-            for name in CHUNK_VARIABLES:
+            for name in self.layout.chunk_variables():
                 self.arrays[name][rows] = chunk_values(out, name)
             self.arrays["status"][rows] = out.status.astype(np.int32)
 
@@ -364,7 +380,8 @@ def write_netcdf(dataset: Any, target: Path) -> None:
     require("h5netcdf")
     for variable in dataset.variables.values():
         variable.encoding = {}
-    encoding = {name: {"zlib": True, "complevel": 1} for name in ("y", "y0")}
+    encoding = {name: {"zlib": True, "complevel": 1} for name in ("y", "y0", "outputs")
+                if name in dataset.variables}
     dataset.to_netcdf(target, engine="h5netcdf", encoding=encoding)
 
 
