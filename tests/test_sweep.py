@@ -307,6 +307,22 @@ def test_outputs_take_each_runs_inputs_and_start():
                                atol=1e-13)
 
 
+def test_one_progress_display_the_sweeps(model, runs, monkeypatch, capsys):
+    """The sweep's bar is the only display: no chunk's simulate_many shows its own counter
+    (which wrote over the bar on the same line of a terminal)."""
+    asked = []
+    many = model.simulate_many
+
+    def spy(*args, **options):
+        asked.append(options.get("progress"))
+        return many(*args, **options)
+
+    monkeypatch.setattr(model, "simulate_many", spy)
+    sweep(model, runs[0][:30], chunk_runs=10, threads=1, progress=True, **SETTINGS)
+    assert len(asked) == 4 and set(asked) == {False}  # the check run, then 3 chunks
+    assert "sweep: 100%" in capsys.readouterr().err  # the sweep's bar, at its end
+
+
 def test_an_output_of_another_sweep_or_not_nemcs_is_refused(model, runs, tmp_path):
     y0s, params = runs
     out = tmp_path / "runs.zarr"

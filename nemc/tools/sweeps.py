@@ -99,7 +99,8 @@ class Settings:
         return model.simulate_many(y0s, params=params, t_span=self.t_span,
                                    t_eval=np.array(self.t_eval), method=self.method,
                                    rtol=self.rtol, atol=self.atol, threads=1,
-                                   inputs=dict(controls) if controls else None)
+                                   inputs=dict(controls) if controls else None,
+                                   progress=False)  # the sweep's bar is the one display
 
 
 # -- the runs' inputs -------------------------------------------------------------------------
