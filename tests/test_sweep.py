@@ -502,6 +502,25 @@ def test_cli_ctrl_c_keeps_finished_chunks_exits_130_and_the_same_command_resumes
         assert f"10000 runs ({kept} done before)" in again.stdout
 
 
+def test_cli_ctrl_c_on_a_local_cluster_says_one_line(tmp_path):
+    """Ctrl-C in a terminal goes to the whole process group, the local workers too: they
+    ignore it (no tracebacks of theirs), and the sweep stops with its one line."""
+    from children import HANG
+
+    args = ["--grid", "q1=-3:3:100", "--grid", "q2=-3:3:100", "--t-end", "4", "--times", "1",
+            "--chunk", "100", "--dask", "local:1", "--no-outputs", "--out",
+            str(tmp_path / "long.zarr")]
+    with child_process([sys.executable, "-W", "ignore", "-c", SWEEP_CHILD, "sweep",
+                        str(EXAMPLE), *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                       text=True, start_new_session=True) as process:
+        process.says("200 runs stored")
+        os.killpg(process.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole group
+        _, stderr = process.communicate(timeout=HANG)
+    assert process.returncode == 130, stderr
+    lines = [line for line in stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("interrupted: "), stderr
+
+
 def finished_runs(store: Path) -> int:
     """Runs whose status is written (not NOT_RUN), read the way resume reads them."""
     import zarr

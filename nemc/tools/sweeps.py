@@ -22,7 +22,9 @@ import contextlib
 import dataclasses
 import hashlib
 import json
+import logging
 import os
+import signal
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
@@ -793,6 +795,22 @@ def output_times(t_span: Sequence[float], count: int) -> np.ndarray:
 
 
 @contextlib.contextmanager
+def ctrl_c_ignored() -> Iterator[None]:
+    """SIGINT ignored in the block (the main thread only; elsewhere the block just runs):
+    processes started in it ignore a Ctrl-C too, so that a Ctrl-C in the terminal, which
+    goes to every process of its group, stops the sweep alone, with its one line, and not
+    also each local worker with its traceback. A Ctrl-C while the block runs is lost."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+@contextlib.contextmanager
 def dask_client(address: str | None) -> Iterator[Any]:
     """None: no client; 'local' or 'local:N': a LocalCluster of N worker processes (one
     thread each; N default: the cores); else the address of a running scheduler."""
@@ -803,9 +821,11 @@ def dask_client(address: str | None) -> Iterator[Any]:
     name, _, count = address.partition(":")
     if name == "local":
         workers = int(count) if count else os.cpu_count() or 1
-        with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                      dashboard_address=":0") as cluster, \
-                distributed.Client(cluster) as client:
+        with ctrl_c_ignored():  # inherited by the worker processes: the sweep handles it
+            cluster = distributed.LocalCluster(
+                n_workers=workers, threads_per_worker=1, processes=True,
+                dashboard_address=":0", silence_logs=logging.ERROR)  # not their cancelled tasks
+        with cluster, distributed.Client(cluster) as client:
             yield client
     else:
         with distributed.Client(address, timeout="30s") as client:
