@@ -160,6 +160,10 @@ def test_an_interrupted_sweep_keeps_its_chunks_and_resumes(model, runs, tmp_path
     assert not Path(str(out) + ".partial.zarr").exists()
     whole = sweep(model, y0s, params=params, chunk_runs=10, progress=False, **SETTINGS)
     assert np.array_equal(resumed.dataset["outputs"].values, whole.dataset["outputs"].values)
+    if suffix == ".zarr":  # the resumed store, file by file, is the store of one whole sweep
+        sweep(model, y0s, params=params, out=tmp_path / "whole.zarr", chunk_runs=10,
+              progress=False, **SETTINGS)
+        assert store_files(out) == store_files(tmp_path / "whole.zarr")
     again = sweep(model, y0s, params=params, out=out, progress=False, **SETTINGS)
     assert (again.resumed, again.ran) == (120, 0)
 
@@ -321,6 +325,10 @@ def test_one_progress_display_the_sweeps(model, runs, monkeypatch, capsys):
     sweep(model, runs[0][:30], chunk_runs=10, threads=1, progress=True, **SETTINGS)
     assert len(asked) == 4 and set(asked) == {False}  # the check run, then 3 chunks
     assert "sweep: 100%" in capsys.readouterr().err  # the sweep's bar, at its end
+
+
+def store_files(root: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(root)): p.read_bytes() for p in root.rglob("*") if p.is_file()}
 
 
 def test_an_output_of_another_sweep_or_not_nemcs_is_refused(model, runs, tmp_path):
