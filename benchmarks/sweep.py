@@ -7,7 +7,8 @@ On the same runs of the double pendulum (random initial angles, [0, 10], nemc.Ta
   the throughput ratio (target >= 1.8x on this 2-core machine);
 - overhead: nemc.sweep on this machine's threads (into memory and into a zarr store) against
   one plain simulate_many call on the same threads (target <= 5%); and the 2-worker cluster
-  against the same simulate_many.
+  against the same simulate_many. The sweeps store the states only (outputs=False), as
+  simulate_many returns them; what the outputs cost: benchmarks/sweep_outputs.py.
 
 Results: benchmarks/results/sweep-latest.{json,md}, with the load average of every round.
 
@@ -56,19 +57,20 @@ def contenders(model: Any, y0s: np.ndarray, clients: dict[str, Any], scratch: Pa
         def call() -> Any:
             busy[name].append(0.0)
             return sweep(model, y0s, client=client, chunk_runs=chunk, progress=False,
-                         on_chunk=lambda report: add(busy[name], report.seconds), **SETTINGS)
+                         on_chunk=lambda report: add(busy[name], report.seconds),
+                         outputs=False, **SETTINGS)
         return call
 
     def into_zarr() -> Any:
         out = scratch / "runs.zarr"
         shutil.rmtree(out, ignore_errors=True)
         return sweep(model, y0s, out=out, threads=THREADS, chunk_runs=chunk, progress=False,
-                     **SETTINGS)
+                     outputs=False, **SETTINGS)
 
     return {
         "simulate_many": lambda: model.simulate_many(y0s, threads=THREADS, **SETTINGS),
         "sweep (memory)": lambda: sweep(model, y0s, threads=THREADS, chunk_runs=chunk,
-                                        progress=False, **SETTINGS),
+                                        progress=False, outputs=False, **SETTINGS),
         "sweep (zarr)": into_zarr,
         **{f"sweep on {name}": on_cluster(name, client) for name, client in clients.items()},
     }

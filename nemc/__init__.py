@@ -81,6 +81,15 @@ def sweep(model: Model, y0s: Any = None, **options: Any) -> SweepResult:
     return run_sweep(model, y0s, **options)
 
 
+def open_sweep(source: Any, grid: Any = None) -> Any:
+    """A sweep's results (a .zarr, .nc or .npz path, or a SweepResult) as an xarray Dataset,
+    the runs of a grid unstacked into its dimensions. Details: nemc.tools.sweep_view.
+    Needs the extra nemc[sweep]."""
+    from .tools.sweep_view import open_sweep as open_view
+
+    return open_view(source, grid)
+
+
 def __getattr__(name: str) -> Any:
     """nemc.Experiment, nemc.FitError and nemc.FitResult, and nemc.BuildNotice (the warning of
     a call that compiled a build of its own), imported when first named."""
@@ -96,4 +105,4 @@ def __getattr__(name: str) -> Any:
 
 
 __all__ = ["BuildNotice", "Experiment", "FitError", "FitResult", "compile", "feedback", "fit",
-           "sweep", "__version__"]
+           "open_sweep", "sweep", "__version__"]

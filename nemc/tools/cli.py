@@ -255,7 +255,8 @@ def add_sweep_parser(commands: argparse._SubParsersAction) -> None:
                        default=[], metavar="NAME=VALUE", help="the same value for every run")
     sweep.add_argument("--t-end", type=finite_number, help="end time (the scene's by default)")
     sweep.add_argument("--times", type=positive_int, metavar="N", help="N output times equally"
-                       " spaced up to the end, the last at the end (default: the scene's)")
+                       " spaced from the start to the end, both included (1: the end only; "
+                       "default: the scene's)")
     sweep.add_argument("--method", help="nemc.DOP853 nemc.Vern9 nemc.Taylor nemc.Radau or auto "
                        "(default: the scene's if native, else auto's choice)")
     sweep.add_argument("--rtol", type=positive_number)
@@ -269,6 +270,9 @@ def add_sweep_parser(commands: argparse._SubParsersAction) -> None:
                        help="require an interrupted sweep in --out to continue")
     sweep.add_argument("--chunk", type=positive_int, metavar="RUNS", help="runs per task")
     sweep.add_argument("--threads", type=positive_int, help="threads without --dask (cores)")
+    sweep.add_argument("--no-outputs", dest="outputs", action="store_false",
+                       help="store the states only, not the scene's outputs (energy, "
+                       "reactions, expressions) beside them")
 
 
 def whole_number(text: str) -> int:
@@ -322,7 +326,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             result = sweeps.sweep(model, y0, params=params, t_span=span, t_eval=times,
                                   method=args.method, rtol=args.rtol, atol=args.atol,
                                   client=client, out=out, resume=args.resume,
-                                  chunk_runs=args.chunk, threads=args.threads, attrs=attrs)
+                                  chunk_runs=args.chunk, threads=args.threads, attrs=attrs,
+                                  outputs=args.outputs)
     except (ModelError, sweeps.SweepStoreError) as error:
         print(f"{args.mechanism}: {error}", file=sys.stderr)
         return 2

@@ -3,10 +3,13 @@ zarr store, then (for .nc and .npz) converted to the file asked for when the swe
 
 The dataset (dimensions run, state, time):
     y (run, state, time)   the states at the output times (NaN after a run stopped)
+    y0 (run, state)        the initial states (a variable: selections of y combine freely)
+    outputs (run, output, time)  the scene's outputs (energy, reactions, expressions), unless
+                           the sweep leaves them out (NaN where y is)
     status (run,)          0 success, < 0 failure, NOT_RUN not yet run (CF flag attributes)
     message (run,)         why a run failed ('' when it succeeded)
     nfev (run,)            right-hand-side evaluations
-    coordinates: run, state (names), time, y0 (run, state) and one per varying input
+    coordinates: run, state (names), time, output (names) and one per varying input (run,)
 
 A zarr store is created whole in a temporary folder and published by one rename; status is
 created as NOT_RUN and each chunk's status is written after its other variables, so a chunk
@@ -29,6 +32,7 @@ import os
 import shutil
 import signal
 import threading
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,11 +46,12 @@ STATUS_MEANINGS = {
     NOT_RUN: "not_run",
 }
 # Names the dataset uses itself; an input with one of these names is stored as "input_<name>".
-RESERVED = ("run", "state", "time", "y", "y0", "status", "message", "nfev")
+RESERVED = ("run", "state", "time", "y", "y0", "status", "message", "nfev", "output",
+            "outputs")
 FORMATS = (".zarr", ".nc", ".npz")
 CHUNK_VARIABLES = ("y", "y0", "nfev", "message")  # what a chunk fills; status after them
 # Stored without compression: zstd saved 3% on double-pendulum states at 5x the write time.
-UNCOMPRESSED = ("y", "y0", "nfev")
+UNCOMPRESSED = ("y", "y0", "nfev", "outputs")
 EXTRAS_HINT = "pip install 'nemc[sweep]' (dask[distributed], xarray, zarr, h5netcdf, tqdm)"
 
 
@@ -90,6 +95,7 @@ class ChunkOutput:
     messages: list[str]
     build_key: str = ""
     seconds: float = 0.0
+    outputs: np.ndarray | None = None  # (n, n_outputs, n_t): the scene's outputs, if stored
 
 
 @dataclass
@@ -102,6 +108,7 @@ class Layout:
     times: np.ndarray
     inputs: dict[str, np.ndarray]  # varying inputs: name -> (runs,) values
     attrs: dict[str, Any] = field(default_factory=dict)  # includes "nemc_sweep", the fingerprint
+    output_names: tuple[str, ...] = ()  # the scene's outputs stored beside the states
 
     def chunks(self) -> list[tuple[int, int]]:
         starts = range(0, self.runs, self.chunk_runs)
@@ -110,6 +117,10 @@ class Layout:
     @property
     def fingerprint(self) -> str:
         return str(self.attrs["nemc_sweep"])
+
+    def chunk_variables(self) -> tuple[str, ...]:
+        """What a chunk fills (its status is written after them)."""
+        return (*CHUNK_VARIABLES, *(("outputs",) if self.output_names else ()))
 
 
 def input_name(name: str) -> str:
@@ -143,11 +154,17 @@ def template(layout: Layout, lazy: bool) -> Any:
                     {"long_name": "why the run failed ('' when it succeeded)"}),
         "nfev": (("run",), empty((k,), 0, np.int64),
                  {"long_name": "right-hand-side evaluations"}),
-    }
-    coords = {
-        "run": np.arange(k), "state": string_array(layout.state_names), "time": layout.times,
         "y0": (("run", "state"), empty((k, n_s), np.nan, np.float64),
                {"long_name": "initial state"}),
+    }
+    if layout.output_names:
+        data["outputs"] = (("run", "output", "time"),
+                           empty((k, len(layout.output_names), n_t), np.nan, np.float64),
+                           {"long_name": "the scene's outputs at the output times (NaN where "
+                                         "y is)"})
+    coords = {
+        "run": np.arange(k), "state": string_array(layout.state_names), "time": layout.times,
+        **({"output": string_array(layout.output_names)} if layout.output_names else {}),
         **{input_name(name): (("run",), values) for name, values in layout.inputs.items()},
     }
     return xr.Dataset(data, coords=coords, attrs=dict(layout.attrs))
@@ -191,7 +208,7 @@ class MemoryStore:
 
     def write(self, out: ChunkOutput) -> None:
         rows = slice(out.start, out.stop)
-        for name in CHUNK_VARIABLES:
+        for name in self.layout.chunk_variables():
             self.data[name].values[rows] = chunk_values(out, name)
         self.data["status"].values[rows] = out.status
 
@@ -247,9 +264,12 @@ class ZarrStore:
                     for name in dataset.variables if dataset[name].dims[:1] == ("run",)}
         encoding["status"]["fill_value"] = NOT_RUN  # a missing status chunk: not run
         try:
-            with interrupt_deferred():
+            with interrupt_deferred(), warnings.catch_warnings():
+                # zarr 3 notes that consolidated metadata is not yet in its format's spec;
+                # xarray and zarr read it, and without it every open_zarr warns
+                warnings.filterwarnings("ignore", "Consolidated metadata", UserWarning)
                 dataset.to_zarr(scratch, mode="w-", compute=False, encoding=encoding,
-                                consolidated=False)
+                                consolidated=True)
                 publish(scratch, self.path_)
         finally:
             shutil.rmtree(scratch, ignore_errors=True)
@@ -266,7 +286,7 @@ class ZarrStore:
 
     def _chunk_whole(self, group: Any, start: int) -> bool:
         """Whether the files of the chunk starting at run START are all in the store."""
-        for name in (*CHUNK_VARIABLES, "status"):
+        for name in (*self.layout.chunk_variables(), "status"):
             array = group[name]
             index = (start // array.chunks[0],) + (0,) * (array.ndim - 1)
             if not (self.path_ / name / array.metadata.encode_chunk_key(index)).is_file():
@@ -287,10 +307,10 @@ class ZarrStore:
             with damaged_store(self.path_):
                 group = require("zarr").open_group(str(self.path_), mode="r+")
                 self.arrays = {name: group[name].with_config({"write_empty_chunks": True})
-                               for name in (*CHUNK_VARIABLES, "status")}  # a file: written
+                               for name in (*self.layout.chunk_variables(), "status")}
         rows = slice(out.start, out.stop)
         with interrupt_deferred():
-            for name in CHUNK_VARIABLES:
+            for name in self.layout.chunk_variables():
                 self.arrays[name][rows] = chunk_values(out, name)
             self.arrays["status"][rows] = out.status.astype(np.int32)
 
@@ -311,8 +331,11 @@ def publish(scratch: Path, path: Path) -> None:
 
 
 def open_zarr(path: Path) -> Any:
+    """The store's dataset, read through its consolidated metadata (written when nemc
+    created it; a store of an older nemc has none and is read without)."""
     with damaged_store(path):
-        return require("xarray").open_zarr(path, consolidated=False)
+        consolidated = "consolidated_metadata" in (read_zarr_json(path) or {})
+        return require("xarray").open_zarr(path, consolidated=consolidated)
 
 
 def with_status(dataset: Any, status: np.ndarray) -> Any:
@@ -322,12 +345,19 @@ def with_status(dataset: Any, status: np.ndarray) -> Any:
     return dataset.assign(status=(("run",), status, dataset["status"].attrs))
 
 
+def read_zarr_json(path: Path) -> dict | None:
+    """The zarr.json of the group at PATH, or None when it is not one."""
+    try:
+        group = json.loads((Path(path) / "zarr.json").read_text())
+    except (OSError, ValueError):
+        return None
+    return group if isinstance(group, dict) else None
+
+
 def read_zarr_attrs(path: Path) -> dict | None:
     """The attributes of the zarr group at PATH, or None when it is not one."""
-    try:
-        return json.loads((Path(path) / "zarr.json").read_text()).get("attributes", {})
-    except (OSError, ValueError, AttributeError):
-        return None
+    group = read_zarr_json(path)
+    return None if group is None else group.get("attributes", {})
 
 
 class ConvertedStore(ZarrStore):
@@ -404,7 +434,8 @@ def write_netcdf(dataset: Any, target: Path) -> None:
     require("h5netcdf")
     for variable in dataset.variables.values():
         variable.encoding = {}
-    encoding = {name: {"zlib": True, "complevel": 1} for name in ("y", "y0")}
+    encoding = {name: {"zlib": True, "complevel": 1} for name in ("y", "y0", "outputs")
+                if name in dataset.variables}
     dataset.to_netcdf(target, engine="h5netcdf", encoding=encoding)
 
 

@@ -22,8 +22,10 @@ import contextlib
 import dataclasses
 import hashlib
 import json
+import logging
 import math
 import os
+import signal
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
@@ -35,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from ..runtime.checks import MAX_STEP_TIMES, within_budget
+from ..runtime.inputs import RunInputs
 from ..runtime.model import (
     DEFAULT_ATOL,
     DEFAULT_RTOL,
@@ -42,6 +45,7 @@ from ..runtime.model import (
     Model,
     ModelError,
 )
+from ..runtime.outcome import outputs_along
 from ..runtime.simulation import run_times
 from ..vocabulary import NEMC_VERSION as __version__
 from .sweep_store import NOT_RUN, ChunkOutput, Layout, SweepStoreError, open_store, require
@@ -68,10 +72,12 @@ class Settings:
     method: str
     rtol: float
     atol: float
+    outputs: tuple[str, ...] = ()  # the scene's outputs stored beside the states
 
     @classmethod
     def resolve(cls, model: Model, t_span: Any, t_eval: Any, method: str | None,
-                rtol: float | None, atol: float | None, runs: int = 1) -> Settings:
+                rtol: float | None, atol: float | None, runs: int = 1,
+                outputs: bool = True) -> Settings:
         scene = model.scene
         span = tuple(float(v) for v in (t_span if t_span is not None else
                                         scene["t_span"] or DEFAULT_T_SPAN))
@@ -83,14 +89,22 @@ class Settings:
             else method,
             rtol=float(rtol if rtol is not None else scene["rtol"] or DEFAULT_RTOL),
             atol=float(atol if atol is not None else scene["atol"] or DEFAULT_ATOL),
+            outputs=tuple(model.output_names) if outputs else (),
         )
+
+    def identity(self) -> dict[str, Any]:
+        """What the runs' results depend on (the sweep's fingerprint): a sweep without
+        outputs keeps the fingerprint it had before outputs were stored."""
+        fields = {k: v for k, v in self.__dict__.items() if k != "outputs"}
+        return {**fields, **({"outputs": list(self.outputs)} if self.outputs else {})}
 
     def run(self, model: Model, y0s: np.ndarray, params: Mapping[str, Any],
             controls: Mapping[str, Any] | None = None) -> Any:
         return model.simulate_many(y0s, params=params, t_span=self.t_span,
                                    t_eval=np.array(self.t_eval), method=self.method,
                                    rtol=self.rtol, atol=self.atol, threads=1,
-                                   inputs=dict(controls) if controls else None)
+                                   inputs=dict(controls) if controls else None,
+                                   progress=False)  # the sweep's bar is the one display
 
 
 # -- the runs' inputs -------------------------------------------------------------------------
@@ -230,8 +244,62 @@ def run_chunk(model_or_ref: Model | ModelRef, settings: Settings,
     messages = failure_messages(status, y, settings.t_eval)
     for i, reason in reasons.items():
         messages[i] = reason
+    outputs = run_outputs(model, settings, chunk, y0s, y) if settings.outputs else None
     return ChunkOutput(chunk.start, chunk.stop, y, y0s, status, nfev.astype(np.int64),
-                       messages, key, time.perf_counter() - started)
+                       messages, key, time.perf_counter() - started, outputs)
+
+
+def run_outputs(model: Model, settings: Settings, chunk: ChunkInputs, y0s: np.ndarray,
+                y: np.ndarray) -> np.ndarray:
+    """The scene's outputs (n, n_outputs, n_t) at each run's states, its parameters and
+    inputs, as its result's outputs would give them (equations that hold "as at the start"
+    taken at its initial state); NaN where the state is (after a stop, inputs refused).
+    Runs that share their parameters and inputs take one C call together, else one each."""
+    times = np.array(settings.t_eval)
+    out = np.full((y.shape[0], len(settings.outputs), len(times)), np.nan)
+    finite = np.all(np.isfinite(y), axis=1) & np.all(np.isfinite(y0s), axis=1)[:, None]
+    shared = not model.loops.starts and not any(
+        np.ndim(v) for v in chunk.params.values()) and not any(
+        isinstance(v, np.ndarray) for v in chunk.controls.values())
+    if shared:  # every finite (run, time) at once: (points, n_state)
+        runs, columns = np.nonzero(finite)
+        if len(runs):
+            inputs = run_inputs(model, settings, chunk, y0s, int(runs[0]))
+            if inputs is not None:
+                values = outputs_of(model, inputs, times[columns], y[runs, :, columns].T)
+                for k, name in enumerate(settings.outputs):
+                    out[runs, k, columns] = values[name]
+        return out
+    for i in np.flatnonzero(finite.any(axis=1)):
+        inputs = run_inputs(model, settings, chunk, y0s, int(i))
+        if inputs is None:
+            continue
+        columns = finite[i]
+        values = outputs_of(model, inputs, times[columns], y[i][:, columns])
+        out[i][:, columns] = [values[name] for name in settings.outputs]
+    return out
+
+
+def outputs_of(model: Model, inputs: Any, t: np.ndarray, y: np.ndarray) -> dict[str, Any]:
+    """The outputs at times T and states Y (n_state, n_t) under a run's inputs."""
+    if inputs.tables:  # a table's segment at each time
+        return outputs_along(model, t, y, inputs)
+    return model.compiled.outputs_at(t, y, inputs.p)
+
+
+def run_inputs(model: Model, settings: Settings, chunk: ChunkInputs, y0s: np.ndarray,
+               i: int) -> Any:
+    """Run I's parameter vector and inputs (inputs.RunInputs), or None when the model refuses
+    its parameters."""
+    try:
+        p = model.parameter_vector(run_params(chunk.params, i))
+    except ModelError:
+        return None
+    given = {n: v[i] if isinstance(v, np.ndarray) else v for n, v in chunk.controls.items()}
+    inputs = model.input_layout.resolve(p, given) if given else RunInputs(p)
+    if model.loops.starts:
+        inputs.p = model.loops.started(settings.t_span[0], y0s[i], inputs.p)
+    return inputs
 
 
 def initial_states(model: Model, chunk: ChunkInputs, n: int) -> np.ndarray:
@@ -456,6 +524,7 @@ def sweep(
     attrs: Mapping[str, Any] | None = None,
     on_chunk: Callable[[ChunkReport], None] | None = None,
     inputs: Mapping[str, Any] | None = None,
+    outputs: bool = True,
 ) -> SweepResult:
     """Run MODEL over many initial states and parameter sets; the results as one dataset.
 
@@ -471,12 +540,15 @@ def sweep(
     (None: when stderr is a terminal). attrs: extra dataset attributes. on_chunk: called with
     a ChunkReport after each chunk is stored. inputs: the model's inputs, each a number or
     (k,) values (a coordinate of the dataset, as a parameter's), or shared by every run: a
-    table (times, values) or nemc.feedback(...) (simulate_many's).
+    table (times, values) or nemc.feedback(...) (simulate_many's). outputs: store the
+    scene's outputs (energy, reactions, expressions) beside the states, as `outputs` (run,
+    output, time) (False: the states only).
     """
     started = time.perf_counter()
     controls = inputs
     inputs = Inputs.of(model, y0s, params, controls)
-    settings = Settings.resolve(model, t_span, t_eval, method, rtol, atol, inputs.runs)
+    settings = Settings.resolve(model, t_span, t_eval, method, rtol, atol, inputs.runs,
+                                outputs)
     run_chunk(model, settings, inputs.chunk(0, 1))  # settings errors here, before any output
     ref = model_ref(model) if client is not None else None
     layout = sweep_layout(model, settings, inputs, chunk_runs, attrs)
@@ -504,11 +576,12 @@ def sweep_layout(model: Model, settings: Settings, inputs: Inputs, chunk_runs: i
                  attrs: Mapping[str, Any] | None) -> Layout:
     identity = {  # what the results depend on (not the C parts a build happens to have)
         "model": model.metadata.get("source_hash", model.name), "name": model.name,
-        "nemc": __version__, "settings": settings.__dict__, "inputs": inputs.digest(),
+        "nemc": __version__, "settings": settings.identity(), "inputs": inputs.digest(),
         "runs": inputs.runs,
     }
     fingerprint = hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
-    chunk = chunk_runs or default_chunk_runs(inputs.runs, model.n_state, len(settings.t_eval))
+    rows = model.n_state + len(settings.outputs)  # values per run and output time
+    chunk = chunk_runs or default_chunk_runs(inputs.runs, rows, len(settings.t_eval))
     described = {
         "nemc_sweep": fingerprint, "mechanism": model.name,
         "source": str(model.metadata.get("source", "")),
@@ -519,7 +592,7 @@ def sweep_layout(model: Model, settings: Settings, inputs: Inputs, chunk_runs: i
         **dict(attrs or {}),
     }
     return Layout(inputs.runs, int(min(chunk, inputs.runs)), model.state_names,
-                  np.array(settings.t_eval), inputs.varying(), described)
+                  np.array(settings.t_eval), inputs.varying(), described, settings.outputs)
 
 
 class Tracker:
@@ -717,12 +790,30 @@ def plan_runs(model: Model, grids: Sequence[Axis], randoms: Sequence[Axis], runs
 
 
 def output_times(t_span: Sequence[float], count: int) -> np.ndarray:
-    """COUNT output times equally spaced after the start, the last at the end (at most
-    MAX_STEP_TIMES, as a t_eval step may give)."""
+    """`--times COUNT`: COUNT output times equally spaced from the start to the end, both
+    included (the start is the initial state, as simulate_many's default times and `nemc
+    simulate --t-eval STEP` include it); COUNT 1: the end only; at most MAX_STEP_TIMES, as a
+    t_eval step may give."""
     if count > MAX_STEP_TIMES:
         raise ModelError(f"--times: at most {MAX_STEP_TIMES} output times, got {count}")
     t0, t1 = float(t_span[0]), float(t_span[1])
-    return t0 + (t1 - t0) * np.arange(1, count + 1) / count
+    return np.array([t1]) if count == 1 else np.linspace(t0, t1, count)
+
+
+@contextlib.contextmanager
+def ctrl_c_ignored() -> Iterator[None]:
+    """SIGINT ignored in the block (the main thread only; elsewhere the block just runs):
+    processes started in it ignore a Ctrl-C too, so that a Ctrl-C in the terminal, which
+    goes to every process of its group, stops the sweep alone, with its one line, and not
+    also each local worker with its traceback. A Ctrl-C while the block runs is lost."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 @contextlib.contextmanager
@@ -736,9 +827,11 @@ def dask_client(address: str | None) -> Iterator[Any]:
     name, _, count = address.partition(":")
     if name == "local":
         workers = int(count) if count else os.cpu_count() or 1
-        with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                      dashboard_address=":0") as cluster, \
-                distributed.Client(cluster) as client:
+        with ctrl_c_ignored():  # inherited by the worker processes: the sweep handles it
+            cluster = distributed.LocalCluster(
+                n_workers=workers, threads_per_worker=1, processes=True,
+                dashboard_address=":0", silence_logs=logging.ERROR)  # not their cancelled tasks
+        with cluster, distributed.Client(cluster) as client:
             yield client
     else:
         with distributed.Client(address, timeout="30s") as client:
