@@ -28,6 +28,12 @@ Results: benchmarks/results/loops-latest.{json,md} (smoke: a temporary folder).
    nemc's methods that run closed loops: time (median of interleaved rounds), nfev, the crank
    angle's error at t = 10 against the 1-DOF minimal-coordinate ODE (its cranks stay parallel:
    tests/loop_reference.double_fourbar_crank), the total energy's drift. Target: under 50 ms.
+4. RHS in C, a gear train and a rolling wheel beside a revolute loop of the same size (3
+   coordinates, 2 constraint equations, 1 degree of freedom; issue 49): the four-bar, three
+   gears in a train (two couplings) and a disc rolling on an incline (a free joint and a
+   rolling constraint); per state over 1000 states on each one's constraints, interleaved: the
+   C RHS loop under one start (as a run calls it) and `Model.rhs_many` (each state its own
+   start). Target: the gear train and the wheel no dearer than the four-bar.
 nemc parts that fail (closed loops not compiled yet) are rows "nemc: not supported yet" with the
 reason; the baseline parts run regardless.
 """
@@ -414,6 +420,101 @@ def singular_rows(config: Config, result: dict[str, Any]) -> None:
               f"{abs(res.y[0, -1] - reference):.1e}", flush=True)
 
 
+# -- 4. RHS cost: couplings and rolling beside a revolute loop -------------------------------
+
+GEAR_TRAIN = """\
+name: gear_train3
+parameters: {r1: 0.1, r2: 0.25, r3: 0.15, tau: 1.0}
+bodies:
+  g1: {mass: 1, inertia: 0.02}
+  g2: {mass: 2, inertia: 0.3}
+  g3: {mass: 1.5, inertia: 0.1}
+joints:
+  A: {type: revolute, parent: ground, child: g1, coordinate: q1}
+  B: {type: revolute, parent: ground, child: g2, at: [0.35, 0], coordinate: q2}
+  C: {type: revolute, parent: ground, child: g3, at: [0.75, 0], coordinate: q3}
+constraints:
+  m12: {type: coupling, a: A, b: B, ratio: -r2/r1}
+  m23: {type: coupling, a: B, b: C, ratio: -r3/r2}
+loads:
+  - {torque: tau - 0.1*dot(q1), body: g1}
+simulation:
+  t_span: [0, 1]
+"""
+
+ROLLING_WHEEL = """\
+name: rolling_wheel
+parameters: {m: 2.0, R: 0.3, I: 0.09, g: 9.81, alpha: 0.5}
+gravity: [0, -g]
+bodies:
+  disc: {mass: m, inertia: I}
+joints:
+  flight: {type: free, parent: ground, child: disc, coordinates: [x, y, th]}
+constraints:
+  roll: {type: rolling, disc: disc, radius: R, on: {body: ground, at: [0, 0]},
+         axis: [cos(alpha), -sin(alpha)]}
+simulation:
+  t_span: [0, 1]
+  initial: {x: 0.3*sin(alpha), y: 0.3*cos(alpha)}
+"""
+
+SAME_SIZE = "revolute loop (four-bar)"
+
+
+def projected_rows(model, count: int, seed: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """(the parameter vector started at the initial state, (count, n_state) C-contiguous rows):
+    random moves of the initial state brought onto the constraints by the model's own
+    projection, every one under that one start (a gear pair's offset, a wheel's), as the states
+    of one run are."""
+    rng = np.random.default_rng(seed)
+    y0 = model.initial_state()
+    p = model.loops.started(0.0, y0, model.parameter_vector())
+    moved = y0[:, None] + rng.normal(0.0, 0.1, (model.n_state, count))
+    return p, np.ascontiguousarray(model.loops.projected(np.zeros(count), moved, p).T)
+
+
+def rhs_calls(label: str, model, count: int) -> dict[str, tuple[Callable[[], Any], int]]:
+    """The C RHS over `count` states as a run calls it (one start), and `Model.rhs_many`, which
+    takes each state as its own start (one C call per state where equations hold as at the
+    start)."""
+    p, rows = projected_rows(model, count)
+    ts, out = np.zeros(count), np.empty_like(rows)
+    model.compiled.call_many("rhs_many", ts, rows, p, out)
+    np.testing.assert_allclose(out, model.rhs_many(0.0, rows.T).T, rtol=1e-12, atol=1e-12)
+    return {f"{label}: C RHS, one start": (
+                partial(model.compiled.call_many, "rhs_many", ts, rows, p, out), count),
+            f"{label}: Model.rhs_many": (partial(model.rhs_many, 0.0, rows.T), count)}
+
+
+def kinds_rows(config: Config, folder: Path, result: dict[str, Any]) -> None:
+    """Section 4: the four-bar, a gear train and a rolling wheel, interleaved."""
+    import nemc
+
+    paths = {SAME_SIZE: FOURBAR}
+    for label, name, text in (("gear train (3 gears, 2 couplings)", "gear_train3", GEAR_TRAIN),
+                              ("rolling wheel (free disc, rolling)", "rolling_wheel",
+                               ROLLING_WHEEL)):
+        paths[label] = folder / f"{name}.yaml"
+        paths[label].write_text(text)
+    print("RHS cost, a gear train and a rolling wheel beside the four-bar:", flush=True)
+    calls: dict[str, tuple[Callable[[], Any], int]] = {}
+    for label, path in paths.items():
+        try:
+            calls.update(rhs_calls(label, nemc.compile(path), RHS_STATES))
+        except Exception as error:  # noqa: BLE001 (recorded)
+            result["rows"].append({"section": "kinds", "system": label, "contender": "nemc C",
+                                   "reason": f"{UNSUPPORTED}: {first_line(error)}"})
+    timings = common.interleaved(calls, config.rounds, config.sample_seconds)
+    for name, timing in timings.items():
+        system, contender = name.split(": ", 1)
+        loop = timings.get(f"{SAME_SIZE}: {contender}", {}).get("median")
+        result["rows"].append({"section": "kinds", "system": system, "contender": contender,
+                               "states": RHS_STATES, **timing,
+                               "vs_revolute_loop": timing["median"] / loop if loop else None})
+    print("  " + ", ".join(f"{k} {fmt_time(v['median'])}" for k, v in timings.items()),
+          flush=True)
+
+
 # -- the run ----------------------------------------------------------------------------------
 
 
@@ -426,6 +527,7 @@ def run(config: Config) -> dict[str, Any]:
         equal_error(config, Path(folder), result)
         rhs_rows(config, Path(folder), result)
         singular_rows(config, result)
+        kinds_rows(config, Path(folder), result)
     common.finish_environment(result["environment"], start)
     return result
 
@@ -498,10 +600,29 @@ def md_singular(result: dict[str, Any]) -> list[str]:
     return lines + [""]
 
 
+def md_kinds(result: dict[str, Any]) -> list[str]:
+    lines = ["## 4. RHS cost: a gear train and a rolling wheel beside a revolute loop", "",
+             "Each 3 coordinates, 2 constraint equations, 1 degree of freedom. Per state, over "
+             f"{RHS_STATES} states on the constraints, all six interleaved: the C RHS loop as a "
+             "run calls it (one start: a gear pair's or a wheel's offset set once), and "
+             "`Model.rhs_many`, which takes each state as its own start (a C call per state "
+             "where an equation holds as at the start). Ratio: this time / the four-bar's by "
+             "the same route (target: at most 1x).", "",
+             "| system | route | time per state | vs revolute loop |",
+             "| --- | --- | --- | --- |"]
+    for r in (r for r in result["rows"] if r["section"] == "kinds"):
+        if "reason" in r:
+            lines.append(f"| {r['system']}: {r['reason']} | – | – | – |")
+            continue
+        lines.append(f"| {r['system']} | {r['contender']} | {spread(r)} | "
+                     f"{ratio(r['vs_revolute_loop'])} |")
+    return lines + [""]
+
+
 def markdown(result: dict[str, Any]) -> str:
     lines = ["# Closed loops: nemc against lambdify + projection, and the cost of a loop", ""]
     lines += common.md_environment(result["environment"]) + [""]
-    lines += md_equal_error(result) + md_rhs(result) + md_singular(result)
+    lines += md_equal_error(result) + md_rhs(result) + md_singular(result) + md_kinds(result)
     if result["notes"]:
         lines += ["## Notes", ""] + [f"- {n}" for n in dict.fromkeys(result["notes"])] + [""]
     return "\n".join(lines)

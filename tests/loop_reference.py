@@ -11,7 +11,9 @@ driven one is an ordinary coordinate there). On top of it, written here:
   revolute  p_a - p_b (ground axes, 2 equations);
   slot      n . (p_a - p_b), n the slot's axis turned +90 degrees, in body(b)'s frame (1);
   prismatic the slot's, and angle(a) - angle(b) - offset (2);
-  coupling  q_a - ratio q_b (1); rolling and knife_edge as their functions below say, an
+  coupling  q_a - ratio q_b (1; its multiplier the generalized force on q_a, -ratio times it
+            on q_b, each across its joint as a drive's, left out of that joint's reaction);
+            rolling and knife_edge as their functions below say, an
             equation on the velocities V(q, u, t) taking the row dV/du of Phi_q;
   a driven coordinate q_d - motion(t) (1: rheonomic);
 - Phi_q and gamma = -d/dt(Phi_q u + Phi_t) + Phi_q qdd by sympy differentiation;
@@ -646,7 +648,14 @@ class LoopReference:
             else:
                 moment -= float(np.ravel(np.asarray(loads[k], dtype=float))[0])
         for c in self.mech.constraints:
-            if c.type == "coupling":  # a couple about a coordinate, or a force through a slide
+            if c.type == "coupling":  # generalized forces on its joints' coordinates, each
+                # across its joint as a drive's: left out of that joint's reaction
+                q_a = float(constraint_forces[c.name][3][0])
+                shares = {c.a: q_a, c.b: -self._value(c.ratio) * q_a}
+                if name in shares and joint.type == "prismatic":
+                    force -= shares[name] * axis
+                elif name in shares:
+                    moment -= shares[name]
                 continue
             if c.type in ("rolling", "knife_edge"):
                 raise NotImplementedError("this oracle has no tree-joint reactions beside a "

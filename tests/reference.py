@@ -162,8 +162,11 @@ def _potential_and_forces(
             comps = _col(load.components)
             if load.frame == "body":
                 comps = _rot(frame.angle) * comps
-            rp = frame.point(load.at)
-            Q += sp.Matrix([(comps.T * rp.diff(qi))[0] for qi in lag.q])
+            # virtual work through the body's material point at `at` (a moving point: held)
+            held = sp.symbols("held_x held_y", real=True)
+            rp = frame.point(held)
+            at = dict(zip(held, load.at))
+            Q += sp.Matrix([(comps.T * rp.diff(qi))[0].xreplace(at) for qi in lag.q])
         elif isinstance(load, Spring):
             d = _point(frames, load.a) - _point(frames, load.b)
             length = sp.sqrt(d[0] ** 2 + d[1] ** 2)

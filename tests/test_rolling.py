@@ -142,6 +142,44 @@ def test_the_chaplygin_sleigh_against_its_reduced_equations(tmp_path: Path) -> N
     np.testing.assert_allclose(result.outputs["skate.Fn"], m * (a * dw + v * omega), atol=1e-7)
 
 
+def sleigh_closed_form(v0: float, w0: float, times: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The reduced equations solved in closed form: energy 2E = m v^2 + J w^2 (J = I + m a^2)
+    gives v' = (m a / J)(V^2 - v^2), V^2 = 2E / m, so v = V tanh(m a V t / J + atanh(v0 / V))
+    and w = sign(w0) sqrt(m / J) sqrt(V^2 - v^2): the turning dies out, the sleigh glides
+    along its blade at speed V."""
+    m, inertia, a = 2.0, 0.05, 0.2
+    big_j = inertia + m * a * a
+    speed = math.sqrt(v0 * v0 + big_j * w0 * w0 / m)
+    phase = m * a * speed * times / big_j + math.atanh(v0 / speed)
+    v = speed * np.tanh(phase)
+    w = math.copysign(1.0, w0) * math.sqrt(m / big_j) * speed / np.cosh(phase)
+    return v, w, speed
+
+
+def test_the_chaplygin_sleigh_glides_as_its_closed_form_says(tmp_path: Path) -> None:
+    """The blade's forward speed and the turning rate to 1e-9 against the closed form (and
+    against scipy's tight-tolerance solution of the reduced equations): the velocity turns to
+    the blade's direction; energy kept."""
+    model = compiled(SLEIGH, tmp_path, "sleigh")
+    times = np.linspace(0, 6, 25)
+    result = model.simulate(method="nemc.Vern9", rtol=1e-13, atol=1e-14, t_eval=times)
+    assert result.success, result.message
+    th, dx, dy, w = result.y[4], result.y[1], result.y[3], result.y[5]
+    forward = np.cos(th) * dx + np.sin(th) * dy
+    v, omega, speed = sleigh_closed_form(1.0, 1.5, times)
+    np.testing.assert_allclose(forward, v, atol=1e-9)
+    np.testing.assert_allclose(w, omega, atol=1e-9)
+    reduced = sleigh_reduction(1.0, 1.5, times)
+    np.testing.assert_allclose(reduced[0], v, atol=1e-9)
+    np.testing.assert_allclose(reduced[1], omega, atol=1e-9)
+    # the mass center's velocity (the blade's plus w x a) turns to the blade's direction
+    a = 0.2
+    drift = np.arctan2(dy + a * w * np.cos(th), dx - a * w * np.sin(th)) - th
+    np.testing.assert_allclose(drift, np.arctan2(a * omega, v), atol=1e-9)
+    assert abs(drift[0]) > 0.25 and abs(drift[-1]) < 1e-3
+    assert np.hypot(dx, dy)[-1] == pytest.approx(speed, rel=1e-9)
+
+
 def test_check_counts_the_freedoms_of_position_and_of_motion(tmp_path: Path, capsys) -> None:
     path = tmp_path / "sleigh.yaml"
     path.write_text(SLEIGH)

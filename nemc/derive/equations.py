@@ -166,8 +166,8 @@ def newton_euler(mech: m.Mechanism, kin: Kinematics) -> tuple[sympy.Matrix, symp
         for k in range(n):
             residual[k] += jv[k].dot(body.mass * a_c) + jw[k] * body.inertia * alpha
     applied = applied_loads(mech, kin)
-    for load in applied.forces:
-        jv = kin.partials(kin.rate(kin.position(load.body, load.xy)))
+    for load in applied.forces:  # the material point's velocity: xy may move on the body
+        jv = kin.partials(kin.velocity(load.body, load.xy))
         for k in range(n):
             residual[k] -= jv[k].dot(load.force)
     for body, torque in applied.couples:

@@ -22,6 +22,8 @@ MAX_PROBLEMS = 100
 FIXED_WHERE = ("in body, joint, gravity and initial-condition fields (parameters and constants "
                "only)")
 MOTION_WHERE = "in a joint's motion (parameters, constants and t only)"
+POINT_WHERE = ("in a load's point (parameters, constants, coordinates, inputs and t; a moving "
+               "point's place depends on no rate)")
 
 
 @dataclass
@@ -60,7 +62,8 @@ class Context:
     def scope(self, kind: str) -> Scope:
         """``constants``, ``parameters``, ``fixed`` (body, joint, ...), ``motion`` (a driven
         joint's: fixed and t; also the scene's inputs), ``load`` or ``event`` fields (these
-        also the state and the inputs).
+        also the state and the inputs), ``point`` (a load's moving point: a load's names but
+        no rates).
 
         Made once per kind while the names it is made of stay the same (they only grow):
         making it costs time linear in the names, and a file may hold 20,000 expressions."""
@@ -81,15 +84,16 @@ class Context:
                  "inputs": "in inputs' defaults (parameters and constants only)",
                  "scene inputs": "in simulation.inputs (parameters, constants and t only)",
                  "load": "in loads and outputs",
+                 "point": POINT_WHERE,
                  "event": "in events"}[kind]
         state = kind in ("load", "event")  # coordinates, their rates, inputs and t are allowed
-        if state:
+        if state or kind == "point":
             allowed += self.coordinates + self.inputs
         names = {name: symbol(name) for name in allowed}
         refused = {name: f"{name!r} is {_article(kind_)} {kind_}, not allowed {where}"
                    for name, (kind_, _) in self.names.items() if name not in names}
         rates = frozenset(self.coordinates) if state else frozenset()
-        timed = state or kind in ("motion", "scene inputs")
+        timed = state or kind in ("motion", "scene inputs", "point")
         return Scope(names, rates, timed, refused, where, self.budget)
 
 

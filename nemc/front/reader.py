@@ -107,11 +107,12 @@ class Reader:
         found = self._at(key)
         return ZERO2 if found is None else point_of(self.ctx, *found, self.parent)
 
-    def body_point(self, key: str, body: str | None) -> Vec2 | None:
-        """A point of `body`: a point name or [x, y]; default its mass center."""
+    def body_point(self, key: str, body: str | None, moving: bool = False) -> Vec2 | None:
+        """A point of `body`: a point name or [x, y]; default its mass center. `moving`: [x, y]
+        may be expressions of the coordinates, inputs and t (no rates)."""
         found = self._at(key)
         if found is not None:
-            return point_of(self.ctx, *found, body)
+            return point_of(self.ctx, *found, body, moving)
         return self.ctx.bodies[body].com if body in self.ctx.bodies else None
 
     def body(self, key: str, ground: bool, default: str | None = None) -> str | None:

@@ -38,10 +38,12 @@ def joint_name(ctx: Context, node: Node, path: str) -> str | None:
     return name
 
 
-def point_of(ctx: Context, node: Node, path: str, body: str | None) -> Vec2 | None:
-    """A point of ``body``: a point name (``origin``, ``com``, named) or fixed ``[x, y]``."""
+def point_of(ctx: Context, node: Node, path: str, body: str | None, moving: bool = False
+             ) -> Vec2 | None:
+    """A point of ``body``: a point name (``origin``, ``com``, named) or ``[x, y]``, fixed or
+    (``moving``) expressions of the coordinates, inputs and t."""
     if node.is_list:
-        return read_vec2(ctx, node, path)
+        return read_vec2(ctx, node, path, ctx.scope("point") if moving else None)
     name = read_string(ctx, node, path, "a point name or [x, y]")
     if name is None or body is None:
         return None

@@ -68,8 +68,9 @@ class Reader(Protocol):
     def parent_point(self, key: str) -> Vec2 | None:
         """A point of the joint's parent: a point name or [x, y]; default its origin."""
 
-    def body_point(self, key: str, body: str | None) -> Vec2 | None:
-        """A point of `body`: a point name or [x, y]; default its mass center."""
+    def body_point(self, key: str, body: str | None, moving: bool = False) -> Vec2 | None:
+        """A point of `body`: a point name or [x, y]; default its mass center. `moving`: [x, y]
+        may be expressions of the coordinates, inputs and t (no rates)."""
 
     def body(self, key: str, ground: bool, default: str | None = None) -> str | None: ...
 

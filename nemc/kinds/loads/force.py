@@ -2,8 +2,13 @@
 
     - force: [EXPR, EXPR]
       body: BODY
-      at: POINT          # a point of the body; default com
+      at: POINT          # a point of the body; default com; [x, y] may move on the body
       frame: ground      # or body
+
+A moving point's body-frame place [x(q, t), y(q, t)] (a sliding contact, a cam's follower)
+says where the force acts now: it acts on the body's material point there, so it does virtual
+work through that material point's displacement, never through the point's sliding along the
+body (every derivation takes the point's velocity as the body's at xy, xy held).
 """
 
 from __future__ import annotations
@@ -26,7 +31,7 @@ class Force(Load):
 
     components: Vec2
     body: str
-    at: Vec2  # point of application in the body frame (default: com)
+    at: Vec2  # point of application in the body frame (default: com), maybe of q and t
     frame: Literal["ground", "body"]
     loc: Loc
 
@@ -34,11 +39,12 @@ class Force(Load):
     def read(cls, read: Reader) -> dict[str, Any] | None:
         body = read.body("body", ground=False)
         return read.fields(components=read.vec2("force"), body=body,
-                           at=read.body_point("at", body), frame=read.choice(
+                           at=read.body_point("at", body, moving=True), frame=read.choice(
                                "frame", ("ground", "body"), "ground"))
 
     def expressions(self) -> list[tuple[str, object]]:
-        return [(f"force[{i}]", c) for i, c in enumerate(self.components)]
+        return [*((f"force[{i}]", c) for i, c in enumerate(self.components)),
+                *((f"at[{i}]", c) for i, c in enumerate(self.at))]
 
     def act(self, view: LoadView, sink: LoadSink) -> None:
         frame = view.frame(self.body)
