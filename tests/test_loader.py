@@ -284,12 +284,13 @@ BAD = [
     ("gravity-unknown", extra("gravity: [0, -g]"), "9: gravity[1]:", "unknown name 'g'"),
     ("gravity-scalar", extra("gravity: 9.8"), "9: gravity:", "[x, y]"),
     # bodies
-    ("mass-negative", variant("mass: m", "mass: -m"), "4: bodies.b1.mass:", "must be > 0, got -1"),
-    ("mass-zero", variant("mass: m", "mass: 0"), "4: bodies.b1.mass:", "must be > 0"),
+    ("mass-negative", variant("mass: m", "mass: -m"), "4: bodies.b1.mass:", "must be >= 0, got -1"),
+    ("mass-zero", variant("{mass: 1, inertia: 1}", "{mass: 0, inertia: 0}"), "5: bodies.b2:",
+     "joint 'B' would move nothing"),
     ("mass-nan", variant("mass: m", "mass: .nan"), "4: bodies.b1.mass:", "finite"),
     ("mass-missing", variant("mass: m, ", ""), "4: bodies.b1.mass:", "missing required key"),
     ("inertia-negative", variant("inertia: 1, points", "inertia: -L, points"),
-     "4: bodies.b1.inertia:", "must be > 0"),
+     "4: bodies.b1.inertia:", "must be >= 0"),
     ("body-unknown-key", variant("{mass: 1, inertia: 1}", "{mass: 1, inertia: 1, mas: 2}"),
      "5: bodies.b2.mas:", "unknown key 'mas'"),
     ("body-not-mapping", variant("{mass: 1, inertia: 1}", "5"), "5: bodies.b2:",
@@ -561,4 +562,4 @@ def test_problem_names_the_file_as_given(tmp_path: Path, monkeypatch: pytest.Mon
     monkeypatch.chdir(tmp_path)
     with pytest.raises(InputError) as info:
         load_mechanism("bad.yaml")
-    assert str(info.value).startswith("bad.yaml:4: bodies.b1.mass: must be > 0")
+    assert str(info.value).startswith("bad.yaml:4: bodies.b1.mass: must be >= 0")

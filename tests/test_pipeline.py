@@ -114,7 +114,7 @@ def test_parameter_override_never_recompiles_and_derived_follow(cache: Path) -> 
     ("params", "y", "message"),
     [
         ({"W": float("nan")}, [0.1, 0.0], "finite"),
-        ({"W": -1.0}, [0.1, 0.0], "bodies.rod.mass must be > 0"),
+        ({"W": -1.0}, [0.1, 0.0], "bodies.rod.mass must be >= 0"),
         ({"Wx": 1.0}, [0.1, 0.0], "did you mean 'W'"),
         (None, [0.1, 0.0, 0.0], r"shape \(2,\)"),
         (None, [[0.1, 0.0]], r"shape \(2,\)"),
