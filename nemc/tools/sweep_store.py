@@ -252,7 +252,27 @@ class ZarrStore:
                 f"{self.path_} holds a different sweep (other model, inputs or settings): "
                 "choose another output, or remove it to start this sweep afresh")
         with damaged_store(self.path_):
-            return int(attrs["chunk_runs"])
+            chunk_runs = int(attrs["chunk_runs"])
+        self._check_arrays(layout)
+        return chunk_runs
+
+    def _check_arrays(self, layout: Layout) -> None:
+        """Each array's own metadata file is there and readable: the group's consolidated
+        copy would otherwise hide an array's edited, cut or deleted metadata from this run
+        (its chunks then written under metadata no other reader finds)."""
+        present = {meta.parent.name for meta in self.path_.glob("*/zarr.json")}
+        for name in sorted({*layout.chunk_variables(), "status"} | present):
+            meta = self.path_ / name / "zarr.json"
+            try:
+                array = json.loads(meta.read_text())
+            except (OSError, ValueError) as error:
+                raise SweepStoreError(f"{self.path_}: the sweep store is damaged ({name}: "
+                                      f"{type(error).__name__}); remove it to run the sweep "
+                                      "afresh") from None
+            if not isinstance(array, dict) or array.get("node_type") != "array":
+                raise SweepStoreError(f"{self.path_}: the sweep store is damaged ({name}: "
+                                      "not an array's metadata); remove it to run the sweep "
+                                      "afresh")
 
     def _create(self, layout: Layout) -> None:
         """Write the whole empty store in a temporary folder, then publish it by a rename."""
