@@ -18,6 +18,7 @@ TUTORIALS = ROOT / "docs" / "tutorials"
 # tutorial -> the figures its blocks save
 PAGES = {
     "slider-crank.md": ["slider_crank_driven.png"],
+    "events.md": ["events.png"],
 }
 
 
