@@ -19,6 +19,7 @@ TUTORIALS = ROOT / "docs" / "tutorials"
 PAGES = {
     "slider-crank.md": ["slider_crank_driven.png"],
     "events.md": ["events.png"],
+    "sweep.md": ["fourbar_sweep.png"],
     "control.md": [],  # its figures: docs/tutorials/control_figures.py
 }
 
