@@ -1,7 +1,7 @@
 # nemc: `make run` compiles and simulates the book's double pendulum; `make test` runs the tests;
 # `make stress` regenerates the stress report of the book's four systems (docs/stress/);
 # `make docs` builds the documentation site from docs/ into site/ (no network needed);
-# `make figures` redraws its figures of the book's systems.
+# `make figures` redraws the tutorials' figures.
 # Each sets up everything on a fresh machine (a virtual environment in .venv).
 PYTHON ?= python3
 VENV := .venv
@@ -27,12 +27,16 @@ run: $(STAMP)
 	$(BIN)/nemc simulate examples/double_pendulum.yaml --plot docs/figures/double_pendulum.png
 	$(BIN)/nemc animate examples/double_pendulum.yaml --out docs/figures/double_pendulum.gif
 
-# The figures of the docs' tutorials: the book's four systems (docs/figures/).
+# The figures of the docs' tutorials (docs/figures/): the book's four systems, then those the
+# other tutorials' code blocks draw (docs/tutorials/blocks.py runs them and checks their output).
 BOOK := compound_pendulum double_pendulum robot_arm two_link_robot_arm
+TUTORIALS := slider-crank events sweep
 figures: $(STAMP)
 	for name in $(BOOK); do \
 	  $(BIN)/nemc simulate examples/$$name.yaml --plot docs/figures/$$name.png > /dev/null && \
 	  $(BIN)/nemc animate examples/$$name.yaml --out docs/figures/$$name.gif || exit 1; done
+	$(BIN)/python docs/tutorials/blocks.py --figures docs/figures \
+	  $(foreach name,$(TUTORIALS),docs/tutorials/$(name).md)
 
 # Two workers (pytest-xdist), each taking whole test files (their module fixtures build once).
 test: $(STAMP) other-python
