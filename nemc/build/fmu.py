@@ -206,6 +206,7 @@ def wrapper_source(meta: Mapping, layout: fv.Layout, defaults: fv.FmuDefaults, f
     events = meta.get("events", ())
     given = set(meta.get("initial_given", ()))
     has_loops = bool(meta.get("constraint_equations"))
+    starts = [tuple(pair) for pair in meta.get("constraint_starts", ())]  # "as at the start"
     core = Template(fmi_template("fmu_core.c.tmpl")).substitute(
         name=name, prefix=meta["c_prefix"], fmi=fmi, fmi_version=f"{fmi}.0",
         vr_state=first["state"], vr_derivative=first["derivative"],
@@ -228,6 +229,8 @@ def wrapper_source(meta: Mapping, layout: fv.Layout, defaults: fv.FmuDefaults, f
         event_directions=c_list([DIRECTIONS[e["direction"]] for e in events]),
         event_actions=c_list([ACTIONS[e["action"]] for e in events]),
         check_names=c_strings(meta["check_names"]), tstops=c_list(list(defaults.tstops)),
+        n_start=len(starts), start_equation=c_list([k for k, _ in starts]),
+        start_parameter=c_list([index for _, index in starts]),
         state_magic=int(token[1:9], 16))
     return Template(fmi_template(f"fmi{fmi}.c.tmpl")).substitute(
         name=name, version=NEMC_VERSION, source=meta.get("source", ""),

@@ -69,8 +69,10 @@ def fmu_facts(model: Model) -> dict[str, Any]:
     y0 = model.initial_state()
     p = model.parameter_vector()
     kinematic = False
-    if model.has_loops:
-        kinematic = model.loops.assembled(span[0], y0, model.loops.given_mask(None), p)[1] == 0
+    if model.has_loops:  # a gear pair's offset as at the start, as a run sets it
+        started = model.loops.started(span[0], y0, p)
+        kinematic = model.loops.assembled(span[0], y0, model.loops.given_mask(None),
+                                          started)[1] == 0
     from .plant import input_vector
 
     return {
