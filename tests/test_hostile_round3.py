@@ -470,14 +470,14 @@ def test_an_rtol_no_run_takes_is_refused_by_check_at_its_line(value: str, tmp_pa
 def test_ctrl_c_before_the_sweep_store_exists_says_nothing_was_kept(
         tmp_path: Path, capsys, monkeypatch: pytest.MonkeyPatch) -> None:
     """Ctrl-C while the runs are planned: no store, and the message said runs were kept."""
-    from nemc.tools import sweeps
+    from nemc.tools import sweep_plan
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
     monkeypatch.chdir(tmp_path)
     shutil.copy(TINY, tmp_path / "m.yaml")
-    monkeypatch.setattr(sweeps, "plan_runs", interrupted)
+    monkeypatch.setattr(sweep_plan, "plan_runs", interrupted)
     status, out, err = cli(SWEEP, capsys)
     assert status == 130 and "interrupted before the sweep began: nothing kept" in err, err
     assert not (tmp_path / "s.zarr").exists() and "kept in" not in err

@@ -17,14 +17,8 @@ from children import child_process, interrupted
 
 import nemc
 from nemc.runtime.model import ModelError
-from nemc.tools.sweeps import (
-    SweepInterrupted,
-    SweepStoreError,
-    output_times,
-    parse_axis,
-    plan_runs,
-    sweep,
-)
+from nemc.tools.sweep_plan import output_times, parse_axis, plan_runs
+from nemc.tools.sweeps import SweepInterrupted, SweepStoreError, sweep
 
 pytest.importorskip("distributed")
 pytest.importorskip("xarray")

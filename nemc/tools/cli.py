@@ -219,7 +219,7 @@ def cmd_animate(args: argparse.Namespace) -> int:
 def sweep_axis(grid: bool):
     """argparse type of --grid / --random (a bad value: argparse's message, exit status 2)."""
     def parse(text: str):
-        from .sweeps import parse_axis
+        from .sweep_plan import parse_axis
 
         try:
             return parse_axis(text, grid)
@@ -309,7 +309,7 @@ def dask_address(text: str) -> str:
 def cmd_sweep(args: argparse.Namespace) -> int:
     from ..pipeline import compile_mechanism
     from ..runtime.model import ModelError
-    from . import sweeps
+    from . import sweep_plan, sweeps
 
     model = compile_mechanism(args.mechanism).model
     span = list(model.scene["t_span"] or [0.0, 10.0])
@@ -319,9 +319,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     try:
         if not span[1] > span[0]:
             raise ModelError(f"--t-end: must be after the start time {span[0]:g}")
-        y0, params, attrs = sweeps.plan_runs(model, args.grid, args.random, args.runs,
+        y0, params, attrs = sweep_plan.plan_runs(model, args.grid, args.random, args.runs,
                                              args.seed, dict(args.params))
-        times = None if args.times is None else sweeps.output_times(span, args.times)
+        times = None if args.times is None else sweep_plan.output_times(span, args.times)
         with sweeps.dask_client(args.dask) as client:
             result = sweeps.sweep(model, y0, params=params, t_span=span, t_eval=times,
                                   method=args.method, rtol=args.rtol, atol=args.atol,
