@@ -1,0 +1,117 @@
+"""Hostile input and misuse, round 3, the rest of issue 51: a case per class, with inputs of its
+own (files made here), each in its own section: a run whose equations fail mid-run keeps what
+it computed; ..."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+TINY = ROOT / "tests" / "models" / "tiny.yaml"  # one rod on a pin: m 2, L 0.5
+
+
+# ---- 1. a run whose equations fail mid-run keeps the states before ------------------------
+
+FAILS_AT = 0.6  # T: the torque sqrt(T - t) is nan after it
+FAILING = """loads: [{torque: 'sqrt(T - t)', body: rod}]
+outputs: {expressions: {rate: dot(q)}}
+simulation:
+  t_span: [0, 1]
+  initial: {q: 0.1, dot(q): -0.5}
+  events:
+    passes: {when: q - 0.2, direction: rising}
+"""
+
+
+def rod_angle(t: np.ndarray, q0: float = 0.1, v0: float = -0.5, big_t: float = FAILS_AT
+              ) -> np.ndarray:
+    """The rod's angle under torque sqrt(T - t), no gravity, in closed form (I = m L^2 / 3)."""
+    inertia = 2 * 0.5**2 / 3
+    return q0 + v0 * t + 2 / (3 * inertia) * (
+        big_t**1.5 * t - 0.4 * (big_t**2.5 - (big_t - t)**2.5))
+
+
+@pytest.fixture(scope="module")
+def failing(tmp_path_factory: pytest.TempPathFactory):
+    import nemc
+
+    file = tmp_path_factory.mktemp("failing") / "failing.yaml"
+    file.write_text(TINY.read_text().replace("gravity: [0, -9.81]", "").replace(
+        "parameters: {m: 2, L: 0.5}", f"parameters: {{m: 2, L: 0.5, T: {FAILS_AT}}}")
+        + FAILING)
+    return nemc.compile(file)
+
+
+def failing_methods() -> list[str]:
+    from nemc.runtime.model import METHODS
+
+    return list(dict.fromkeys([*METHODS, "auto"]))
+
+
+@pytest.mark.parametrize("method", failing_methods())
+@pytest.mark.parametrize("at_times", [True, False])
+def test_a_run_that_fails_mid_run_keeps_its_states_events_and_outputs(
+        method: str, at_times: bool, failing) -> None:
+    """The torque sqrt(T - t) turns nan after T: the run ends with status -2 (the docs'
+    "equations failed"), its states before the failure kept (the closed form), the event it
+    found before (q rising through 0.2) kept, and the outputs along them computed."""
+    times = np.linspace(0, 1, 41) if at_times else None
+    run = failing.simulate(method=method, t_eval=times, rtol=1e-10, atol=1e-12)
+    assert run.status == -2 and not run.success, run.message
+    assert run.message.startswith("integration failed: at t=") and "not finite" in run.message
+    assert run.t.size >= 2 and run.t[0] == 0 and run.t[-1] <= FAILS_AT, run.t
+    if at_times:
+        np.testing.assert_array_equal(run.t, times[:run.t.size])
+    q = run.y[0]
+    np.testing.assert_allclose(q, rod_angle(run.t), atol=1e-7)
+    np.testing.assert_allclose(run.outputs["rate"], run.y[1], rtol=0, atol=0)
+    crossing = run.events["passes"][0]  # q = 0.2 rising (at t ~ 0.28): the closed form's root
+    assert crossing.size == 1 and abs(rod_angle(crossing)[0] - 0.2) < 1e-7, crossing
+
+
+FALLING = """simulation:
+  t_span: [0, 3]
+  initial: {q: 0}
+  events:
+"""
+EVENT_OR_LAW = {  # the failing part -> the cause its message names
+    "odd: {when: sqrt(q + 1) - 2, direction: rising}": "an event's function",
+    "half: {when: q + 0.5, direction: falling, action: {dot(q): log(q - 10)}}": "an impact law",
+}
+
+
+@pytest.fixture(scope="module")
+def falling(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """The rod let go horizontal (it falls through q = -0.5 at about 0.29 s and q = -1 at
+    about 0.43 s): with each failing event, and without (the reference, tight)."""
+    import nemc
+
+    folder = tmp_path_factory.mktemp("falling")
+    models = {}
+    for k, event in enumerate(["", *EVENT_OR_LAW]):
+        file = folder / f"falling{k}.yaml"
+        file.write_text(TINY.read_text() + FALLING.replace("  events:\n", "") if not event
+                        else TINY.read_text() + FALLING + f"    {event}\n")
+        models[event] = nemc.compile(file)
+    return models
+
+
+@pytest.mark.parametrize("method", failing_methods())
+@pytest.mark.parametrize("event", sorted(EVENT_OR_LAW))
+def test_an_event_function_or_law_failing_mid_run_keeps_the_states_before(
+        method: str, event: str, falling: dict) -> None:
+    """An event's function nan below q = -1, an impact law nan at q = -0.5: status -2, the
+    message naming it, the states before kept (a tight run without the event; scipy's methods
+    evaluate events after a step: theirs keep the step whose end the function failed at)."""
+    run = falling[event].simulate(method=method, rtol=1e-9, atol=1e-11)
+    assert run.status == -2 and EVENT_OR_LAW[event] in run.message, run.message
+    assert run.t.size >= 2 and run.t[0] == 0 and run.t[-1] < 0.5, run.t
+    assert np.all(run.y[0, :-1] > -1), run.y[0]  # scipy's keeps the step it failed after
+    failed_at = float(run.message.split("at t=")[1].split(":")[0])
+    assert run.t[-1] <= failed_at + 1e-8 and failed_at < 0.5, (run.t[-1], failed_at)
+    reference = falling[""].simulate((0, run.t[-1]), t_eval=run.t, method="DOP853",
+                                     rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(run.y, reference.y, atol=1e-6)
