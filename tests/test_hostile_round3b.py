@@ -115,3 +115,17 @@ def test_an_event_function_or_law_failing_mid_run_keeps_the_states_before(
     reference = falling[""].simulate((0, run.t[-1]), t_eval=run.t, method="DOP853",
                                      rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(run.y, reference.y, atol=1e-6)
+
+
+@pytest.mark.parametrize("method", failing_methods())
+def test_a_run_that_fails_at_its_start_returns_the_state_it_failed_at(method: str,
+                                                                      tmp_path: Path) -> None:
+    """The torque sqrt(-1 - t) is nan from t = 0: status -2 and the one state it failed at."""
+    import nemc
+
+    file = tmp_path / "at_start.yaml"
+    file.write_text(TINY.read_text() + "loads: [{torque: 'sqrt(-1 - t)', body: rod}]\n"
+                    "simulation: {t_span: [0, 1], initial: {q: 0.25}}\n")
+    run = nemc.compile(file).simulate(method=method)
+    assert run.status == -2 and run.message.startswith("integration failed: at t=0:"), run.message
+    assert run.t.tolist() == [0.0] and run.y[:, 0].tolist() == [0.25, 0.0]

@@ -251,7 +251,7 @@ def test_non_finite_accelerations_stop_the_run(folder: Path) -> None:
     taylor = model.simulate()  # auto: nemc.Taylor, whose series overflows first
     assert taylor.method == "nemc.Taylor" and not taylor.success and "overflows" in taylor.message
     t_fail = float(run.message.split("at t=")[1].split(":")[0])
-    assert 0 < t_fail < 2 and run.t[-1] == pytest.approx(t_fail, rel=1e-8)
+    assert 0 < t_fail < 2 and run.t.size > 1 and run.t[-1] <= t_fail  # the steps before
 
 
 def test_non_finite_state_is_named_as_the_cause(double: Model) -> None:

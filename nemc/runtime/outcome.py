@@ -6,7 +6,7 @@ solver gave up)."""
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -91,8 +91,11 @@ def failed_after(model: BuiltModel, spec: RunSpec, failure: IntegrationFailure,
                  tolerances: tuple[float, float]) -> SimulationResult:
     """A run whose equations (an event's function, an impact law) failed mid-run: the states
     (t, y) and events it computed before, their outputs, status EQUATIONS_FAILED, and where
-    and why it failed (tolerances: the run's, as its method used them)."""
-    y = y.reshape(model.n_state, t.size)  # scipy's outcome of no state is (0, 0)
+    and why it failed (tolerances: the run's, as its method used them). A run that failed
+    before its first state returns the failing one, as `failed`."""
+    if not t.size:
+        return replace(failed(failure, spec.method, *tolerances, model.parameters_at(spec.p)),
+                       nfev=counts[0], njev=counts[1], nlu=counts[2], events=events)
     return SimulationResult(
         t, y, lazy_outputs(model, t, y, spec.p, spec.inputs), *counts, runs.EQUATIONS_FAILED,
         f"integration failed: {failure}", False, spec.method, *tolerances,
