@@ -129,3 +129,55 @@ def test_a_run_that_fails_at_its_start_returns_the_state_it_failed_at(method: st
     run = nemc.compile(file).simulate(method=method)
     assert run.status == -2 and run.message.startswith("integration failed: at t=0:"), run.message
     assert run.t.tolist() == [0.0] and run.y[:, 0].tolist() == [0.25, 0.0]
+
+
+# ---- 3. nemc stress on a ball that comes to rest and on a 0-DOF analysis --------------------
+
+RESTING_BALL = """name: resting_ball
+parameters: {m: 0.1, r: 0.02, e: 0.6, g: 9.81}
+gravity: [0, -g]
+bodies: {ball: {mass: m, inertia: 2*m*r**2/5}}
+joints: {flight: {type: free, parent: ground, child: ball, coordinates: [x, y, th]}}
+simulation:
+  t_span: [0, 1]
+  initial: {y: 0.5}
+  rtol: 1.0e-10
+  atol: 1.0e-12
+  events:
+    bounce: {when: y - r, direction: falling, action: {dot(y): -e*dot(y)}}
+"""
+
+
+def test_stress_measures_a_ball_that_comes_to_rest_before_its_horizon(tmp_path: Path,
+                                                                     capsys) -> None:
+    """The long reference (5 s) chatters where the bounces accumulate, at t0 (1 + e)/(1 - e)
+    (t0 = sqrt(2 h / g) the first fall): the report is written over the part before, and says
+    where and why the long run ended (it exited 2)."""
+    from nemc.tools.cli import main
+
+    file = tmp_path / "resting_ball.yaml"
+    file.write_text(RESTING_BALL)
+    assert main(["stress", str(file), "--out", str(tmp_path), "--horizon", "5"]) == 0
+    capsys.readouterr()
+    text = (tmp_path / "resting_ball.md").read_text()
+    ended = text.split("The long run ends early: event 'bounce' chatters at t = ")[1]
+    at_rest = np.sqrt(2 * 0.48 / 9.81) * 1.6 / 0.4
+    assert abs(float(ended.split(":")[0]) - at_rest) < 1e-4, ended[:80]
+
+
+def test_stress_reports_a_mechanism_without_a_degree_of_freedom(tmp_path: Path, capsys) -> None:
+    """A slider-crank whose crank is driven (0 DOF): the report is written (it exited 2 on a
+    start it could not move), saying no initial value can be moved."""
+    from nemc.tools.cli import main
+
+    text = (ROOT / "examples" / "slider_crank.yaml").read_text()
+    text = text.replace("coordinate: q1}", "coordinate: q1, motion: 20*t}").replace(
+        "  - torque: T0*(1 - dot(q1)/w0)\n    body: crank\n", "").replace(
+        "  initial: {q1: pi/4, dot(q1): 0}\n", "")
+    file = tmp_path / "driven_slider_crank.yaml"
+    file.write_text(text)
+    assert main(["stress", str(file), "--out", str(tmp_path), "--horizon", "3"]) == 0
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err
+    report = (tmp_path / "slider_crank.md").read_text()  # named after the model
+    assert "No degree of freedom is left by the drives" in report
