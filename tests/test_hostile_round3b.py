@@ -181,3 +181,30 @@ def test_stress_reports_a_mechanism_without_a_degree_of_freedom(tmp_path: Path, 
     assert "Traceback" not in captured.err
     report = (tmp_path / "slider_crank.md").read_text()  # named after the model
     assert "No degree of freedom is left by the drives" in report
+
+
+# ---- 7. --dask local:N whose workers die at start -------------------------------------------
+
+@pytest.mark.parametrize("preload", ["nemc_no_such_module_51", "nemc.no_such_part"])
+def test_workers_that_die_at_start_are_one_line(preload: str, tmp_path: Path) -> None:
+    """Workers whose start fails (here a preload that cannot be imported; in the field an
+    import, memory): exit 1, one line naming the cause (it was "Nanny failed to start" and a
+    traceback per worker), no store written."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+
+    pytest.importorskip("distributed")
+    shutil.copy(TINY, tmp_path / "m.yaml")
+    env = {**os.environ, "DASK_DISTRIBUTED__WORKER__PRELOAD": f'["{preload}"]'}
+    done = subprocess.run(
+        [sys.executable, "-c", "import sys; from nemc.tools.cli import main; "
+         "sys.exit(main(sys.argv[1:]))", "sweep", "m.yaml", "--grid", "m=1:2:2", "--t-end", "0.1",
+         "--dask", "local:1", "--out", "s.zarr"], cwd=tmp_path, env=env, capture_output=True,
+        text=True, timeout=300)
+    assert done.returncode == 1 and done.stdout == "", done.stderr
+    assert done.stderr.splitlines() == [
+        "nemc: --dask local:1: the worker processes could not start (ModuleNotFoundError: "
+        f"No module named '{preload}')"], done.stderr
+    assert not (tmp_path / "s.zarr").exists()

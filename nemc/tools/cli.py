@@ -334,7 +334,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     except KeyboardInterrupt as stop:  # SweepInterrupted, or Ctrl-C while setting up
         print(f"\n{interrupted_sweep(stop, out)}", file=sys.stderr)
         return 130
-    except ImportError as error:
+    except (ImportError, sweeps.WorkersFailed) as error:
         print(f"nemc: {error}", file=sys.stderr)
         return 1
     return report_sweep(result)
