@@ -208,3 +208,46 @@ def test_workers_that_die_at_start_are_one_line(preload: str, tmp_path: Path) ->
         "nemc: --dask local:1: the worker processes could not start (ModuleNotFoundError: "
         f"No module named '{preload}')"], done.stderr
     assert not (tmp_path / "s.zarr").exists()
+
+
+# ---- 4. scene values that every run refuses, refused by `check` at their line ----------------
+
+@pytest.mark.parametrize("example, key, value", [
+    ("tiny", "dot(q)", "1e200"), ("tiny", "q", "-3.5e151"),
+    ("slider_crank", "dot(q1)", "1e308"), ("slider_crank", "q1", "2e160"),
+])
+def test_check_refuses_initial_values_no_run_can_take(example: str, key: str, value: str,
+                                                      tmp_path: Path, capsys) -> None:
+    """A rate or coordinate whose square overflows (every centripetal term, a loop's
+    distances): `check` names its line (a run failed with "accelerations not finite", or a
+    loop's "given rates cannot satisfy", blamed on --set/options)."""
+    from nemc.tools.cli import main
+
+    source = TINY if example == "tiny" else ROOT / "examples" / f"{example}.yaml"
+    file = tmp_path / "big.yaml"
+    text = source.read_text()
+    if example == "tiny":
+        text += f"simulation: {{t_span: [0, 1], initial: {{{key}: {value}}}}}\n"
+    else:
+        text = text.replace("initial: {q1: pi/4, dot(q1): 0}", f"initial: {{{key}: {value}}}")
+    file.write_text(text)
+    line = next(k for k, row in enumerate(text.splitlines(), 1) if f"{key}: {value}" in row)
+    assert main(["check", str(file)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{file}:{line}: simulation.initial.{key}: ") and "too large" in err
+
+
+@pytest.mark.parametrize("rate", [1e8, 1e12, 1e40])
+def test_large_consistent_rates_of_a_loop_are_assembled(rate: float, tmp_path: Path) -> None:
+    """The rates' residual is relative to their terms' size: dot(q1) = 1e8 was refused ("the
+    given rates cannot satisfy constraint") for a rounding of 1e-8. The rates solved satisfy
+    Phi_q q' = 0 to rounding (the slider-crank's loop has no time term)."""
+    import nemc
+
+    model = nemc.compile(ROOT / "examples" / "slider_crank.yaml")
+    run = model.simulate((0, 0), {"q1": 0.7, "dot(q1)": rate})  # the assembled start
+    assert run.success, run.message
+    y0 = run.y[:, 0]
+    position, velocity = model.constraint_residual(y0)
+    assert position < 1e-10 and velocity <= 1e-12 * rate, (position, velocity)
+    assert y0[model.state_names.index("dot(q1)")] == rate
