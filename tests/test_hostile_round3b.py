@@ -251,3 +251,46 @@ def test_large_consistent_rates_of_a_loop_are_assembled(rate: float, tmp_path: P
     position, velocity = model.constraint_residual(y0)
     assert position < 1e-10 and velocity <= 1e-12 * rate, (position, velocity)
     assert y0[model.state_names.index("dot(q1)")] == rate
+
+
+# ---- 5. degrees of freedom counted at a singular start --------------------------------------
+
+def parallelogram(tmp_path: Path, start: str) -> Path:
+    """A parallelogram four-bar (ground and coupler 0.4, crank and rocker 0.1) with its crank
+    driven from angle START: flat, a singular configuration, at 0."""
+    text = (ROOT / "examples" / "fourbar_driven.yaml").read_text()
+    for old, new in (("  L2: 0.35", "  L2: 0.4"), ("  L3: 0.3", "  L3: 0.1"),
+                     ("motion: pi/2 + w*t", f"motion: {start} + w*t"),
+                     ("guess: {q2: 0.5, q3: 1.9}", f"guess: {{q2: 0.01, q3: {start} + 0.02}}")):
+        assert old in text
+        text = text.replace(old, new)
+    file = tmp_path / f"parallelogram_{start}.yaml"
+    file.write_text(text)
+    return file
+
+
+def test_a_start_at_a_singular_configuration_is_refused_by_name(tmp_path: Path,
+                                                                capsys) -> None:
+    """Flat at the start, Phi_q loses rank: 1 degree of freedom counted there instead of 0
+    (`check` said 1; the run failed on "given rates cannot satisfy"). Both name the singular
+    start and the constraint."""
+    import nemc
+    from nemc.runtime.model import ModelError
+    from nemc.tools.cli import main
+
+    file = parallelogram(tmp_path, "0")
+    assert main(["check", str(file)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{file}:") and "the initial state is at a singular configuration: "\
+        "constraint 'C'" in err and "(1 there, 0 elsewhere)" in err, err
+    model = nemc.compile(parallelogram(tmp_path, "0.3"))  # compiles away from the flat
+    flat = -0.3 / (2 * np.pi)  # q1 = 0.3 + w t is 0 there
+    with pytest.raises(ModelError, match="the initial state is at a singular "
+                                         "configuration: constraint 'C'"):
+        model.simulate((flat, 0.1), y0={"q2": 0.0, "q3": 0.0})
+    # away from it: a kinematic analysis (0 DOF) on the parallelogram branch, q2 = 0, q3 = q1
+    run = model.simulate((0, 0.04), t_eval=np.linspace(0, 0.04, 5))
+    assert run.success and run.method == "kinematic", run.message
+    names = model.state_names
+    np.testing.assert_allclose(run.y[names.index("q2")], 0, atol=1e-9)
+    np.testing.assert_allclose(run.y[names.index("q3")], 0.3 + 2 * np.pi * run.t, atol=1e-9)
