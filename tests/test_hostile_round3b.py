@@ -294,3 +294,37 @@ def test_a_start_at_a_singular_configuration_is_refused_by_name(tmp_path: Path,
     names = model.state_names
     np.testing.assert_allclose(run.y[names.index("q2")], 0, atol=1e-9)
     np.testing.assert_allclose(run.y[names.index("q3")], 0.3 + 2 * np.pi * run.t, atol=1e-9)
+
+
+# ---- 6. --initial on a closed loop: the given values kept, the others solved ----------------
+
+@pytest.mark.parametrize("initial, kept", [
+    (["q1=1.2"], {"q1": 1.2, "dot(q1)": 0.0}),  # the scene's dot(q1) kept too
+    (["q1=-0.4", "dot(q1)=5"], {"q1": -0.4, "dot(q1)": 5.0}),
+    (["dot(q1)=-3"], {"q1": np.pi / 4, "dot(q1)": -3.0}),
+])
+def test_initial_values_of_a_closed_loop_are_kept_and_the_rest_solved(
+        initial: list[str], kept: dict, tmp_path: Path, capsys) -> None:
+    """`--initial` handed the whole state over (the scene's assembly with one value changed),
+    which the loop refused ("cannot be assembled with q1, dot(q1), q2, ... given"): now the
+    scene's given values and --initial's are kept and the others solved, the start on the
+    constraints (their residual, computed apart)."""
+    import csv
+
+    import nemc
+    from nemc.tools.cli import main
+
+    example = ROOT / "examples" / "slider_crank.yaml"
+    options = [part for value in initial for part in ("--initial", value)]
+    out = tmp_path / "run.csv"
+    assert main(["simulate", str(example), *options, "--t-end", "0.01", "--csv", str(out)]) == 0
+    capsys.readouterr()
+    with out.open() as handle:
+        first = next(csv.DictReader(handle))
+    model = nemc.compile(example)
+    row = {name.split(" ")[0]: float(value) for name, value in first.items()}
+    for name, value in kept.items():
+        assert row[name] == pytest.approx(value, abs=1e-12), (name, row)
+    y0 = np.array([row[name] for name in model.state_names])
+    position, velocity = model.constraint_residual(y0)
+    assert position < 1e-9 and velocity < 1e-9, (position, velocity)

@@ -551,6 +551,10 @@ def run_settings(model, args: argparse.Namespace) -> dict:
                 raise ValueError(f"--initial: unknown coordinate or rate {name!r}{hint}; the "
                                  f"state is {', '.join(model.state_names)}")
             y0[model.state_names.index(name)] = value
+        if model.has_loops:  # the given values kept, the others solved from the constraints
+            given = {*model.metadata.get("initial_given", ()), *(n for n, _ in args.initial)}
+            y0 = {name: float(y0[k]) for k, name in enumerate(model.state_names)
+                  if name in given}
     t_eval = None
     if getattr(args, "t_eval", None) is not None:
         kind, values = args.t_eval
