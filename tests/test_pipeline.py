@@ -134,7 +134,7 @@ def test_blow_up_is_reported_not_returned(tmp_path: Path) -> None:
     path = tmp_path / "blowup.yaml"
     path.write_text(text)
     res = nemc.compile(path).simulate(t_span=(0, 1), t_eval=None)
-    assert not res.success and res.status == -1
+    assert not res.success and res.status == -2  # equations failed (issue 51)
     assert "not finite" in res.message and "t=" in res.message
 
 

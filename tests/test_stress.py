@@ -246,12 +246,12 @@ def test_blow_up_is_reported_with_time_state_and_cause(folder: Path,
 def test_non_finite_accelerations_stop_the_run(folder: Path) -> None:
     model = build(folder, ROOT_TORQUE, "root_torque_arm")
     run = model.simulate(method="nemc.DOP853")
-    assert not run.success and run.status == -1
+    assert not run.success and run.status == -2  # equations failed (issue 51)
     assert "accelerations are not finite" in run.message and "theta=" in run.message
     taylor = model.simulate()  # auto: nemc.Taylor, whose series overflows first
     assert taylor.method == "nemc.Taylor" and not taylor.success and "overflows" in taylor.message
     t_fail = float(run.message.split("at t=")[1].split(":")[0])
-    assert 0 < t_fail < 2 and run.t[-1] == pytest.approx(t_fail, rel=1e-8)
+    assert 0 < t_fail < 2 and run.t.size > 1 and run.t[-1] <= t_fail  # the steps before
 
 
 def test_non_finite_state_is_named_as_the_cause(double: Model) -> None:

@@ -115,7 +115,7 @@ def test_not_smooth_loads_are_refused_by_name(tmp_path: Path) -> None:
 def test_failure_is_reported_with_time_and_state(tmp_path: Path) -> None:
     result = compiled(tmp_path, OVERFLOW, "overflow").simulate(method="nemc.Taylor",
                                                                rtol=1e-6, atol=1e-9)
-    assert (result.success, result.status) == (False, -1)
+    assert (result.success, result.status) == (False, -2)
     assert result.message.startswith("integration failed: at t=0.6")  # coefficients overflow
     assert "not finite" in result.message and "; state: s=" in result.message
 

@@ -47,14 +47,43 @@ def check_assembly(mech: m.Mechanism) -> Assembly:
     residual = np.abs(phi(q))
     if not residual.max() <= TOLERANCE:
         raise InputError([assembly_problem(mech, phi, jacobian, start, given, residual)])
+    singular = singular_start(mech, jacobian, q)
+    if singular:
+        raise InputError([singular])
     return Assembly(dict(zip(names, q.tolist())), len(names) - rank(jacobian(q)[positions]),
                     len(residual), len(names) - rank(jacobian(q)))
 
 
-def rank(matrix: np.ndarray) -> int:
+def rank(matrix: np.ndarray, relative: float = 1e-9) -> int:
     if not matrix.size:
         return 0
-    return int(np.linalg.matrix_rank(matrix, tol=1e-9 * max(1.0, np.abs(matrix).max())))
+    return int(np.linalg.matrix_rank(matrix, tol=relative * max(1.0, np.abs(matrix).max())))
+
+
+SINGULAR_START = 1e-6  # Phi_q's singular values below this (relative): a singular start
+GENERIC_SAMPLES = 5  # seeded random positions at which Phi_q's rank elsewhere is taken
+
+
+def singular_start(mech: m.Mechanism, jacobian, q: np.ndarray) -> Problem | None:
+    """A start at a singular configuration (Phi_q of lower rank there than elsewhere), where
+    the degrees of freedom counted are not the mechanism's (runtime loops.singular_start)."""
+    rng = np.random.default_rng(51)
+    elsewhere = max(rank(jacobian(rng.uniform(-np.pi, np.pi, q.size)))
+                    for _ in range(GENERIC_SAMPLES))
+    here = rank(jacobian(q), SINGULAR_START)
+    if here >= elsewhere:
+        return None
+    owners = [c for c in mech.constraints for _ in range(c.equations_count)]
+    weakest = owners[int(np.abs(np.linalg.svd(jacobian(q))[0][:, here]).argmax())]
+    where = mech.simulation.initial_loc or weakest.loc
+    n = len(mech.coordinates)
+    return Problem(where.file, where.line, where.key,
+                   f"the initial state is at a singular configuration: constraint "
+                   f"{weakest.name!r} ({weakest.loc.key}, line {weakest.loc.line}) loses rank "
+                   f"there (rank {here} there, {elsewhere} elsewhere), where the degrees of "
+                   f"freedom ({n - here} there, {n - elsewhere} elsewhere) are not the "
+                   "mechanism's; start away from it (a run passes such positions, decision "
+                   "0036, but cannot start at one)")
 
 
 def assembly_problem(mech: m.Mechanism, phi, jacobian, start: np.ndarray, given: np.ndarray,

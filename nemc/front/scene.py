@@ -91,6 +91,9 @@ def _t_span(ctx: Context, node: Node) -> tuple[float, float] | None:
     return (t0, t1)
 
 
+LARGEST_STATE = 1e150  # a state's value whose square (centripetal terms, distances) is finite
+
+
 def _initial(ctx: Context, node: Node, path: str = "simulation.initial",
              rates: bool = True) -> dict[str, sympy.Expr]:
     """Values of the state's coordinates (and, where `rates`, of their rates): `initial`, or
@@ -121,6 +124,12 @@ def _initial(ctx: Context, node: Node, path: str = "simulation.initial",
             ctx.problem(node.key_lines[key], join_path(path, key), f"{name} is given twice")
             continue
         expr = read_fixed(ctx, value, join_path(path, key))
+        if expr is not None and expr.is_number and not abs(float(expr)) <= LARGEST_STATE:
+            ctx.problem(node.key_lines[key], join_path(path, key), f"{float(expr):g} is too "
+                        f"large: a state's values are at most {LARGEST_STATE:g} in size (their "
+                        "squares, in every centripetal term and loop distance, must stay "
+                        "finite)")
+            continue
         if expr is not None:
             initial[name] = expr
     return initial

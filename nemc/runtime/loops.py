@@ -20,6 +20,17 @@ from .failures import ModelError, loop_equation
 ASSEMBLY_TOLERANCE = 1e-10  # what an assembled or given state may leave of a constraint
 
 
+SINGULAR_START = 1e-6  # a start where Phi_q's singular values fall below this (relative)
+GENERIC_SAMPLES = 5  # random positions at which Phi_q's rank away from singularities is taken
+
+
+def matrix_rank(matrix: np.ndarray, relative: float = 1e-9) -> int:
+    """The numerical rank: singular values over RELATIVE x the largest entry (at least 1)."""
+    if not matrix.size or not np.all(np.isfinite(matrix)):
+        return 0
+    return int(np.linalg.matrix_rank(matrix, tol=relative * max(1.0, np.abs(matrix).max())))
+
+
 class Loops:
     """The closed loops of one build (none for a tree: then every state is consistent)."""
 
@@ -31,6 +42,7 @@ class Loops:
         # the constraint owning each constraint equation (empty for a tree)
         self.constraint_equations: tuple[str, ...] = compiled.constraint_equations
         self.has_loops = bool(self.constraint_equations)
+        self._generic_rank: tuple[Any, int] = (None, 0)  # ((t, p), Phi_q's generic rank)
         # (equation, its offset's index in p) of the equations that hold "as at the start"
         self.starts: list[tuple[int, int]] = [tuple(pair) for pair in  # type: ignore[misc]
                                               metadata.get("constraint_starts", [])]
@@ -87,6 +99,43 @@ class Loops:
             project(1, buffer(ts[k:k + 1]), buffer(ys[k]), buffer(p), buffer(out[k]))
         return out.T
 
+    def jacobian_at(self, t: float, y: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Phi_q at (t, y) and parameters p (one row a constraint equation)."""
+        jacobian = np.empty((len(self.constraint_equations), len(self.state_names) // 2))
+        buffer = self.compiled.buffer
+        state = np.ascontiguousarray(y, dtype=float)
+        self._loop_c("constraint_jacobian")(float(t), buffer(state), buffer(p), buffer(jacobian))
+        return jacobian
+
+    def generic_rank(self, t: float, p: np.ndarray) -> int:
+        """The rank Phi_q has away from singular configurations: its largest at a few seeded
+        random positions (a singular one is a set of measure zero), kept per parameters."""
+        key = (float(t), p.tobytes())
+        if self._generic_rank[0] != key:
+            rng = np.random.default_rng(51)
+            n = len(self.state_names) // 2
+            states = [np.concatenate([rng.uniform(-np.pi, np.pi, n), np.zeros(n)])
+                      for _ in range(GENERIC_SAMPLES)]
+            self._generic_rank = (key, max(matrix_rank(self.jacobian_at(t, y, p))
+                                           for y in states))
+        return self._generic_rank[1]
+
+    def singular_start(self, t0: float, y0: np.ndarray, p: np.ndarray) -> str:
+        """Whether the start y0 is at a singular configuration (Phi_q loses rank there): the
+        note naming the constraint most involved and the ranks, or ''."""
+        jacobian = self.jacobian_at(t0, y0, p)  # a start the solve nears only to 1e-8 or so
+        rank, generic = matrix_rank(jacobian, SINGULAR_START), self.generic_rank(t0, p)
+        if rank >= generic:
+            return ""
+        left = np.linalg.svd(jacobian)[0]
+        weakest = self.constraint_equations[int(np.abs(left[:, rank]).argmax())]
+        n = len(self.state_names) // 2
+        return (f"the initial state is at a singular configuration: constraint {weakest!r} "
+                f"loses rank there (Phi_q has rank {rank} there, {generic} elsewhere), where "
+                f"the degrees of freedom ({n - rank} there, {n - generic} elsewhere) and the "
+                "rates are not the mechanism's; start away from it (a run passes such "
+                "positions, decision 0036, but cannot start at one)")
+
     def singularity_note(self, t: float, y: np.ndarray, p: np.ndarray) -> str:
         """Where a run of a closed loop stopped, whether the constraints lose rank there (a
         singular configuration), naming the constraint most involved; '' if they do not."""
@@ -111,12 +160,13 @@ class Loops:
 
     # -- assembly -------------------------------------------------------------------------
 
-    def assembled(self, t0: float, y0: np.ndarray, given: np.ndarray, p: np.ndarray
-                  ) -> tuple[np.ndarray, int]:
+    def assembled(self, t0: float, y0: np.ndarray, given: np.ndarray, p: np.ndarray,
+                  check_start: bool = True) -> tuple[np.ndarray, int]:
         """y0 made consistent at t0: the entries marked given kept, the others solved from the
         constraints starting from their values in y0 (the guess); and the number of degrees of
         freedom left (coordinates less the rank of Phi_q). Raises the model's error naming the
-        constraint that cannot hold."""
+        constraint that cannot hold, or (check_start: a run's start, not a kinematic
+        analysis's later step) the singular configuration it starts at."""
         if not self.has_loops:
             return y0, len(self.state_names) // 2
         state = np.ascontiguousarray(y0, dtype=float).copy()
@@ -127,7 +177,10 @@ class Loops:
                                           self.compiled.ffi.from_buffer("int[]", mask),
                                           buffer(p), buffer(info))
         if status:
-            raise ModelError(self.assembly_failure(status, info, given))
+            singular = self.singular_start(t0, state, p) if check_start else ""
+            raise ModelError(singular or self.assembly_failure(status, info, given))
+        if check_start and (singular := self.singular_start(t0, state, p)):
+            raise ModelError(singular)
         freedom = len(self.state_names) // 2 - int(info[4])
         # equations on the velocities leave positions that move with the rates: integrated,
         # never a kinematic analysis, even where they leave no freedom of motion
@@ -180,7 +233,7 @@ class Loops:
         states, state = [], y0
         for t in times:
             try:
-                state, _ = self.assembled(float(t), state, nothing, p)
+                state, _ = self.assembled(float(t), state, nothing, p, check_start=False)
             except ValueError as error:
                 return (times[:len(states)], np.array(states).T.reshape(self.n_state, -1),
                         f"at t={float(t):.9g}: {error}")

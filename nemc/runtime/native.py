@@ -17,7 +17,7 @@ from .checks import native_tolerances
 from .compiled import Compiled
 from .failures import IntegrationFailure, ModelError
 from .inputs import RunInputs
-from .outcome import RunSpec, ended_early, failed, gave_up, lazy_outputs
+from .outcome import RunSpec, ended_early, failed_after, gave_up, lazy_outputs
 from .results import SUCCESS_MESSAGE, SimulationResult
 
 
@@ -125,7 +125,8 @@ def simulate_native(model: BuiltModel, spec: RunSpec, ending: list | None = None
                                       TAYLOR_METHODS else "dynamics_program")
         failure = IntegrationFailure(run.t_fail, out[-1], run.rhs_status, model.state_names,
                                      cause)
-        return failed(failure, method, rtol, atol, model.parameters_at(p))
+        return failed_after(model, spec, failure, t, y, (run.nfev, run.njev, run.nlu),
+                            events, (rtol, atol))
     else:
         message = native_message(model, spec, run, out[-1])
     # positional, in the fields' order: keywords cost 0.4 us more (issue 19)

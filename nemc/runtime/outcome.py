@@ -6,7 +6,7 @@ solver gave up)."""
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -76,12 +76,30 @@ def at_start(model: BuiltModel, spec: RunSpec) -> SimulationResult:
 
 def failed(failure: IntegrationFailure, method: str, rtol: float, atol: float,
            params: dict[str, float] | None) -> SimulationResult:
-    """A result that says where and why the equations could not be evaluated."""
+    """A result that says where and why the equations could not be evaluated, with no state
+    computed before (a run that could not start)."""
     return SimulationResult(
         t=np.array([failure.t]), y=failure.y.reshape(-1, 1), outputs={}, nfev=0, njev=0,
-        nlu=0, status=-1, message=f"integration failed: {failure}", success=False,
-        method=method, rtol=rtol, atol=atol, params=dict(params or {}),
+        nlu=0, status=runs.EQUATIONS_FAILED, message=f"integration failed: {failure}",
+        success=False, method=method, rtol=rtol, atol=atol, params=dict(params or {}),
     )
+
+
+def failed_after(model: BuiltModel, spec: RunSpec, failure: IntegrationFailure,
+                 t: np.ndarray, y: np.ndarray, counts: tuple[int, int, int],
+                 events: dict[str, tuple[np.ndarray, np.ndarray]],
+                 tolerances: tuple[float, float]) -> SimulationResult:
+    """A run whose equations (an event's function, an impact law) failed mid-run: the states
+    (t, y) and events it computed before, their outputs, status EQUATIONS_FAILED, and where
+    and why it failed (tolerances: the run's, as its method used them). A run that failed
+    before its first state returns the failing one, as `failed`."""
+    if not t.size:
+        return replace(failed(failure, spec.method, *tolerances, model.parameters_at(spec.p)),
+                       nfev=counts[0], njev=counts[1], nlu=counts[2], events=events)
+    return SimulationResult(
+        t, y, lazy_outputs(model, t, y, spec.p, spec.inputs), *counts, runs.EQUATIONS_FAILED,
+        f"integration failed: {failure}", False, spec.method, *tolerances,
+        model.parameters_at(spec.p), events)
 
 
 def gave_up(model: BuiltModel, message: str, t: float, y: np.ndarray, p: np.ndarray) -> str:

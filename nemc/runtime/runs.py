@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from .failures import IntegrationFailure
+
 DEFAULT_MAX_STEPS = 1_000_000  # accepted steps; 0: no budget
 DEFAULT_MAX_EVENTS = 32  # simulate_many: the event times kept per run
 PACE_WINDOW = 1000  # as run_control.c.tmpl: steps between two looks at the pace,
@@ -420,6 +422,14 @@ class ScipyControl:
     stop: int = 0  # the status that ends the run before the next step
     t: float = math.nan  # where it ended, and the state there
     y: np.ndarray = field(default_factory=lambda: np.empty(0))
+    failure: IntegrationFailure | None = None  # what ended the run, if the equations failed
+
+    def fail(self, failure: IntegrationFailure) -> None:
+        """The equations (an event's function, an impact law) failed: the run ends before the
+        next step, its states so far kept (status EQUATIONS_FAILED)."""
+        if self.failure is None:
+            self.failure = failure
+        self.stop = EQUATIONS_FAILED
 
     def before_step(self, solver: Any) -> str | None:
         """A reason to stop now (the last accepted step is then the run's last), or None."""
@@ -501,7 +511,11 @@ def controlled_solver(base: type) -> type:
                 reason = self.control.before_step(self)
                 if reason:
                     return False, reason
-                success, message = super()._step_impl()
+                try:
+                    success, message = super()._step_impl()
+                except IntegrationFailure as failure:  # the steps so far are kept
+                    self.control.fail(failure)
+                    return False, "the equations failed"
                 if success:
                     self.control.after_step(self)
                 return success, message
@@ -550,6 +564,7 @@ class _Segments:
         self.direction = 1.0 if span[1] >= span[0] else -1.0
         count = len(model_events.names) if model_events else 0
         self.cooldown: dict[int, tuple[float, int]] = {}  # event -> (until, side)
+        self.last_values: dict[int, float] = {}  # event -> its latest finite value
         self.last_impact: dict[int, float] = {}
         self.user_counts = [0] * len(self.user_events)
         self.names = (list(model_events.names) if model_events else []) + [
@@ -570,7 +585,12 @@ class _Segments:
         until_side = self.cooldown.get(k)
 
         def event(t: float, y: np.ndarray) -> float:
-            value = float(events.values(t, y)[k])
+            try:
+                value = float(events.values(t, y)[k])
+            except IntegrationFailure as failure:  # the run ends before the next step
+                self.control.fail(failure)
+                return self.last_values.get(k, 1.0)  # no crossing here
+            self.last_values[k] = value
             if until_side and self.direction * (until_side[0] - t) >= 0:
                 # just after its impact: on the side it leaves to (never 0: brentq would
                 # take the segment's start for the root)
@@ -601,7 +621,16 @@ class _Segments:
     # -- the run --
 
     def run(self, y0: np.ndarray) -> ScipyOutcome:
+        """The run from y0; where the equations fail, the states before (control.failure)."""
         self.n_state = len(y0)
+        try:
+            return self.segments(y0)
+        except IntegrationFailure as failure:  # at a segment's start, or an impact law
+            self.control.fail(failure)
+            return self.outcome(EQUATIONS_FAILED, str(failure))
+
+    def segments(self, y0: np.ndarray) -> ScipyOutcome:
+        """run's segments, one after the other."""
         stops = list(self.control.settings.tstops) + [self.span[1]]
         t, y, first = self.span[0], y0, True
         while True:

@@ -13,7 +13,7 @@ from . import runs
 from .built import BuiltModel
 from .failures import IntegrationFailure
 from .inputs import RunInputs
-from .outcome import RunSpec, ended_early, failed, gave_up, lazy_outputs
+from .outcome import RunSpec, ended_early, failed, failed_after, gave_up, lazy_outputs
 from .results import SimulationResult
 
 
@@ -36,9 +36,13 @@ def simulate_scipy(model: BuiltModel, spec: RunSpec) -> SimulationResult:
                 solve_ivp, rhs, method, spec.span, spec.state0,
                 None if spec.times is None else np.asarray(spec.times, dtype=float), options,
                 model_events, spec.user_events, settings, flag)
-    except IntegrationFailure as failure:
+    except IntegrationFailure as failure:  # the Jacobian's, before the run
         return failed(failure, method, rtol, atol, model.parameters_at(p))
     status, message = outcome.status, outcome.message
+    if control.failure is not None:  # the equations failed: the states before, kept
+        return failed_after(model, spec, control.failure, outcome.t, outcome.y,
+                            (outcome.nfev, outcome.njev, outcome.nlu), outcome.events,
+                            (rtol, atol))
     if control.stop:  # the budget, the pace, the stiffness test or Ctrl-C ended it
         status = control.stop
         message = ended_early(model, runs.Ending(

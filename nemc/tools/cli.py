@@ -334,7 +334,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     except KeyboardInterrupt as stop:  # SweepInterrupted, or Ctrl-C while setting up
         print(f"\n{interrupted_sweep(stop, out)}", file=sys.stderr)
         return 130
-    except ImportError as error:
+    except (ImportError, sweeps.WorkersFailed) as error:
         print(f"nemc: {error}", file=sys.stderr)
         return 1
     return report_sweep(result)
@@ -551,6 +551,10 @@ def run_settings(model, args: argparse.Namespace) -> dict:
                 raise ValueError(f"--initial: unknown coordinate or rate {name!r}{hint}; the "
                                  f"state is {', '.join(model.state_names)}")
             y0[model.state_names.index(name)] = value
+        if model.has_loops:  # the given values kept, the others solved from the constraints
+            given = {*model.metadata.get("initial_given", ()), *(n for n, _ in args.initial)}
+            y0 = {name: float(y0[k]) for k, name in enumerate(model.state_names)
+                  if name in given}
     t_eval = None
     if getattr(args, "t_eval", None) is not None:
         kind, values = args.t_eval

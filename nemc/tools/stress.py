@@ -56,21 +56,36 @@ def methods(explicit_only: bool = False, model: Model | None = None) -> tuple[st
 
 @dataclass(frozen=True)
 class Reference:
-    """A tight DOP853 run, and a bound on its own error (its distance to a 100x looser run)."""
+    """A tight DOP853 run, and a bound on its own error (its distance to a 100x looser run);
+    ended: why it ends before the span asked (an event's stop, impacts that accumulate), or
+    ""."""
 
     result: SimulationResult
     own_error: float
+    ended: str = ""
+
+
+ENDS_BY_EVENTS = (runs.STOPPED_BY_EVENT, runs.CHATTERING)  # a scene's own end, not a failure
 
 
 def reference(model: Model, t_span: Sequence[float], times: np.ndarray, params: Params = None,
               y0: np.ndarray | None = None, rtol: float = REFERENCE_RTOL) -> Reference:
+    """The reference over T_SPAN at TIMES; where the scene's events end it early (a stopping
+    event, a ball coming to rest), over the times before that end, which `ended` names."""
     tight = model.simulate(t_span, y0, method="DOP853", t_eval=times, rtol=rtol,
                            atol=rtol * 1e-2, params=params)
+    ended = ""
+    if tight.status in ENDS_BY_EVENTS and np.sum(times < tight.t[-1]) >= 2:
+        ended = tight.message.split(" End t_span")[0].rstrip(".")
+        times = times[times < tight.t[-1]]  # both runs over the part before the end
+        t_span = (t_span[0], float(times[-1]))
+        tight = model.simulate(t_span, y0, method="DOP853", t_eval=times, rtol=rtol,
+                               atol=rtol * 1e-2, params=params)
     check = model.simulate(t_span, y0, method="DOP853", t_eval=times, rtol=rtol * 100,
                            atol=rtol, params=params)
     if not (tight.success and check.success):
         raise runtime.ModelError(f"the reference run failed: {tight.message} {check.message}")
-    return Reference(tight, float(np.max(np.abs(tight.y - check.y))))
+    return Reference(tight, float(np.max(np.abs(tight.y - check.y))), ended)
 
 
 def state_errors(result: SimulationResult, truth: SimulationResult) -> np.ndarray:
@@ -128,14 +143,25 @@ def loosest_tolerance(runs: Sequence[Run], method: str, target: float = TRUST_ER
     return passing
 
 
+def impacts_once(result: SimulationResult) -> tuple[np.ndarray, np.ndarray]:
+    """The run's times and states with an impact's time once (its steps hold the states
+    before and after it at one time, which no t_eval may repeat): the state after it."""
+    after = np.append(np.diff(result.t) != 0, True)
+    return result.t[after], result.y[:, after]
+
+
 def error_estimate(model: Model, result: SimulationResult, params: Params = None
                    ) -> tuple[dict[str, float], float, float]:
     """max |y - y_ref| per state over the run's times, y_ref from DOP853 at rtol/1000, atol/1000
-    (rtol at least 1e-13): (errors, reference rtol, reference atol)."""
+    (rtol at least 1e-13): (errors, reference rtol, reference atol). At an impact's time (the
+    state before and after it) the state after it is compared."""
     rtol, atol = max(result.rtol / 1000, 1e-13), result.atol / 1000
-    truth = model.simulate((result.t[0], result.t[-1]), result.y[:, 0], method="DOP853",
-                           t_eval=result.t, rtol=rtol, atol=atol, params=params)
-    return dict(zip(model.state_names, state_errors(result, truth).tolist())), rtol, atol
+    t, y = impacts_once(result)
+    truth = model.simulate((t[0], t[-1]), y[:, 0], method="DOP853", t_eval=t, rtol=rtol,
+                           atol=atol, params=params)
+    errors = np.full(y.shape[0], np.inf) if not result.success or truth.y.shape != y.shape \
+        else np.max(np.abs(y - truth.y), axis=1)
+    return dict(zip(model.state_names, errors.tolist())), rtol, atol
 
 
 # -- energy ----------------------------------------------------------------------------------
@@ -319,6 +345,8 @@ def divergence(model: Model, ref: Reference, delta: float = 1e-6, params: Params
     tighter than DELTA: the separation measured is the dynamics', not the integrator's). With
     closed loops the rest of the moved start is assembled from the constraints."""
     truth = ref.result
+    if truth.method == "kinematic":  # no degree of freedom: no initial value to move
+        return np.zeros(truth.t.size)
     start: Any = truth.y[:, 0].copy()
     start[0] += delta
     if model.has_loops:  # the other coordinates and rates follow from the constraints
@@ -437,6 +465,7 @@ def agreement(model: Model, params: Params = None) -> tuple[str, str, float]:
     same tolerances: (method, other method, max |difference| over the scene's times)."""
     own = model.simulate(params=params)
     other = "DOP853" if own.method in runtime.IMPLICIT_METHODS else "Radau"
-    second = model.simulate(method=other, t_eval=own.t, params=params)
-    difference = float(np.max(np.abs(own.y - second.y))) if second.success else math.inf
+    t, y = impacts_once(own)
+    second = model.simulate(method=other, t_eval=t, params=params)
+    difference = float(np.max(np.abs(y - second.y))) if second.success else math.inf
     return own.method, other, difference

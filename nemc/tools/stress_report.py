@@ -251,7 +251,8 @@ def energy_section(st: Study) -> list[str]:
         f"{g(long.t[-1] - long.t[0], 4)} s; |ΔE/E| is |E(t) − E(0)| over max(|E(0)|, max T). "
         f"Rate: least-squares slope of |ΔE/E| against t. Trusted until: first time the state "
         f"is off the reference by more than {g(s.TRUST_ERROR)} (reference error ≤ "
-        f"{g(st.horizon.own_error)}).", "",
+        f"{g(st.horizon.own_error)})."
+        + (f" The long run ends early: {st.horizon.ended}." if st.horizon.ended else ""), "",
         *table(["method", "rtol", "RHS calls", "max abs(ΔE/E)", "rate (1/s)",
                 "trusted"], rows), "",
         "- Drift rate ∝ rtol^p: " + ", ".join(exponents) + ".", "",
@@ -287,6 +288,10 @@ def until(drift: s.Drift) -> str:
 def sensitivity_section(st: Study) -> list[str]:
     lam = st.lyapunov
     t = st.horizon.result.t
+    if st.horizon.result.method == "kinematic":
+        return ["## Sensitivity to the initial state", "",
+                "No degree of freedom is left by the drives (a kinematic analysis): the motion "
+                "is prescribed, no initial value can be moved.", ""]
     lines = [
         "## Sensitivity to the initial state", "",
         f"- Largest Lyapunov exponent (Benettin renormalization of the variational equations "
@@ -380,7 +385,7 @@ def figure(st: Study, path: Path) -> None:
 def plot_accuracy(st: Study, ax) -> None:
     for m in dict.fromkeys(r.method for r in st.runs):
         runs = [r for r in st.runs if r.method == m]
-        ax.loglog([r.nfev for r in runs], [max(r.max_error, 1e-16) for r in runs], "o-",
+        ax.loglog([max(r.nfev, 1) for r in runs], [max(r.max_error, 1e-16) for r in runs], "o-",
                   label=m, ms=3)
     ax.axhline(s.TRUST_ERROR, color="k", lw=0.8, ls="--")
     ax.set(xlabel="RHS calls", ylabel="max |y − y_true|", title="work / precision")

@@ -740,6 +740,29 @@ def ctrl_c_ignored() -> Iterator[None]:
         signal.signal(signal.SIGINT, previous)
 
 
+class WorkersFailed(RuntimeError):
+    """The worker processes of `--dask local:N` could not start (one line, the cause's)."""
+
+
+def local_cluster(distributed: Any, workers: int, address: str) -> Any:
+    """A LocalCluster of WORKERS processes, one thread each; its workers' start failing (an
+    import, a preload, memory: "Nanny failed to start" and a traceback per worker) is a
+    WorkersFailed naming the first cause. Their logs below CRITICAL are silenced (not their
+    cancelled tasks, nor each failed start's traceback)."""
+    try:
+        with ctrl_c_ignored():  # inherited by the worker processes: the sweep handles it
+            return distributed.LocalCluster(
+                n_workers=workers, threads_per_worker=1, processes=True,
+                dashboard_address=":0", silence_logs=logging.CRITICAL)
+    except (RuntimeError, OSError, TimeoutError, ImportError) as error:
+        cause: BaseException = error
+        while cause.__cause__ is not None or cause.__context__ is not None:
+            cause = cause.__cause__ or cause.__context__  # type: ignore[assignment]
+        why = f"{type(cause).__name__}: {cause}" if str(cause) else type(cause).__name__
+        raise WorkersFailed(f"--dask {address}: the worker processes could not start ({why})"
+                            ) from error
+
+
 @contextlib.contextmanager
 def dask_client(address: str | None) -> Iterator[Any]:
     """None: no client; 'local' or 'local:N': a LocalCluster of N worker processes (one
@@ -751,10 +774,7 @@ def dask_client(address: str | None) -> Iterator[Any]:
     name, _, count = address.partition(":")
     if name == "local":
         workers = int(count) if count else os.cpu_count() or 1
-        with ctrl_c_ignored():  # inherited by the worker processes: the sweep handles it
-            cluster = distributed.LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True,
-                dashboard_address=":0", silence_logs=logging.ERROR)  # not their cancelled tasks
+        cluster = local_cluster(distributed, workers, address)
         with cluster, distributed.Client(cluster) as client:
             yield client
     else:

@@ -1,0 +1,330 @@
+"""Hostile input and misuse, round 3, the rest of issue 51: a case per class, with inputs of its
+own (files made here), each in its own section: a run whose equations fail mid-run keeps what
+it computed; ..."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+TINY = ROOT / "tests" / "models" / "tiny.yaml"  # one rod on a pin: m 2, L 0.5
+
+
+# ---- 1. a run whose equations fail mid-run keeps the states before ------------------------
+
+FAILS_AT = 0.6  # T: the torque sqrt(T - t) is nan after it
+FAILING = """loads: [{torque: 'sqrt(T - t)', body: rod}]
+outputs: {expressions: {rate: dot(q)}}
+simulation:
+  t_span: [0, 1]
+  initial: {q: 0.1, dot(q): -0.5}
+  events:
+    passes: {when: q - 0.2, direction: rising}
+"""
+
+
+def rod_angle(t: np.ndarray, q0: float = 0.1, v0: float = -0.5, big_t: float = FAILS_AT
+              ) -> np.ndarray:
+    """The rod's angle under torque sqrt(T - t), no gravity, in closed form (I = m L^2 / 3)."""
+    inertia = 2 * 0.5**2 / 3
+    return q0 + v0 * t + 2 / (3 * inertia) * (
+        big_t**1.5 * t - 0.4 * (big_t**2.5 - (big_t - t)**2.5))
+
+
+@pytest.fixture(scope="module")
+def failing(tmp_path_factory: pytest.TempPathFactory):
+    import nemc
+
+    file = tmp_path_factory.mktemp("failing") / "failing.yaml"
+    file.write_text(TINY.read_text().replace("gravity: [0, -9.81]", "").replace(
+        "parameters: {m: 2, L: 0.5}", f"parameters: {{m: 2, L: 0.5, T: {FAILS_AT}}}")
+        + FAILING)
+    return nemc.compile(file)
+
+
+def failing_methods() -> list[str]:
+    from nemc.runtime.model import METHODS
+
+    return list(dict.fromkeys([*METHODS, "auto"]))
+
+
+@pytest.mark.parametrize("method", failing_methods())
+@pytest.mark.parametrize("at_times", [True, False])
+def test_a_run_that_fails_mid_run_keeps_its_states_events_and_outputs(
+        method: str, at_times: bool, failing) -> None:
+    """The torque sqrt(T - t) turns nan after T: the run ends with status -2 (the docs'
+    "equations failed"), its states before the failure kept (the closed form), the event it
+    found before (q rising through 0.2) kept, and the outputs along them computed."""
+    times = np.linspace(0, 1, 41) if at_times else None
+    run = failing.simulate(method=method, t_eval=times, rtol=1e-10, atol=1e-12)
+    assert run.status == -2 and not run.success, run.message
+    assert run.message.startswith("integration failed: at t=") and "not finite" in run.message
+    assert run.t.size >= 2 and run.t[0] == 0 and run.t[-1] <= FAILS_AT, run.t
+    if at_times:
+        np.testing.assert_array_equal(run.t, times[:run.t.size])
+    q = run.y[0]
+    np.testing.assert_allclose(q, rod_angle(run.t), atol=1e-7)
+    np.testing.assert_allclose(run.outputs["rate"], run.y[1], rtol=0, atol=0)
+    crossing = run.events["passes"][0]  # q = 0.2 rising (at t ~ 0.28): the closed form's root
+    assert crossing.size == 1 and abs(rod_angle(crossing)[0] - 0.2) < 1e-7, crossing
+
+
+FALLING = """simulation:
+  t_span: [0, 3]
+  initial: {q: 0}
+  events:
+"""
+EVENT_OR_LAW = {  # the failing part -> the cause its message names
+    "odd: {when: sqrt(q + 1) - 2, direction: rising}": "an event's function",
+    "half: {when: q + 0.5, direction: falling, action: {dot(q): log(q - 10)}}": "an impact law",
+}
+
+
+@pytest.fixture(scope="module")
+def falling(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """The rod let go horizontal (it falls through q = -0.5 at about 0.29 s and q = -1 at
+    about 0.43 s): with each failing event, and without (the reference, tight)."""
+    import nemc
+
+    folder = tmp_path_factory.mktemp("falling")
+    models = {}
+    for k, event in enumerate(["", *EVENT_OR_LAW]):
+        file = folder / f"falling{k}.yaml"
+        file.write_text(TINY.read_text() + FALLING.replace("  events:\n", "") if not event
+                        else TINY.read_text() + FALLING + f"    {event}\n")
+        models[event] = nemc.compile(file)
+    return models
+
+
+@pytest.mark.parametrize("method", failing_methods())
+@pytest.mark.parametrize("event", sorted(EVENT_OR_LAW))
+def test_an_event_function_or_law_failing_mid_run_keeps_the_states_before(
+        method: str, event: str, falling: dict) -> None:
+    """An event's function nan below q = -1, an impact law nan at q = -0.5: status -2, the
+    message naming it, the states before kept (a tight run without the event; scipy's methods
+    evaluate events after a step: theirs keep the step whose end the function failed at)."""
+    run = falling[event].simulate(method=method, rtol=1e-9, atol=1e-11)
+    assert run.status == -2 and EVENT_OR_LAW[event] in run.message, run.message
+    assert run.t.size >= 2 and run.t[0] == 0 and run.t[-1] < 0.5, run.t
+    assert np.all(run.y[0, :-1] > -1), run.y[0]  # scipy's keeps the step it failed after
+    failed_at = float(run.message.split("at t=")[1].split(":")[0])
+    assert run.t[-1] <= failed_at + 1e-8 and failed_at < 0.5, (run.t[-1], failed_at)
+    reference = falling[""].simulate((0, run.t[-1]), t_eval=run.t, method="DOP853",
+                                     rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(run.y, reference.y, atol=1e-6)
+
+
+@pytest.mark.parametrize("method", failing_methods())
+def test_a_run_that_fails_at_its_start_returns_the_state_it_failed_at(method: str,
+                                                                      tmp_path: Path) -> None:
+    """The torque sqrt(-1 - t) is nan from t = 0: status -2 and the one state it failed at."""
+    import nemc
+
+    file = tmp_path / "at_start.yaml"
+    file.write_text(TINY.read_text() + "loads: [{torque: 'sqrt(-1 - t)', body: rod}]\n"
+                    "simulation: {t_span: [0, 1], initial: {q: 0.25}}\n")
+    run = nemc.compile(file).simulate(method=method)
+    assert run.status == -2 and run.message.startswith("integration failed: at t=0:"), run.message
+    assert run.t.tolist() == [0.0] and run.y[:, 0].tolist() == [0.25, 0.0]
+
+
+# ---- 3. nemc stress on a ball that comes to rest and on a 0-DOF analysis --------------------
+
+RESTING_BALL = """name: resting_ball
+parameters: {m: 0.1, r: 0.02, e: 0.6, g: 9.81}
+gravity: [0, -g]
+bodies: {ball: {mass: m, inertia: 2*m*r**2/5}}
+joints: {flight: {type: free, parent: ground, child: ball, coordinates: [x, y, th]}}
+simulation:
+  t_span: [0, 1]
+  initial: {y: 0.5}
+  rtol: 1.0e-10
+  atol: 1.0e-12
+  events:
+    bounce: {when: y - r, direction: falling, action: {dot(y): -e*dot(y)}}
+"""
+
+
+def test_stress_measures_a_ball_that_comes_to_rest_before_its_horizon(tmp_path: Path,
+                                                                     capsys) -> None:
+    """The long reference (5 s) chatters where the bounces accumulate, at t0 (1 + e)/(1 - e)
+    (t0 = sqrt(2 h / g) the first fall): the report is written over the part before, and says
+    where and why the long run ended (it exited 2)."""
+    from nemc.tools.cli import main
+
+    file = tmp_path / "resting_ball.yaml"
+    file.write_text(RESTING_BALL)
+    assert main(["stress", str(file), "--out", str(tmp_path), "--horizon", "5"]) == 0
+    capsys.readouterr()
+    text = (tmp_path / "resting_ball.md").read_text()
+    ended = text.split("The long run ends early: event 'bounce' chatters at t = ")[1]
+    at_rest = np.sqrt(2 * 0.48 / 9.81) * 1.6 / 0.4
+    assert abs(float(ended.split(":")[0]) - at_rest) < 1e-4, ended[:80]
+
+
+def test_stress_reports_a_mechanism_without_a_degree_of_freedom(tmp_path: Path, capsys) -> None:
+    """A slider-crank whose crank is driven (0 DOF): the report is written (it exited 2 on a
+    start it could not move), saying no initial value can be moved."""
+    from nemc.tools.cli import main
+
+    text = (ROOT / "examples" / "slider_crank.yaml").read_text()
+    text = text.replace("coordinate: q1}", "coordinate: q1, motion: 20*t}").replace(
+        "  - torque: T0*(1 - dot(q1)/w0)\n    body: crank\n", "").replace(
+        "  initial: {q1: pi/4, dot(q1): 0}\n", "")
+    file = tmp_path / "driven_slider_crank.yaml"
+    file.write_text(text)
+    assert main(["stress", str(file), "--out", str(tmp_path), "--horizon", "3"]) == 0
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err
+    report = (tmp_path / "slider_crank.md").read_text()  # named after the model
+    assert "No degree of freedom is left by the drives" in report
+
+
+# ---- 7. --dask local:N whose workers die at start -------------------------------------------
+
+@pytest.mark.parametrize("preload", ["nemc_no_such_module_51", "nemc.no_such_part"])
+def test_workers_that_die_at_start_are_one_line(preload: str, tmp_path: Path) -> None:
+    """Workers whose start fails (here a preload that cannot be imported; in the field an
+    import, memory): exit 1, one line naming the cause (it was "Nanny failed to start" and a
+    traceback per worker), no store written."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+
+    pytest.importorskip("distributed")
+    shutil.copy(TINY, tmp_path / "m.yaml")
+    env = {**os.environ, "DASK_DISTRIBUTED__WORKER__PRELOAD": f'["{preload}"]'}
+    done = subprocess.run(
+        [sys.executable, "-c", "import sys; from nemc.tools.cli import main; "
+         "sys.exit(main(sys.argv[1:]))", "sweep", "m.yaml", "--grid", "m=1:2:2", "--t-end", "0.1",
+         "--dask", "local:1", "--out", "s.zarr"], cwd=tmp_path, env=env, capture_output=True,
+        text=True, timeout=300)
+    assert done.returncode == 1 and done.stdout == "", done.stderr
+    assert done.stderr.splitlines() == [
+        "nemc: --dask local:1: the worker processes could not start (ModuleNotFoundError: "
+        f"No module named '{preload}')"], done.stderr
+    assert not (tmp_path / "s.zarr").exists()
+
+
+# ---- 4. scene values that every run refuses, refused by `check` at their line ----------------
+
+@pytest.mark.parametrize("example, key, value", [
+    ("tiny", "dot(q)", "1e200"), ("tiny", "q", "-3.5e151"),
+    ("slider_crank", "dot(q1)", "1e308"), ("slider_crank", "q1", "2e160"),
+])
+def test_check_refuses_initial_values_no_run_can_take(example: str, key: str, value: str,
+                                                      tmp_path: Path, capsys) -> None:
+    """A rate or coordinate whose square overflows (every centripetal term, a loop's
+    distances): `check` names its line (a run failed with "accelerations not finite", or a
+    loop's "given rates cannot satisfy", blamed on --set/options)."""
+    from nemc.tools.cli import main
+
+    source = TINY if example == "tiny" else ROOT / "examples" / f"{example}.yaml"
+    file = tmp_path / "big.yaml"
+    text = source.read_text()
+    if example == "tiny":
+        text += f"simulation: {{t_span: [0, 1], initial: {{{key}: {value}}}}}\n"
+    else:
+        text = text.replace("initial: {q1: pi/4, dot(q1): 0}", f"initial: {{{key}: {value}}}")
+    file.write_text(text)
+    line = next(k for k, row in enumerate(text.splitlines(), 1) if f"{key}: {value}" in row)
+    assert main(["check", str(file)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{file}:{line}: simulation.initial.{key}: ") and "too large" in err
+
+
+@pytest.mark.parametrize("rate", [1e8, 1e12, 1e40])
+def test_large_consistent_rates_of_a_loop_are_assembled(rate: float, tmp_path: Path) -> None:
+    """The rates' residual is relative to their terms' size: dot(q1) = 1e8 was refused ("the
+    given rates cannot satisfy constraint") for a rounding of 1e-8. The rates solved satisfy
+    Phi_q q' = 0 to rounding (the slider-crank's loop has no time term)."""
+    import nemc
+
+    model = nemc.compile(ROOT / "examples" / "slider_crank.yaml")
+    run = model.simulate((0, 0), {"q1": 0.7, "dot(q1)": rate})  # the assembled start
+    assert run.success, run.message
+    y0 = run.y[:, 0]
+    position, velocity = model.constraint_residual(y0)
+    assert position < 1e-10 and velocity <= 1e-12 * rate, (position, velocity)
+    assert y0[model.state_names.index("dot(q1)")] == rate
+
+
+# ---- 5. degrees of freedom counted at a singular start --------------------------------------
+
+def parallelogram(tmp_path: Path, start: str) -> Path:
+    """A parallelogram four-bar (ground and coupler 0.4, crank and rocker 0.1) with its crank
+    driven from angle START: flat, a singular configuration, at 0."""
+    text = (ROOT / "examples" / "fourbar_driven.yaml").read_text()
+    for old, new in (("  L2: 0.35", "  L2: 0.4"), ("  L3: 0.3", "  L3: 0.1"),
+                     ("motion: pi/2 + w*t", f"motion: {start} + w*t"),
+                     ("guess: {q2: 0.5, q3: 1.9}", f"guess: {{q2: 0.01, q3: {start} + 0.02}}")):
+        assert old in text
+        text = text.replace(old, new)
+    file = tmp_path / f"parallelogram_{start}.yaml"
+    file.write_text(text)
+    return file
+
+
+def test_a_start_at_a_singular_configuration_is_refused_by_name(tmp_path: Path,
+                                                                capsys) -> None:
+    """Flat at the start, Phi_q loses rank: 1 degree of freedom counted there instead of 0
+    (`check` said 1; the run failed on "given rates cannot satisfy"). Both name the singular
+    start and the constraint."""
+    import nemc
+    from nemc.runtime.model import ModelError
+    from nemc.tools.cli import main
+
+    file = parallelogram(tmp_path, "0")
+    assert main(["check", str(file)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{file}:") and "the initial state is at a singular configuration: "\
+        "constraint 'C'" in err and "(1 there, 0 elsewhere)" in err, err
+    model = nemc.compile(parallelogram(tmp_path, "0.3"))  # compiles away from the flat
+    flat = -0.3 / (2 * np.pi)  # q1 = 0.3 + w t is 0 there
+    with pytest.raises(ModelError, match="the initial state is at a singular "
+                                         "configuration: constraint 'C'"):
+        model.simulate((flat, 0.1), y0={"q2": 0.0, "q3": 0.0})
+    # away from it: a kinematic analysis (0 DOF) on the parallelogram branch, q2 = 0, q3 = q1
+    run = model.simulate((0, 0.04), t_eval=np.linspace(0, 0.04, 5))
+    assert run.success and run.method == "kinematic", run.message
+    names = model.state_names
+    np.testing.assert_allclose(run.y[names.index("q2")], 0, atol=1e-9)
+    np.testing.assert_allclose(run.y[names.index("q3")], 0.3 + 2 * np.pi * run.t, atol=1e-9)
+
+
+# ---- 6. --initial on a closed loop: the given values kept, the others solved ----------------
+
+@pytest.mark.parametrize("initial, kept", [
+    (["q1=1.2"], {"q1": 1.2, "dot(q1)": 0.0}),  # the scene's dot(q1) kept too
+    (["q1=-0.4", "dot(q1)=5"], {"q1": -0.4, "dot(q1)": 5.0}),
+    (["dot(q1)=-3"], {"q1": np.pi / 4, "dot(q1)": -3.0}),
+])
+def test_initial_values_of_a_closed_loop_are_kept_and_the_rest_solved(
+        initial: list[str], kept: dict, tmp_path: Path, capsys) -> None:
+    """`--initial` handed the whole state over (the scene's assembly with one value changed),
+    which the loop refused ("cannot be assembled with q1, dot(q1), q2, ... given"): now the
+    scene's given values and --initial's are kept and the others solved, the start on the
+    constraints (their residual, computed apart)."""
+    import csv
+
+    import nemc
+    from nemc.tools.cli import main
+
+    example = ROOT / "examples" / "slider_crank.yaml"
+    options = [part for value in initial for part in ("--initial", value)]
+    out = tmp_path / "run.csv"
+    assert main(["simulate", str(example), *options, "--t-end", "0.01", "--csv", str(out)]) == 0
+    capsys.readouterr()
+    with out.open() as handle:
+        first = next(csv.DictReader(handle))
+    model = nemc.compile(example)
+    row = {name.split(" ")[0]: float(value) for name, value in first.items()}
+    for name, value in kept.items():
+        assert row[name] == pytest.approx(value, abs=1e-12), (name, row)
+    y0 = np.array([row[name] for name in model.state_names])
+    position, velocity = model.constraint_residual(y0)
+    assert position < 1e-9 and velocity < 1e-9, (position, velocity)
