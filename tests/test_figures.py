@@ -153,3 +153,28 @@ def test_curves_drawn_against_a_state_entry_or_an_output(capsys) -> None:
     assert main(["simulate", str(EXAMPLES / "double_pendulum.yaml"), "--plot", "x.png",
                  "--x", "A.Fq"]) == 2
     assert "--x: no state entry or output 'A.Fq'" in capsys.readouterr().err
+
+
+def test_driven_coordinates_in_the_table_the_frame_and_the_figure(tmp_path: Path) -> None:
+    """fourbar_driven's crank angle q1 = pi/2 + w t (w = 2 pi) and its rate are outputs of
+    every run, against the closed form; in the CSV, the DataFrame (with their units) and the
+    figure's state column; and the curves can be drawn against q1."""
+    from nemc.tools.cli import main
+
+    res = model_of("fourbar_driven").simulate()
+    np.testing.assert_allclose(res.outputs["q1"], math.pi / 2 + 2 * math.pi * res.t,
+                               rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(res.outputs["dot(q1)"], 2 * math.pi, rtol=1e-15)
+    assert list(res.columns())[:7] == ["t", "q2", "dot(q2)", "q3", "dot(q3)", "q1", "dot(q1)"]
+    assert res.to_pandas().attrs["units"]["q1"] == res.model.metadata["unit_labels"]["q1"]
+    fig = figure(res)
+    assert labels(fig)[:3] == ["$q_{2}$ (rad)", "$q_{3}$ (rad)", "$q_{1}$ (rad)"]
+    assert not any(ax.get_ylabel() in ("q1", "dot(q1)") for ax in fig.axes)
+    against_q1 = figure(res, panels=["state"], x="q1")
+    assert labels(against_q1) == ["$q_{2}$ (rad)", "$q_{3}$ (rad)"]
+    assert against_q1.axes[0].get_xlabel() == "$q_{1}$ (rad)"
+    csv = tmp_path / "driven.csv"
+    assert main(["simulate", str(EXAMPLES / "fourbar_driven.yaml"), "--csv", str(csv)]) == 0
+    header = next(line for line in csv.read_text().splitlines() if line.startswith("t,"))
+    header = header.split(",")
+    assert header[5:7] == ["q1 [rad]", "dot(q1)"]

@@ -124,10 +124,29 @@ def pretty_unit(unit: str) -> str:
     return unit.replace("^2", "\u00b2").replace("^3", "\u00b3").replace("*", "\u00b7")
 
 
+def driven_outputs(model: Any) -> list[str]:
+    """The outputs that are driven coordinates (q1) and their rates (dot(q1)): known functions
+    of t, drawn with the state."""
+    kinds = model.metadata.get("quantities", {})
+    names = set(model.output_names)
+    driven = [n for n in model.output_names
+              if kinds.get(n) in ("angle", "length") and "." not in n and "(" not in n]
+    return [name for q in driven for name in (q, f"dot({q})") if name in names]
+
+
 def state_panels(model: Any, res: SimulationResult, labels: Labels) -> list[Panel]:
     """The book's layout: angle, rate and phase portrait for one coordinate; else each
-    coordinate against time."""
+    coordinate against time; then each driven coordinate (its prescribed motion)."""
     tlabel = labels.axis("t", "t")
+    driven = [Panel(labels.axis(math_label(q), q), [Curve(q, res.t, np.asarray(
+        res.outputs[q]) * labels.scale(q))], tlabel, legend=False)
+        for q in driven_outputs(model) if not q.startswith("dot(")]
+    return free_state_panels(model, res, labels, tlabel) + driven
+
+
+def free_state_panels(model: Any, res: SimulationResult, labels: Labels,
+                      tlabel: str) -> list[Panel]:
+    """The integrated state's panels (state_panels)."""
     coordinates = model.coordinate_names
     if len(coordinates) == 1:
         q, dq = model.state_names[:2]
@@ -144,6 +163,8 @@ def state_panels(model: Any, res: SimulationResult, labels: Labels) -> list[Pane
 def output_groups(model: Any, names: Sequence[str]) -> list[tuple[str, str, list[str]]]:
     """(kind, axis text, output names) for each output panel, in PANEL_KINDS order."""
     kinds = model.metadata.get("quantities", {})
+    driven = set(driven_outputs(model))
+    names = [n for n in names if n not in driven]
     joints = {name.rpartition(".")[0] for name in names
               if kinds.get(name) in ("joint force", "couple")}
     groups: list[tuple[str, str, list[str]]] = []
@@ -269,7 +290,8 @@ def against(panels: list[Panel], model: Any, res: SimulationResult, labels: Labe
                          f"{', '.join(columns)}")
     values = np.asarray(columns[x], dtype=float) * labels.scale(x)
     tlabel = labels.axis("t", "t")
-    xlabel = labels.axis(math_label(x) if x in model.state_names else x, x)
+    coordinate = x in model.state_names or x in driven_outputs(model)
+    xlabel = labels.axis(math_label(x) if coordinate else x, x)
     drawn = []
     for panel in panels:
         if panel.path or panel.xlabel != tlabel:
