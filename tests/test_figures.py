@@ -178,3 +178,22 @@ def test_driven_coordinates_in_the_table_the_frame_and_the_figure(tmp_path: Path
     header = next(line for line in csv.read_text().splitlines() if line.startswith("t,"))
     header = header.split(",")
     assert header[5:7] == ["q1 [rad]", "dot(q1)"]
+
+
+def test_an_output_expressions_unit_labels_its_axis_column_and_frame(tmp_path: Path) -> None:
+    """cart_pole's `force: {value: F, unit: N}`: the unit in the figure's axis, the CSV's
+    header and the DataFrame's units; the values are the expressions' (F, F dot(x))."""
+    from nemc.tools.cli import main
+
+    model = model_of("cart_pole")
+    assert model.metadata["unit_labels"]["force"] == "N"
+    assert model.metadata["unit_labels"]["power"] == "W"
+    res = model.simulate(t_eval=[0.0, 0.1], inputs={"F": 2.5})
+    np.testing.assert_array_equal(res.outputs["force"], 2.5)
+    np.testing.assert_allclose(res.outputs["power"], 2.5 * res.y[1], rtol=1e-15)  # F dot(x)
+    assert labels(figure(res, panels=["expressions"])) == ["force (N)", "power (W)"]
+    assert res.to_pandas().attrs["units"]["force"] == "N"
+    csv = tmp_path / "cart.csv"
+    assert main(["simulate", str(EXAMPLES / "cart_pole.yaml"), "--csv", str(csv)]) == 0
+    header = next(line for line in csv.read_text().splitlines() if line.startswith("t "))
+    assert "force [N]" in header.split(",") and "power [W]" in header.split(",")

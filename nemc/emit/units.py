@@ -90,12 +90,14 @@ def power_of(unit: str | None, power: int) -> str:
 
 
 def unit_metadata(mech: m.Mechanism, output_names: list[str]) -> dict:
-    """What a build records of units: the declared ones, each column's kind and label."""
+    """What a build records of units: the declared ones, each column's kind and label (an
+    output expression's as its `unit:` says)."""
     kinds = quantities(mech, output_names)
     units = mech.units
     return {
         "units": {"length": units.length, "mass": units.mass, "time": units.time,
                   "angle": units.angle},
         "quantities": kinds,
-        "unit_labels": {name: label(kind, units) for name, kind in kinds.items()},
+        "unit_labels": {**{name: label(kind, units) for name, kind in kinds.items()},
+                        **dict(mech.outputs.units)},  # an expression's, as the YAML says
     }

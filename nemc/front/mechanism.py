@@ -61,6 +61,7 @@ class Outputs:
     accelerations: bool = False
     expressions: tuple[tuple[str, Expr], ...] = ()
     drives: tuple[str, ...] = ()  # driven joints' names
+    units: tuple[tuple[str, str], ...] = ()  # an expression's name -> its declared unit label
 
     @property
     def empty(self) -> bool:
