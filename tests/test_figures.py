@@ -197,3 +197,77 @@ def test_an_output_expressions_unit_labels_its_axis_column_and_frame(tmp_path: P
     assert main(["simulate", str(EXAMPLES / "cart_pole.yaml"), "--csv", str(csv)]) == 0
     header = next(line for line in csv.read_text().splitlines() if line.startswith("t "))
     assert "force [N]" in header.split(",") and "power [W]" in header.split(",")
+
+
+def test_title_size_and_only_the_curves_named(tmp_path: Path, capsys) -> None:
+    """title=, size= (inches) and only= (names or patterns): the panels left empty are left
+    out; the CLI's --title, --size W,H and --only write the same figure, 150 dpi."""
+    from matplotlib.image import imread
+
+    from nemc.tools.cli import main
+
+    res = model_of("slider_crank").simulate(t_eval=[0.0, 1.0])
+    fig = figure(res, title="crank and guide", size=(9, 6), only=["q1", "guide.F?"])
+    assert fig.get_suptitle() == "crank and guide"
+    assert tuple(fig.get_size_inches()) == (9.0, 6.0)
+    assert labels(fig) == ["$q_{1}$ (rad)", "reaction, ground axes", "reaction, body axes"]
+    assert [line.get_label() for line in fig.axes[1].lines] == ["guide.Fx", "guide.Fy"]
+    with pytest.raises(ValueError, match=r"nothing to draw.*only: nothing"):
+        figure(res, only=["nothing"])
+    path = tmp_path / "sc.png"
+    assert main(["simulate", str(EXAMPLES / "slider_crank.yaml"), "--t-eval", "1", "--plot",
+                 str(path), "--title", "T", "--size", "9,6", "--only", "q1,guide.*"]) == 0
+    assert imread(path).shape[:2] == (900, 1350)
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
+        main(["simulate", str(EXAMPLES / "slider_crank.yaml"), "--size", "9"])
+    assert "--size: expected W,H in inches" in capsys.readouterr().err
+
+
+def test_rounding_noise_is_drawn_as_zero_within_tolerance() -> None:
+    """The slider's angle q3 and the guide's couple are 0 (the couple but for rounding, below
+    the run's atol): flat at 0 with the note, not autoscaled noise; q1's panel is drawn as it is."""
+    res = model_of("slider_crank").simulate()
+    assert np.abs(res.y[4]).max() < res.atol  # q3
+    assert 0 < np.abs(res.outputs["guide.M"]).max() < res.atol  # noise (1e-15), not exactly 0
+    fig = figure(res, panels=["state", "reactions"])
+    by_label = {ax.get_ylabel(): ax for ax in fig.axes}
+    for name in ("$q_{3}$ (rad)", "constraint couple"):
+        ax = by_label[name]
+        assert [t.get_text() for t in ax.texts] == ["0 within tolerance (|values| < atol 1e-11)"]
+        assert not ax.lines[0].get_ydata().any() and ax.get_ylim() == (-1.0, 1.0)
+    assert not by_label["$q_{1}$ (rad)"].texts
+    assert by_label["$q_{1}$ (rad)"].lines[0].get_ydata()[-1] > 100  # the crank turns
+
+
+def chain_text(n: int) -> str:
+    """An n-link chain of uniform rods under gravity (relative angles q1..qn)."""
+    lines = [f"name: chain{n}", "parameters: {m: 1, L: 1, g: 9.81}", "gravity: [0, -g]",
+             "bodies:"]
+    lines += [f"  link{i}: {{mass: m, inertia: m*L**2/12, com: [L/2, 0], points: {{tip: [L, 0]}}}}"
+              for i in range(1, n + 1)]
+    lines.append("joints:")
+    lines += [f"  J{i}: {{type: revolute, parent: {'ground' if i == 1 else f'link{i - 1}'}, "
+              f"child: link{i}, at: {'[0, 0]' if i == 1 else 'tip'}, coordinate: q{i}}}"
+              for i in range(1, n + 1)]
+    lines += ["simulation: {t_span: [0, 0.5], initial: {q1: 0.5}}"]
+    return "\n".join(lines) + "\n"
+
+
+def test_a_large_mechanism_is_laid_out_to_a_readable_size() -> None:
+    """Past six coordinates, five to a panel with a legend; past eight rows of panels, more
+    columns; the height at most MAX_HEIGHT (a 20-link chain's figure was 46 inches high)."""
+    from nemc.tools import figures
+
+    res = nemc.compile(text=chain_text(7), name="chain7.yaml").simulate()
+    fig = figure(res)
+    assert [[line.get_label() for line in ax.lines] for ax in fig.axes] == [
+        ["q1", "q2", "q3", "q4", "q5"], ["q6", "q7"]]
+    assert labels(fig) == ["angle (rad)", "angle (rad)"]
+    places = figures.capped(figures.grid(20, 3))
+    rows, columns = (max(p[k] for p in places) + 1 for k in (0, 1))
+    assert rows <= figures.MAX_ROWS and columns <= figures.MAX_COLUMNS
+    assert len(set(places)) == 23  # no two panels in one place
+    panels = [figures.Panel("y", [figures.Curve("a", np.arange(3.0), np.arange(3.0))], "t")]
+    tall = figures.draw(panels * 20, panels * 3, "20 panels")
+    assert tall.get_size_inches()[1] <= figures.MAX_HEIGHT

@@ -33,6 +33,10 @@ PANEL_KINDS = ("state", "reactions", "drives", "energy", "points", "acceleration
 POINTS_PER_STEP = 12  # dense sampling: curve points per solver step
 MIN_POINTS, MAX_POINTS = 1500, 200_000
 PANEL_SIZE = (6.4, 2.3)  # inches, one panel
+MAX_ROWS, MAX_COLUMNS = 8, 4  # past MAX_ROWS rows of panels, more columns (up to MAX_COLUMNS)
+MAX_HEIGHT = 18.0  # inches: a large mechanism's figure; its panels get lower, not the page longer
+SEPARATE = 6  # past this many coordinates, several to a panel
+PER_PANEL = 5  # coordinates to a panel then
 DPI = 150
 NOTEBOOK_DPI = 100  # a notebook's image: matplotlib's inline backend's size
 COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
@@ -67,6 +71,7 @@ class Panel:
     xlabel: str = ""
     path: bool = False
     legend: bool = True
+    within: float | None = None  # every |value| below this tolerance: drawn as 0 with a note
 
 
 # ---- dense sampling ---------------------------------------------------------------------------
@@ -154,10 +159,28 @@ def free_state_panels(model: Any, res: SimulationResult, labels: Labels,
         return [Panel(labels.axis(math_label(q), q), [Curve(q, res.t, x)], tlabel, legend=False),
                 Panel(labels.axis(math_label(dq), dq), [Curve(dq, res.t, v)], tlabel,
                       legend=False),
-                Panel(labels.axis(math_label(dq), dq), [Curve("phase", x, v)],
+                Panel(labels.axis(math_label(dq), dq), [Curve(q, x, v)],
                       labels.axis(math_label(q), q), legend=False)]
+    if len(coordinates) > SEPARATE:
+        return grouped_coordinates(model, res, labels, tlabel)
     return [Panel(labels.axis(math_label(q), q), [Curve(q, res.t, res.y[2 * i] * labels.scale(q))],
                   tlabel, legend=False) for i, q in enumerate(coordinates)]
+
+
+def grouped_coordinates(model: Any, res: SimulationResult, labels: Labels,
+                        tlabel: str) -> list[Panel]:
+    """Many coordinates: PER_PANEL to a panel (those of one unit together), with a legend."""
+    coordinates = model.coordinate_names
+    index = {q: 2 * i for i, q in enumerate(coordinates)}
+    panels = []
+    for unit in dict.fromkeys(labels.unit(q) for q in coordinates):
+        same = [q for q in coordinates if labels.unit(q) == unit]
+        for start in range(0, len(same), PER_PANEL):
+            chunk = same[start:start + PER_PANEL]
+            text = "angle" if labels.kinds.get(chunk[0]) == "angle" else "coordinate"
+            panels.append(Panel(labels.axis(text, chunk[0]), [
+                Curve(q, res.t, res.y[index[q]] * labels.scale(q)) for q in chunk], tlabel))
+    return panels
 
 
 def output_groups(model: Any, names: Sequence[str]) -> list[tuple[str, str, list[str]]]:
@@ -245,13 +268,28 @@ def grid(state: int, outputs: int) -> list[tuple[int, int]]:
     return [(k // 2, k % 2) for k in range(count)] if count > 4 else [(k, 0) for k in range(count)]
 
 
-def draw(state: list[Panel], outputs: list[Panel], title: str) -> ShownFigure:
-    """The report figure: panels on the grid above."""
-    places = grid(len(state), len(outputs))
+def capped(places: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """The grid's places, or past MAX_ROWS rows the panels in order down up to MAX_COLUMNS
+    columns (a large mechanism: the state first, down the first columns)."""
+    rows = max(r for r, _ in places) + 1
+    if rows <= MAX_ROWS:
+        return places
+    count = len(places)
+    columns = min(MAX_COLUMNS, max(2, math.ceil(count / MAX_ROWS)))
+    rows = math.ceil(count / columns)
+    return [(k % rows, k // rows) for k in range(count)]
+
+
+def draw(state: list[Panel], outputs: list[Panel], title: str,
+         size: tuple[float, float] | None = None) -> ShownFigure:
+    """The report figure: panels on the grid above (capped), SIZE (inches) when given, else
+    PANEL_SIZE a panel, the height at most MAX_HEIGHT."""
+    places = capped(grid(len(state), len(outputs)))
     rows = max(r for r, _ in places) + 1
     columns = max(c for _, c in places) + 1
-    fig = ShownFigure(figsize=(PANEL_SIZE[0] * columns, PANEL_SIZE[1] * rows + 0.4),
-                      layout="constrained")
+    if size is None:
+        size = (PANEL_SIZE[0] * columns, min(PANEL_SIZE[1] * rows + 0.4, MAX_HEIGHT))
+    fig = ShownFigure(figsize=size, layout="constrained")
     fig.suptitle(title)
     for panel, (r, c) in zip(state + outputs, places):
         draw_panel(fig.add_subplot(rows, columns, r * columns + c + 1), panel)
@@ -261,8 +299,14 @@ def draw(state: list[Panel], outputs: list[Panel], title: str) -> ShownFigure:
 def draw_panel(ax: Any, panel: Panel) -> None:
     for k, curve in enumerate(panel.curves):
         style = "-" if k < len(COLOURS) else "--"
-        ax.plot(curve.x, curve.y, style, color=COLOURS[k % len(COLOURS)], lw=1.4,
+        y = curve.y if panel.within is None else np.zeros_like(curve.y)
+        ax.plot(curve.x, y, style, color=COLOURS[k % len(COLOURS)], lw=1.4,
                 label=curve.label)
+    if panel.within is not None:  # rounding noise: a flat 0, not autoscaled noise
+        ax.set_ylim(-1.0, 1.0)
+        ax.text(0.5, 0.5, f"0 within tolerance (|values| < atol {panel.within:g})",
+                transform=ax.transAxes, ha="center", va="bottom", fontsize="small",
+                color="#555555")
     if panel.path:
         for k, curve in enumerate(panel.curves):
             ax.plot(curve.x[:1], curve.y[:1], "o", color=COLOURS[k % len(COLOURS)], ms=4)
@@ -303,10 +347,36 @@ def against(panels: list[Panel], model: Any, res: SimulationResult, labels: Labe
     return drawn
 
 
+def only_curves(panels: list[Panel], patterns: Sequence[str]) -> list[Panel]:
+    """The panels' curves of the names matching any pattern (q1, A.*); panels left empty are
+    left out (a path panel follows its points' positions)."""
+    kept = []
+    for panel in panels:
+        curves = [c for c in panel.curves
+                  if any(fnmatch.fnmatchcase(c.label, p) for p in patterns)
+                  or (panel.path and any(fnmatch.fnmatchcase(f"{c.label}.x", p)
+                                         for p in patterns))]
+        if curves:
+            kept.append(Panel(panel.ylabel, curves, panel.xlabel, panel.path, panel.legend))
+    return kept
+
+
+def mark_noise(panels: list[Panel], atol: float) -> None:
+    """A panel whose every value is below the run's atol (rounding noise, 1e-16) is drawn as 0
+    within tolerance."""
+    for panel in panels:
+        values = [np.abs(c.y[np.isfinite(c.y)]) for c in panel.curves]
+        if not panel.path and values and all(v.size and v.max() < atol for v in values):
+            panel.within = atol
+
+
 def figure(res: SimulationResult, *, panels: Sequence[str] | None = None,
            outputs: Sequence[str] | None = None, dense_curves: bool = True,
-           x: str | None = None) -> Figure:
-    """The report figure of a run: the panels of the kinds asked for (default: all)."""
+           x: str | None = None, title: str | None = None,
+           size: tuple[float, float] | None = None,
+           only: Sequence[str] | None = None) -> Figure:
+    """The report figure of a run: the panels of the kinds asked for (default: all), only
+    the curves named (names or patterns) when given, TITLE and SIZE (inches) when given."""
     model = res.model
     if model is None:
         raise ValueError("this result does not know its model: plot a result of simulate()")
@@ -318,12 +388,17 @@ def figure(res: SimulationResult, *, panels: Sequence[str] | None = None,
     labels = Labels(model)
     state = state_panels(model, run, labels) if "state" in kinds else []
     drawn = output_panels(model, run, labels, selected_outputs(model, outputs), kinds)
+    if only is not None:
+        state, drawn = only_curves(state, only), only_curves(drawn, only)
     if x is not None and x != "t":
         state, drawn = against(state, model, run, labels, x), against(drawn, model, run, labels, x)
     if not state and not drawn:
-        raise ValueError("nothing to draw: no panel of the kinds asked for has data")
-    title = f"{model.name} ({run.method}, rtol {run.rtol:g}, atol {run.atol:g})"
-    return draw(state, drawn, title)
+        raise ValueError("nothing to draw: no panel of the kinds asked for has data"
+                         + (f" (only: {', '.join(only)})" if only is not None else ""))
+    mark_noise(state + drawn, run.atol)
+    if title is None:
+        title = f"{model.name} ({run.method}, rtol {run.rtol:g}, atol {run.atol:g})"
+    return draw(state, drawn, title, size)
 
 
 def plot_result(res: SimulationResult, path: str | os.PathLike | None = None,
