@@ -271,3 +271,63 @@ def test_a_large_mechanism_is_laid_out_to_a_readable_size() -> None:
     panels = [figures.Panel("y", [figures.Curve("a", np.arange(3.0), np.arange(3.0))], "t")]
     tall = figures.draw(panels * 20, panels * 3, "20 panels")
     assert tall.get_size_inches()[1] <= figures.MAX_HEIGHT
+
+
+NAMED_LOADS = """\
+name: named_loads
+parameters: {m: 2, k: 30, L0: 1.5, c: 0.4, kj: 5, cj: 0.3, T0: 0.7, F: 1.2}
+gravity: [0, -9.81]
+bodies:
+  cart: {mass: m, inertia: 0.1}
+  pole: {mass: 1, inertia: 0.08, com: [0.5, 0]}
+joints:
+  slide: {type: prismatic, parent: ground, child: cart, axis: [1, 0], coordinate: x}
+  hinge: {type: revolute, parent: cart, child: pole, coordinate: q}
+loads:
+  - {spring: {a: {body: ground, at: [-2, 0]}, b: cart.origin, k: k, length: L0, damping: c},
+     name: pull}
+  - {joint_spring: {joint: hinge, k: kj, rest: 0.2, damping: cj}, name: wrist}
+  - {torque: T0*cos(t), body: pole, name: motor}
+  - {force: [F, 0], body: pole, at: [1, 0], frame: body, name: push}
+simulation: {t_span: [0, 1], initial: {x: 0.3, q: -0.4, dot(x): 0.5}}
+units: {length: m, mass: kg, time: s}
+"""
+
+
+def test_named_loads_are_reported_as_outputs() -> None:
+    """`name:` on a load: a torque's value (motor), a force's ground components (push.Fx,
+    .Fy: a body-frame force turned with the pole), a spring's and a joint spring's tension,
+    each against its law evaluated here from the state; their units; their own panels."""
+    model = nemc.compile(text=NAMED_LOADS, name="named_loads.yaml")
+    assert list(model.output_names) == ["pull.tension", "wrist.tension", "motor", "push.Fx",
+                                        "push.Fy"]
+    units = model.metadata["unit_labels"]
+    assert [units[n] for n in model.output_names] == ["N", "N*m", "N*m", "N", "N"]
+    res = model.simulate(t_eval=np.linspace(0, 1, 11))
+    x, dx, q, dq = res.y
+    out = res.outputs
+    np.testing.assert_allclose(out["pull.tension"], 30 * (x + 2 - 1.5) + 0.4 * dx,
+                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(out["wrist.tension"], -5 * (q - 0.2) - 0.3 * dq,
+                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(out["motor"], 0.7 * np.cos(res.t), rtol=1e-14)
+    np.testing.assert_allclose(out["push.Fx"], 1.2 * np.cos(q), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(out["push.Fy"], 1.2 * np.sin(q), rtol=1e-12, atol=1e-14)
+    fig = figure(res, panels=["loads"])
+    assert [[line.get_label() for line in ax.lines] for ax in fig.axes] == [
+        ["pull.tension", "push.Fx", "push.Fy"], ["wrist.tension", "motor"]]
+    assert labels(fig) == ["load (N)", "load (N·m)"]
+
+
+@pytest.mark.parametrize(("name", "message"), [
+    ("k", "load name 'k' is already used by the parameter at parameters.k"),
+    ("motor", "load name 'motor' is already used by the load at loads[2].name"),
+    ("3", "load name must be an identifier"),
+])
+def test_a_load_name_must_be_new_and_an_identifier(name: str, message: str) -> None:
+    from nemc.errors import InputError
+
+    text = NAMED_LOADS.replace("frame: body, name: push}", f"frame: body, name: {name}}}")
+    with pytest.raises(InputError) as error:
+        nemc.compile(text=text, name="named_loads.yaml")
+    assert "loads[3].name" in str(error.value) and message in str(error.value)

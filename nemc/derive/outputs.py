@@ -142,5 +142,8 @@ def derive_outputs(mech: m.Mechanism, kin: Kinematics, drives: dict[str, sympy.E
     if wanted.accelerations:
         named += [(f"ddot({q})", m.accel_symbol(q)) for q in mech.coordinates]
     named += list(wanted.expressions)
+    for name, index in mech.load_names:  # named loads, last: what each reports
+        named += [(name + suffix, value) for suffix, value in
+                  mech.loads[index].reported(kin, kin.rate)]
     return named
 

@@ -139,6 +139,7 @@ class Mechanism:
     constraints: tuple[Constraint, ...] = ()  # loop-closing joints (nemc/constraints/)
     units: Units = field(default_factory=Units)
     inputs: tuple[Param, ...] = ()  # values set from outside at run time, with their defaults
+    load_names: tuple[tuple[str, int], ...] = ()  # a named load's name, its index in loads
 
     @property
     def coordinates(self) -> tuple[str, ...]:

@@ -123,8 +123,8 @@ def make_parser() -> argparse.ArgumentParser:
     sim.add_argument("--plot", type=figure_path,
                      help="write the report figure to this file (.png, .pdf, .svg, ...)")
     sim.add_argument("--panels", type=panel_list, metavar="KINDS",
-                     help="what --plot draws, comma-separated: state, reactions, drives, energy,"
-                     " points, accelerations, expressions (default: all)")
+                     help="what --plot draws, comma-separated: state, reactions, drives, loads,"
+                     " energy, points, accelerations, expressions (default: all)")
     sim.add_argument("--x", metavar="NAME",
                      help="what --plot draws the curves against: t (default), a state entry"
                      " (q1, 'dot(q1)') or an output (A.drive)")

@@ -28,7 +28,7 @@ from matplotlib.figure import Figure
 from ..runtime.model import SOLVER_STEPS, SimulationResult
 from .typeset import math_label
 
-PANEL_KINDS = ("state", "reactions", "drives", "energy", "points", "accelerations",
+PANEL_KINDS = ("state", "reactions", "drives", "loads", "energy", "points", "accelerations",
                "expressions")
 POINTS_PER_STEP = 12  # dense sampling: curve points per solver step
 MIN_POINTS, MAX_POINTS = 1500, 200_000
@@ -187,7 +187,9 @@ def output_groups(model: Any, names: Sequence[str]) -> list[tuple[str, str, list
     """(kind, axis text, output names) for each output panel, in PANEL_KINDS order."""
     kinds = model.metadata.get("quantities", {})
     driven = set(driven_outputs(model))
-    names = [n for n in names if n not in driven]
+    loads = set(model.metadata.get("load_outputs", ()))
+    named_loads = [n for n in names if n in loads]
+    names = [n for n in names if n not in driven and n not in loads]
     joints = {name.rpartition(".")[0] for name in names
               if kinds.get(name) in ("joint force", "couple")}
     groups: list[tuple[str, str, list[str]]] = []
@@ -201,6 +203,8 @@ def output_groups(model: Any, names: Sequence[str]) -> list[tuple[str, str, list
     add("reactions", "reaction, body axes", [n for n in reaction if n[-3:] in (".Fn", ".Ft")])
     add("reactions", "constraint couple", [n for n in reaction if n.endswith(".M")])
     add("drives", "drive", [n for n in names if n.endswith(".drive")])
+    for kind in dict.fromkeys(kinds.get(n, "") for n in named_loads):  # torques, forces apart
+        add("loads", "load", [n for n in named_loads if kinds.get(n, "") == kind])
     add("energy", "energy", [n for n in names if n.startswith("energy.")])
     points = [n for n in names if kinds.get(n) in ("length", "speed") and n not in reaction]
     add("points", "position", [n for n in points if kinds[n] == "length"])
