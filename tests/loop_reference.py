@@ -538,9 +538,9 @@ class LoopReference:
     # -- outputs ------------------------------------------------------------------------------
 
     def outputs(self, t: float, y: np.ndarray) -> dict[str, float]:
-        """The scene's outputs (reactions, drives, energy, points; the spec's names), computed
-        here: constraint reactions from the multipliers, tree-joint reactions from the
-        Newton-Euler balance of the child's subtree."""
+        """The scene's outputs (driven coordinates, reactions, drives, energy, points; the spec's
+        names), computed here: constraint reactions from the multipliers, tree-joint reactions
+        from the Newton-Euler balance of the child's subtree."""
         qdd, lam = self.solve(t, y)
         q, u = self.full(t, y)
         args = self._args(t, q, u)
@@ -548,6 +548,9 @@ class LoopReference:
         bodies = self._body_motion(kin, qdd)
         constraint_forces = self._constraint_forces(kin, lam, bodies)
         wanted, out = self.mech.outputs, {}
+        for k in self.driven:  # every run reports the driven coordinates and their rates
+            name = self.coordinates[k]
+            out.update({name: float(q[k]), f"dot({name})": float(u[k])})
         for name in wanted.reactions:
             if any(c.name == name for c in self.mech.constraints):
                 out.update(self._constraint_reaction(name, constraint_forces))

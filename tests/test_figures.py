@@ -153,3 +153,181 @@ def test_curves_drawn_against_a_state_entry_or_an_output(capsys) -> None:
     assert main(["simulate", str(EXAMPLES / "double_pendulum.yaml"), "--plot", "x.png",
                  "--x", "A.Fq"]) == 2
     assert "--x: no state entry or output 'A.Fq'" in capsys.readouterr().err
+
+
+def test_driven_coordinates_in_the_table_the_frame_and_the_figure(tmp_path: Path) -> None:
+    """fourbar_driven's crank angle q1 = pi/2 + w t (w = 2 pi) and its rate are outputs of
+    every run, against the closed form; in the CSV, the DataFrame (with their units) and the
+    figure's state column; and the curves can be drawn against q1."""
+    from nemc.tools.cli import main
+
+    res = model_of("fourbar_driven").simulate()
+    np.testing.assert_allclose(res.outputs["q1"], math.pi / 2 + 2 * math.pi * res.t,
+                               rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(res.outputs["dot(q1)"], 2 * math.pi, rtol=1e-15)
+    assert list(res.columns())[:7] == ["t", "q2", "dot(q2)", "q3", "dot(q3)", "q1", "dot(q1)"]
+    assert res.to_pandas().attrs["units"]["q1"] == res.model.metadata["unit_labels"]["q1"]
+    fig = figure(res)
+    assert labels(fig)[:3] == ["$q_{2}$ (rad)", "$q_{3}$ (rad)", "$q_{1}$ (rad)"]
+    assert not any(ax.get_ylabel() in ("q1", "dot(q1)") for ax in fig.axes)
+    against_q1 = figure(res, panels=["state"], x="q1")
+    assert labels(against_q1) == ["$q_{2}$ (rad)", "$q_{3}$ (rad)"]
+    assert against_q1.axes[0].get_xlabel() == "$q_{1}$ (rad)"
+    csv = tmp_path / "driven.csv"
+    assert main(["simulate", str(EXAMPLES / "fourbar_driven.yaml"), "--csv", str(csv)]) == 0
+    header = next(line for line in csv.read_text().splitlines() if line.startswith("t,"))
+    header = header.split(",")
+    assert header[5:7] == ["q1 [rad]", "dot(q1)"]
+
+
+def test_an_output_expressions_unit_labels_its_axis_column_and_frame(tmp_path: Path) -> None:
+    """cart_pole's `force: {value: F, unit: N}`: the unit in the figure's axis, the CSV's
+    header and the DataFrame's units; the values are the expressions' (F, F dot(x))."""
+    from nemc.tools.cli import main
+
+    model = model_of("cart_pole")
+    assert model.metadata["unit_labels"]["force"] == "N"
+    assert model.metadata["unit_labels"]["power"] == "W"
+    res = model.simulate(t_eval=[0.0, 0.1], inputs={"F": 2.5})
+    np.testing.assert_array_equal(res.outputs["force"], 2.5)
+    np.testing.assert_allclose(res.outputs["power"], 2.5 * res.y[1], rtol=1e-15)  # F dot(x)
+    assert labels(figure(res, panels=["expressions"])) == ["force (N)", "power (W)"]
+    assert res.to_pandas().attrs["units"]["force"] == "N"
+    csv = tmp_path / "cart.csv"
+    assert main(["simulate", str(EXAMPLES / "cart_pole.yaml"), "--csv", str(csv)]) == 0
+    header = next(line for line in csv.read_text().splitlines() if line.startswith("t "))
+    assert "force [N]" in header.split(",") and "power [W]" in header.split(",")
+
+
+def test_title_size_and_only_the_curves_named(tmp_path: Path, capsys) -> None:
+    """title=, size= (inches) and only= (names or patterns): the panels left empty are left
+    out; the CLI's --title, --size W,H and --only write the same figure, 150 dpi."""
+    from matplotlib.image import imread
+
+    from nemc.tools.cli import main
+
+    res = model_of("slider_crank").simulate(t_eval=[0.0, 1.0])
+    fig = figure(res, title="crank and guide", size=(9, 6), only=["q1", "guide.F?"])
+    assert fig.get_suptitle() == "crank and guide"
+    assert tuple(fig.get_size_inches()) == (9.0, 6.0)
+    assert labels(fig) == ["$q_{1}$ (rad)", "reaction, ground axes", "reaction, body axes"]
+    assert [line.get_label() for line in fig.axes[1].lines] == ["guide.Fx", "guide.Fy"]
+    with pytest.raises(ValueError, match=r"nothing to draw.*only: nothing"):
+        figure(res, only=["nothing"])
+    path = tmp_path / "sc.png"
+    assert main(["simulate", str(EXAMPLES / "slider_crank.yaml"), "--t-eval", "1", "--plot",
+                 str(path), "--title", "T", "--size", "9,6", "--only", "q1,guide.*"]) == 0
+    assert imread(path).shape[:2] == (900, 1350)
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
+        main(["simulate", str(EXAMPLES / "slider_crank.yaml"), "--size", "9"])
+    assert "--size: expected W,H in inches" in capsys.readouterr().err
+
+
+def test_rounding_noise_is_drawn_as_zero_within_tolerance() -> None:
+    """The slider's angle q3 and the guide's couple are 0 (the couple but for rounding, below
+    the run's atol): flat at 0 with the note, not autoscaled noise; q1's panel is drawn as it is."""
+    res = model_of("slider_crank").simulate()
+    assert np.abs(res.y[4]).max() < res.atol  # q3
+    assert 0 < np.abs(res.outputs["guide.M"]).max() < res.atol  # noise (1e-15), not exactly 0
+    fig = figure(res, panels=["state", "reactions"])
+    by_label = {ax.get_ylabel(): ax for ax in fig.axes}
+    for name in ("$q_{3}$ (rad)", "constraint couple"):
+        ax = by_label[name]
+        assert [t.get_text() for t in ax.texts] == ["0 within tolerance (|values| < atol 1e-11)"]
+        assert not ax.lines[0].get_ydata().any() and ax.get_ylim() == (-1.0, 1.0)
+    assert not by_label["$q_{1}$ (rad)"].texts
+    assert by_label["$q_{1}$ (rad)"].lines[0].get_ydata()[-1] > 100  # the crank turns
+
+
+def chain_text(n: int) -> str:
+    """An n-link chain of uniform rods under gravity (relative angles q1..qn)."""
+    lines = [f"name: chain{n}", "parameters: {m: 1, L: 1, g: 9.81}", "gravity: [0, -g]",
+             "bodies:"]
+    lines += [f"  link{i}: {{mass: m, inertia: m*L**2/12, com: [L/2, 0], points: {{tip: [L, 0]}}}}"
+              for i in range(1, n + 1)]
+    lines.append("joints:")
+    lines += [f"  J{i}: {{type: revolute, parent: {'ground' if i == 1 else f'link{i - 1}'}, "
+              f"child: link{i}, at: {'[0, 0]' if i == 1 else 'tip'}, coordinate: q{i}}}"
+              for i in range(1, n + 1)]
+    lines += ["simulation: {t_span: [0, 0.5], initial: {q1: 0.5}}"]
+    return "\n".join(lines) + "\n"
+
+
+def test_a_large_mechanism_is_laid_out_to_a_readable_size() -> None:
+    """Past six coordinates, five to a panel with a legend; past eight rows of panels, more
+    columns; the height at most MAX_HEIGHT (a 20-link chain's figure was 46 inches high)."""
+    from nemc.tools import figures
+
+    res = nemc.compile(text=chain_text(7), name="chain7.yaml").simulate()
+    fig = figure(res)
+    assert [[line.get_label() for line in ax.lines] for ax in fig.axes] == [
+        ["q1", "q2", "q3", "q4", "q5"], ["q6", "q7"]]
+    assert labels(fig) == ["angle (rad)", "angle (rad)"]
+    places = figures.capped(figures.grid(20, 3))
+    rows, columns = (max(p[k] for p in places) + 1 for k in (0, 1))
+    assert rows <= figures.MAX_ROWS and columns <= figures.MAX_COLUMNS
+    assert len(set(places)) == 23  # no two panels in one place
+    panels = [figures.Panel("y", [figures.Curve("a", np.arange(3.0), np.arange(3.0))], "t")]
+    tall = figures.draw(panels * 20, panels * 3, "20 panels")
+    assert tall.get_size_inches()[1] <= figures.MAX_HEIGHT
+
+
+NAMED_LOADS = """\
+name: named_loads
+parameters: {m: 2, k: 30, L0: 1.5, c: 0.4, kj: 5, cj: 0.3, T0: 0.7, F: 1.2}
+gravity: [0, -9.81]
+bodies:
+  cart: {mass: m, inertia: 0.1}
+  pole: {mass: 1, inertia: 0.08, com: [0.5, 0]}
+joints:
+  slide: {type: prismatic, parent: ground, child: cart, axis: [1, 0], coordinate: x}
+  hinge: {type: revolute, parent: cart, child: pole, coordinate: q}
+loads:
+  - {spring: {a: {body: ground, at: [-2, 0]}, b: cart.origin, k: k, length: L0, damping: c},
+     name: pull}
+  - {joint_spring: {joint: hinge, k: kj, rest: 0.2, damping: cj}, name: wrist}
+  - {torque: T0*cos(t), body: pole, name: motor}
+  - {force: [F, 0], body: pole, at: [1, 0], frame: body, name: push}
+simulation: {t_span: [0, 1], initial: {x: 0.3, q: -0.4, dot(x): 0.5}}
+units: {length: m, mass: kg, time: s}
+"""
+
+
+def test_named_loads_are_reported_as_outputs() -> None:
+    """`name:` on a load: a torque's value (motor), a force's ground components (push.Fx,
+    .Fy: a body-frame force turned with the pole), a spring's and a joint spring's tension,
+    each against its law evaluated here from the state; their units; their own panels."""
+    model = nemc.compile(text=NAMED_LOADS, name="named_loads.yaml")
+    assert list(model.output_names) == ["pull.tension", "wrist.tension", "motor", "push.Fx",
+                                        "push.Fy"]
+    units = model.metadata["unit_labels"]
+    assert [units[n] for n in model.output_names] == ["N", "N*m", "N*m", "N", "N"]
+    res = model.simulate(t_eval=np.linspace(0, 1, 11))
+    x, dx, q, dq = res.y
+    out = res.outputs
+    np.testing.assert_allclose(out["pull.tension"], 30 * (x + 2 - 1.5) + 0.4 * dx,
+                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(out["wrist.tension"], -5 * (q - 0.2) - 0.3 * dq,
+                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(out["motor"], 0.7 * np.cos(res.t), rtol=1e-14)
+    np.testing.assert_allclose(out["push.Fx"], 1.2 * np.cos(q), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(out["push.Fy"], 1.2 * np.sin(q), rtol=1e-12, atol=1e-14)
+    fig = figure(res, panels=["loads"])
+    assert [[line.get_label() for line in ax.lines] for ax in fig.axes] == [
+        ["pull.tension", "push.Fx", "push.Fy"], ["wrist.tension", "motor"]]
+    assert labels(fig) == ["load (N)", "load (N·m)"]
+
+
+@pytest.mark.parametrize(("name", "message"), [
+    ("k", "load name 'k' is already used by the parameter at parameters.k"),
+    ("motor", "load name 'motor' is already used by the load at loads[2].name"),
+    ("3", "load name must be an identifier"),
+])
+def test_a_load_name_must_be_new_and_an_identifier(name: str, message: str) -> None:
+    from nemc.errors import InputError
+
+    text = NAMED_LOADS.replace("frame: body, name: push}", f"frame: body, name: {name}}}")
+    with pytest.raises(InputError) as error:
+        nemc.compile(text=text, name="named_loads.yaml")
+    assert "loads[3].name" in str(error.value) and message in str(error.value)

@@ -130,6 +130,7 @@ def test_the_description_names_units_parameters_inputs_outputs_and_states(fmus) 
         f"der({s})" for s in model.state_names]
     assert variables["x"].unit == "m" and variables["der(dot(th))"].unit == "rad/s^2"
     assert variables["energy.total"].unit == "J"
+    assert (variables["force"].unit, variables["power"].unit) == ("N", "W")  # the YAML's unit:
     units = {u.name: u.baseUnit for u in description.unitDefinitions}
     assert (units["J"].kg, units["J"].m, units["J"].s) == (1, 2, -2)
     token = description.guid

@@ -18,7 +18,7 @@ from ..front import mechanism as m
 if TYPE_CHECKING:
     from ..kinds.joints import Joint
 from ..kinds.spatial import cross_z, rotation, vec
-from .kinematics import BalanceLoads, Kinematics, applied_loads
+from .kinematics import BalanceLoads, Kinematics, applied_loads, prescribed_motion
 
 Named = list[tuple[str, sympy.Expr]]
 
@@ -106,12 +106,25 @@ def constraint_loads(mech: m.Mechanism, kin: Kinematics,
         constraint.act(kin, loads, multipliers[constraint.name])
 
 
+def driven_coordinates(mech: m.Mechanism) -> Named:
+    """Each driven coordinate and its rate, named as a state entry would be (q1, dot(q1)):
+    their prescribed motion, known functions of t."""
+    named: Named = []
+    for joint in mech.driven:
+        value, rate, _ = prescribed_motion(joint)
+        q = joint.coordinates[0]
+        named += [(q, value), (f"dot({q})", rate)]
+    return named
+
+
 def derive_outputs(mech: m.Mechanism, kin: Kinematics, drives: dict[str, sympy.Expr],
                    multipliers: dict[str, list[sympy.Expr]]) -> Named:
-    """Every requested output, in the spec's group order; nothing that was not requested.
-    drives: the symbol of each driven joint's drive; multipliers: each constraint's."""
+    """Every requested output, in the spec's group order; nothing that was not requested,
+    but the driven coordinates and their rates, which lead (the table's, CSV's and figures'
+    columns beside the state's). drives: the symbol of each driven joint's drive;
+    multipliers: each constraint's."""
     wanted = mech.outputs
-    named: Named = []
+    named: Named = driven_coordinates(mech)
     loads = applied_loads(mech, kin)
     constraint_loads(mech, kin, multipliers, loads)
     constraints = {c.name: c for c in mech.constraints}
@@ -129,5 +142,8 @@ def derive_outputs(mech: m.Mechanism, kin: Kinematics, drives: dict[str, sympy.E
     if wanted.accelerations:
         named += [(f"ddot({q})", m.accel_symbol(q)) for q in mech.coordinates]
     named += list(wanted.expressions)
+    for name, index in mech.load_names:  # named loads, last: what each reports
+        named += [(name + suffix, value) for suffix, value in
+                  mech.loads[index].reported(kin, kin.rate)]
     return named
 

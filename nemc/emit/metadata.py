@@ -38,6 +38,7 @@ def metadata(eqs: Equations, prefix: str) -> dict:
         "generated": generated_functions(eqs),
         "dynamics_program": eqs.dynamics_form,
         "drive_names": [joint.name for joint in mech.driven],
+        "load_outputs": load_outputs(mech),
         "constraint_equations": list(eqs.loops.owners) if eqs.loops is not None else [],
         "constraint_starts": [[k, eqs.parameters.index(offset)] for k, offset in starts],
         "constraint_on_velocities": list(eqs.loops.on_velocities) if eqs.loops is not None
@@ -68,6 +69,16 @@ def generated_functions(eqs: Equations) -> list[str]:
     sensitivities = ["sensitivities"] if eqs.sensitivities is not None else []
     return (["rhs", "rhs_many", "checks", "initial_state"] + outputs + jacobian + mass_matrix
             + linear + sensitivities)
+
+
+def load_outputs(mech: m.Mechanism) -> list[str]:
+    """The outputs the named loads report (figures draw them in their own panels)."""
+    kinds = {q: kind for joint in mech.joints
+             for q, kind in zip(joint.coordinates, joint.coordinate_kinds)}
+    joint_kind = {joint.name: kinds.get(joint.coordinates[0], "angle") if joint.coordinates
+                  else "angle" for joint in mech.joints}
+    return [name + suffix for name, index in mech.load_names
+            for suffix, _ in mech.loads[index].reported_kinds(joint_kind.__getitem__)]
 
 
 def coordinate_kinds(mech: m.Mechanism) -> list[str]:

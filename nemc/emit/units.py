@@ -48,7 +48,15 @@ def quantities(mech: m.Mechanism, output_names: list[str]) -> dict[str, str]:
         found |= {q: kind, f"dot({q})": rate[kind], f"ddot({q})": second[kind]}
     joints = {joint.name: joint for joint in mech.joints}
     constraints = {constraint.name for constraint in mech.constraints}  # their reactions
+    kind_of = coordinate_kinds(mech)
+    joint_kind = {joint.name: kind_of.get(joint.coordinates[0], "angle") if joint.coordinates
+                  else "angle" for joint in mech.joints}
+    for name, index in mech.load_names:  # what a named load reports
+        for suffix, kind in mech.loads[index].reported_kinds(joint_kind.__getitem__):
+            found[name + suffix] = kind
     for name in output_names:
+        if name in found:
+            continue
         head, _, last = name.rpartition(".")
         if head in constraints and last in ("Fx", "Fy", "Fn", "Ft", "M"):
             found[name] = "couple" if last == "M" else "joint force"
@@ -90,12 +98,14 @@ def power_of(unit: str | None, power: int) -> str:
 
 
 def unit_metadata(mech: m.Mechanism, output_names: list[str]) -> dict:
-    """What a build records of units: the declared ones, each column's kind and label."""
+    """What a build records of units: the declared ones, each column's kind and label (an
+    output expression's as its `unit:` says)."""
     kinds = quantities(mech, output_names)
     units = mech.units
     return {
         "units": {"length": units.length, "mass": units.mass, "time": units.time,
                   "angle": units.angle},
         "quantities": kinds,
-        "unit_labels": {name: label(kind, units) for name, kind in kinds.items()},
+        "unit_labels": {**{name: label(kind, units) for name, kind in kinds.items()},
+                        **dict(mech.outputs.units)},  # an expression's, as the YAML says
     }

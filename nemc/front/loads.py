@@ -9,12 +9,22 @@ from .parse import Node
 from .reader import Reader, every_key
 
 
-def read_loads(ctx: Context, node: Node) -> tuple[Load, ...]:
+def read_loads(ctx: Context, node: Node) -> tuple[tuple[Load, ...], tuple[tuple[str, int], ...]]:
+    """The loads, and each named load's name with its index among them."""
     if not node.is_list:
         ctx.problem(node.line, "loads", f"expected a list of loads, {described(node)}")
-        return ()
-    loads = [_load(ctx, item, join_path("loads", i)) for i, item in enumerate(items_of(node))]
-    return tuple(load for load in loads if load is not None)
+        return (), ()
+    loads, names = [], []
+    for i, item in enumerate(items_of(node)):
+        load = _load(ctx, item, join_path("loads", i))
+        if load is None:
+            continue
+        name = entries_of(item).get("name")
+        path = join_path(join_path("loads", i), "name")
+        if name is not None and ctx.names.get(name.value) == ("load", path):
+            names.append((name.value, len(loads)))
+        loads.append(load)
+    return tuple(loads), tuple(names)
 
 
 def _load(ctx: Context, node: Node, path: str) -> Load | None:
@@ -33,8 +43,9 @@ def _load(ctx: Context, node: Node, path: str) -> Load | None:
     kind = LOAD_KINDS[kinds[0]]
     count = len(ctx.problems)
     all_keys = every_key(k.keys for k in LOAD_KINDS.values())
-    check_keys(ctx, node, path, kind.keys, kind.required, owner=(f"a {kind.kind} load", all_keys))
+    check_keys(ctx, node, path, (*kind.keys, "name"), kind.required,
+               owner=(f"a {kind.kind} load", all_keys))
     fields = kind.read(Reader(ctx, node, path))
     if fields is None or len(ctx.problems) != count:
         return None
-    return kind(**{"loc": ctx.loc(node, path), **fields})
+    return kind(**{"loc": ctx.loc(node, path), **fields})  # `name:`: read_loads's

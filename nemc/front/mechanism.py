@@ -61,6 +61,7 @@ class Outputs:
     accelerations: bool = False
     expressions: tuple[tuple[str, Expr], ...] = ()
     drives: tuple[str, ...] = ()  # driven joints' names
+    units: tuple[tuple[str, str], ...] = ()  # an expression's name -> its declared unit label
 
     @property
     def empty(self) -> bool:
@@ -138,6 +139,7 @@ class Mechanism:
     constraints: tuple[Constraint, ...] = ()  # loop-closing joints (nemc/constraints/)
     units: Units = field(default_factory=Units)
     inputs: tuple[Param, ...] = ()  # values set from outside at run time, with their defaults
+    load_names: tuple[tuple[str, int], ...] = ()  # a named load's name, its index in loads
 
     @property
     def coordinates(self) -> tuple[str, ...]:

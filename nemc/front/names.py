@@ -64,6 +64,12 @@ def collect_names(ctx: Context, root: Mapping[str, Node]) -> None:
                 target.append(name)
     for name, joint in entries_of(root["joints"]).items() if "joints" in root else ():
         ctx.joint_coordinates[name] = _collect_coordinates(ctx, joint, join_path("joints", name))
+    loads = root.get("loads")
+    for i, load in enumerate(items_of(loads) if loads is not None else ()):
+        name = entries_of(load).get("name")
+        if name is not None:
+            register_name(ctx, name.value, name.line, join_path(join_path("loads", i), "name"),
+                          "load")
     outputs = root.get("outputs")
     expressions = entries_of(outputs).get("expressions") if outputs is not None else None
     if expressions is not None:

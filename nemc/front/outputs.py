@@ -41,9 +41,9 @@ def read_outputs(ctx: Context, node: Node) -> Outputs:
             points.append(point)
     flags = {key: read_flag(ctx, entries[key], join_path("outputs", key)) if key in entries
              else False for key in ("energy", "accelerations")}
-    expressions = _output_expressions(ctx, entries.get("expressions"))
+    expressions, units = _output_expressions(ctx, entries.get("expressions"))
     return Outputs(tuple(reactions), flags["energy"], tuple(points), flags["accelerations"],
-                   expressions, tuple(drives))
+                   expressions, tuple(drives), units)
 
 
 def _reaction_name(ctx: Context, node: Node, path: str) -> str | None:
@@ -71,19 +71,44 @@ def _driven_joint(ctx: Context, node: Node, path: str) -> str | None:
     return name
 
 
-def _output_expressions(ctx: Context, node: Node | None) -> tuple[tuple[str, sympy.Expr], ...]:
+def _output_expressions(ctx: Context, node: Node | None
+                        ) -> tuple[tuple[tuple[str, sympy.Expr], ...], tuple[tuple[str, str], ...]]:
+    """The named expressions, and the units of those given as {value: EXPR, unit: LABEL}."""
     if node is None:
-        return ()
+        return (), ()
     if not node.is_map:
         ctx.problem(node.line, "outputs.expressions", "expected a mapping name -> expression, "
                                                       f"{described(node)}")
-        return ()
-    result = []
+        return (), ()
+    result, units = [], []
     for name, value in entries_of(node).items():
         path = join_path("outputs.expressions", name)
         if ctx.names.get(name) != ("output expression", path):
             continue  # a bad or colliding name, already reported
+        if value.is_map:
+            value, unit = _expression_with_unit(ctx, value, path)
+            if unit:
+                units.append((name, unit))
+            if value is None:
+                continue
         expr = read_expr(ctx, value, path, ctx.scope("load"))
         if expr is not None:
             result.append((name, expr))
-    return tuple(result)
+    return tuple(result), tuple(units)
+
+
+def _expression_with_unit(ctx: Context, node: Node, path: str) -> tuple[Node | None, str]:
+    """{value: EXPR, unit: LABEL}'s value node and unit label ("" when bad)."""
+    if not check_keys(ctx, node, path, ("value", "unit"), required=("value",),
+                      what="an expression or {value: EXPR, unit: LABEL}"):
+        return None, ""
+    entries = entries_of(node)
+    if "value" not in entries:  # reported
+        return None, ""
+    if "unit" not in entries:
+        return entries["value"], ""
+    unit = read_string(ctx, entries["unit"], join_path(path, "unit"), "a unit label (N*m)")
+    if unit is not None and not unit.strip():
+        ctx.problem(entries["unit"].line, join_path(path, "unit"), "the unit label is empty")
+        unit = None
+    return entries["value"], (unit or "").strip()

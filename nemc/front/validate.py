@@ -80,7 +80,7 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
     joints = read_joints(ctx, root.get("joints"))
     check_carried(ctx)
     constraints = read_constraints(ctx, root["constraints"]) if "constraints" in root else ()
-    loads = read_loads(ctx, root["loads"]) if "loads" in root else ()
+    loads, load_names = read_loads(ctx, root["loads"]) if "loads" in root else ((), ())
     outputs = read_outputs(ctx, root["outputs"]) if "outputs" in root else Outputs()
     simulation = read_simulation(ctx, root["simulation"]) if "simulation" in root else Simulation()
     units = read_units(ctx, root["units"]) if "units" in root else Units()
@@ -90,7 +90,7 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
                      source_hash=source_hash, parameters=parameters, constants=constants,
                      gravity=gravity, bodies=bodies, joints=joints, loads=loads,
                      outputs=outputs, simulation=simulation, constraints=constraints,
-                     units=units, inputs=inputs)
+                     units=units, inputs=inputs, load_names=load_names)
 
 
 def _check_size(ctx: Context, root: Mapping[str, Node]) -> None:

@@ -123,11 +123,18 @@ def make_parser() -> argparse.ArgumentParser:
     sim.add_argument("--plot", type=figure_path,
                      help="write the report figure to this file (.png, .pdf, .svg, ...)")
     sim.add_argument("--panels", type=panel_list, metavar="KINDS",
-                     help="what --plot draws, comma-separated: state, reactions, drives, energy,"
-                     " points, accelerations, expressions (default: all)")
+                     help="what --plot draws, comma-separated: state, reactions, drives, loads,"
+                     " energy, points, accelerations, expressions (default: all)")
     sim.add_argument("--x", metavar="NAME",
                      help="what --plot draws the curves against: t (default), a state entry"
                      " (q1, 'dot(q1)') or an output (A.drive)")
+    sim.add_argument("--title", help="the figure's title (default: the model, method and "
+                     "tolerances)")
+    sim.add_argument("--size", type=figure_size, metavar="W,H",
+                     help="the figure's size in inches (default: from its panels)")
+    sim.add_argument("--only", type=name_list, metavar="NAMES",
+                     help="the curves --plot draws: coordinates and outputs, names or patterns,"
+                     " comma-separated (q1,A.*); panels left empty are left out")
     sim.add_argument("--error-estimate", action="store_true",
                      help="also print the run's error against DOP853 at rtol/1000, atol/1000")
     show = commands.add_parser("show", help="print the derived equations of motion")
@@ -440,7 +447,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             report.write_mat(model, result, Path(args.mat), outputs)
     if args.plot:
         with writing(Path(args.plot)):
-            report.plot(result, Path(args.plot), panels=args.panels, outputs=outputs, x=args.x)
+            report.plot(result, Path(args.plot), panels=args.panels, outputs=outputs, x=args.x,
+                        title=args.title, size=args.size, only=args.only)
         print(f"figure written to {args.plot}")
     if not result.success:
         print(failure_line(result.message), file=sys.stderr)
@@ -604,6 +612,18 @@ def writing(path: Path) -> Iterator[None]:
 # scipy's methods whose native port takes the same steps, to rounding (tests/test_native.py): a
 # scene naming the scipy one still runs scipy's; `nemc simulate` notes what the port takes
 SCIPY_PORTS = {"DOP853": "nemc.DOP853", "Radau": "nemc.Radau"}
+
+
+def figure_size(text: str) -> tuple[float, float]:
+    """--size W,H: two positive numbers of inches."""
+    parts = text.split(",")
+    try:
+        width, height = (float(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected W,H in inches (8,6), got {text!r}") from None
+    if not (0 < width <= 100 and 0 < height <= 100):
+        raise argparse.ArgumentTypeError(f"W and H must be in (0, 100] inches, got {text!r}")
+    return width, height
 
 
 def checked_x(model: Any, name: str | None) -> None:

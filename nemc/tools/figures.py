@@ -28,11 +28,15 @@ from matplotlib.figure import Figure
 from ..runtime.model import SOLVER_STEPS, SimulationResult
 from .typeset import math_label
 
-PANEL_KINDS = ("state", "reactions", "drives", "energy", "points", "accelerations",
+PANEL_KINDS = ("state", "reactions", "drives", "loads", "energy", "points", "accelerations",
                "expressions")
 POINTS_PER_STEP = 12  # dense sampling: curve points per solver step
 MIN_POINTS, MAX_POINTS = 1500, 200_000
 PANEL_SIZE = (6.4, 2.3)  # inches, one panel
+MAX_ROWS, MAX_COLUMNS = 8, 4  # past MAX_ROWS rows of panels, more columns (up to MAX_COLUMNS)
+MAX_HEIGHT = 18.0  # inches: a large mechanism's figure; its panels get lower, not the page longer
+SEPARATE = 6  # past this many coordinates, several to a panel
+PER_PANEL = 5  # coordinates to a panel then
 DPI = 150
 NOTEBOOK_DPI = 100  # a notebook's image: matplotlib's inline backend's size
 COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
@@ -67,6 +71,7 @@ class Panel:
     xlabel: str = ""
     path: bool = False
     legend: bool = True
+    within: float | None = None  # every |value| below this tolerance: drawn as 0 with a note
 
 
 # ---- dense sampling ---------------------------------------------------------------------------
@@ -124,10 +129,29 @@ def pretty_unit(unit: str) -> str:
     return unit.replace("^2", "\u00b2").replace("^3", "\u00b3").replace("*", "\u00b7")
 
 
+def driven_outputs(model: Any) -> list[str]:
+    """The outputs that are driven coordinates (q1) and their rates (dot(q1)): known functions
+    of t, drawn with the state."""
+    kinds = model.metadata.get("quantities", {})
+    names = set(model.output_names)
+    driven = [n for n in model.output_names
+              if kinds.get(n) in ("angle", "length") and "." not in n and "(" not in n]
+    return [name for q in driven for name in (q, f"dot({q})") if name in names]
+
+
 def state_panels(model: Any, res: SimulationResult, labels: Labels) -> list[Panel]:
     """The book's layout: angle, rate and phase portrait for one coordinate; else each
-    coordinate against time."""
+    coordinate against time; then each driven coordinate (its prescribed motion)."""
     tlabel = labels.axis("t", "t")
+    driven = [Panel(labels.axis(math_label(q), q), [Curve(q, res.t, np.asarray(
+        res.outputs[q]) * labels.scale(q))], tlabel, legend=False)
+        for q in driven_outputs(model) if not q.startswith("dot(")]
+    return free_state_panels(model, res, labels, tlabel) + driven
+
+
+def free_state_panels(model: Any, res: SimulationResult, labels: Labels,
+                      tlabel: str) -> list[Panel]:
+    """The integrated state's panels (state_panels)."""
     coordinates = model.coordinate_names
     if len(coordinates) == 1:
         q, dq = model.state_names[:2]
@@ -135,15 +159,37 @@ def state_panels(model: Any, res: SimulationResult, labels: Labels) -> list[Pane
         return [Panel(labels.axis(math_label(q), q), [Curve(q, res.t, x)], tlabel, legend=False),
                 Panel(labels.axis(math_label(dq), dq), [Curve(dq, res.t, v)], tlabel,
                       legend=False),
-                Panel(labels.axis(math_label(dq), dq), [Curve("phase", x, v)],
+                Panel(labels.axis(math_label(dq), dq), [Curve(q, x, v)],
                       labels.axis(math_label(q), q), legend=False)]
+    if len(coordinates) > SEPARATE:
+        return grouped_coordinates(model, res, labels, tlabel)
     return [Panel(labels.axis(math_label(q), q), [Curve(q, res.t, res.y[2 * i] * labels.scale(q))],
                   tlabel, legend=False) for i, q in enumerate(coordinates)]
+
+
+def grouped_coordinates(model: Any, res: SimulationResult, labels: Labels,
+                        tlabel: str) -> list[Panel]:
+    """Many coordinates: PER_PANEL to a panel (those of one unit together), with a legend."""
+    coordinates = model.coordinate_names
+    index = {q: 2 * i for i, q in enumerate(coordinates)}
+    panels = []
+    for unit in dict.fromkeys(labels.unit(q) for q in coordinates):
+        same = [q for q in coordinates if labels.unit(q) == unit]
+        for start in range(0, len(same), PER_PANEL):
+            chunk = same[start:start + PER_PANEL]
+            text = "angle" if labels.kinds.get(chunk[0]) == "angle" else "coordinate"
+            panels.append(Panel(labels.axis(text, chunk[0]), [
+                Curve(q, res.t, res.y[index[q]] * labels.scale(q)) for q in chunk], tlabel))
+    return panels
 
 
 def output_groups(model: Any, names: Sequence[str]) -> list[tuple[str, str, list[str]]]:
     """(kind, axis text, output names) for each output panel, in PANEL_KINDS order."""
     kinds = model.metadata.get("quantities", {})
+    driven = set(driven_outputs(model))
+    loads = set(model.metadata.get("load_outputs", ()))
+    named_loads = [n for n in names if n in loads]
+    names = [n for n in names if n not in driven and n not in loads]
     joints = {name.rpartition(".")[0] for name in names
               if kinds.get(name) in ("joint force", "couple")}
     groups: list[tuple[str, str, list[str]]] = []
@@ -157,6 +203,8 @@ def output_groups(model: Any, names: Sequence[str]) -> list[tuple[str, str, list
     add("reactions", "reaction, body axes", [n for n in reaction if n[-3:] in (".Fn", ".Ft")])
     add("reactions", "constraint couple", [n for n in reaction if n.endswith(".M")])
     add("drives", "drive", [n for n in names if n.endswith(".drive")])
+    for kind in dict.fromkeys(kinds.get(n, "") for n in named_loads):  # torques, forces apart
+        add("loads", "load", [n for n in named_loads if kinds.get(n, "") == kind])
     add("energy", "energy", [n for n in names if n.startswith("energy.")])
     points = [n for n in names if kinds.get(n) in ("length", "speed") and n not in reaction]
     add("points", "position", [n for n in points if kinds[n] == "length"])
@@ -224,13 +272,28 @@ def grid(state: int, outputs: int) -> list[tuple[int, int]]:
     return [(k // 2, k % 2) for k in range(count)] if count > 4 else [(k, 0) for k in range(count)]
 
 
-def draw(state: list[Panel], outputs: list[Panel], title: str) -> ShownFigure:
-    """The report figure: panels on the grid above."""
-    places = grid(len(state), len(outputs))
+def capped(places: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """The grid's places, or past MAX_ROWS rows the panels in order down up to MAX_COLUMNS
+    columns (a large mechanism: the state first, down the first columns)."""
+    rows = max(r for r, _ in places) + 1
+    if rows <= MAX_ROWS:
+        return places
+    count = len(places)
+    columns = min(MAX_COLUMNS, max(2, math.ceil(count / MAX_ROWS)))
+    rows = math.ceil(count / columns)
+    return [(k % rows, k // rows) for k in range(count)]
+
+
+def draw(state: list[Panel], outputs: list[Panel], title: str,
+         size: tuple[float, float] | None = None) -> ShownFigure:
+    """The report figure: panels on the grid above (capped), SIZE (inches) when given, else
+    PANEL_SIZE a panel, the height at most MAX_HEIGHT."""
+    places = capped(grid(len(state), len(outputs)))
     rows = max(r for r, _ in places) + 1
     columns = max(c for _, c in places) + 1
-    fig = ShownFigure(figsize=(PANEL_SIZE[0] * columns, PANEL_SIZE[1] * rows + 0.4),
-                      layout="constrained")
+    if size is None:
+        size = (PANEL_SIZE[0] * columns, min(PANEL_SIZE[1] * rows + 0.4, MAX_HEIGHT))
+    fig = ShownFigure(figsize=size, layout="constrained")
     fig.suptitle(title)
     for panel, (r, c) in zip(state + outputs, places):
         draw_panel(fig.add_subplot(rows, columns, r * columns + c + 1), panel)
@@ -240,8 +303,14 @@ def draw(state: list[Panel], outputs: list[Panel], title: str) -> ShownFigure:
 def draw_panel(ax: Any, panel: Panel) -> None:
     for k, curve in enumerate(panel.curves):
         style = "-" if k < len(COLOURS) else "--"
-        ax.plot(curve.x, curve.y, style, color=COLOURS[k % len(COLOURS)], lw=1.4,
+        y = curve.y if panel.within is None else np.zeros_like(curve.y)
+        ax.plot(curve.x, y, style, color=COLOURS[k % len(COLOURS)], lw=1.4,
                 label=curve.label)
+    if panel.within is not None:  # rounding noise: a flat 0, not autoscaled noise
+        ax.set_ylim(-1.0, 1.0)
+        ax.text(0.5, 0.5, f"0 within tolerance (|values| < atol {panel.within:g})",
+                transform=ax.transAxes, ha="center", va="bottom", fontsize="small",
+                color="#555555")
     if panel.path:
         for k, curve in enumerate(panel.curves):
             ax.plot(curve.x[:1], curve.y[:1], "o", color=COLOURS[k % len(COLOURS)], ms=4)
@@ -269,7 +338,8 @@ def against(panels: list[Panel], model: Any, res: SimulationResult, labels: Labe
                          f"{', '.join(columns)}")
     values = np.asarray(columns[x], dtype=float) * labels.scale(x)
     tlabel = labels.axis("t", "t")
-    xlabel = labels.axis(math_label(x) if x in model.state_names else x, x)
+    coordinate = x in model.state_names or x in driven_outputs(model)
+    xlabel = labels.axis(math_label(x) if coordinate else x, x)
     drawn = []
     for panel in panels:
         if panel.path or panel.xlabel != tlabel:
@@ -281,10 +351,36 @@ def against(panels: list[Panel], model: Any, res: SimulationResult, labels: Labe
     return drawn
 
 
+def only_curves(panels: list[Panel], patterns: Sequence[str]) -> list[Panel]:
+    """The panels' curves of the names matching any pattern (q1, A.*); panels left empty are
+    left out (a path panel follows its points' positions)."""
+    kept = []
+    for panel in panels:
+        curves = [c for c in panel.curves
+                  if any(fnmatch.fnmatchcase(c.label, p) for p in patterns)
+                  or (panel.path and any(fnmatch.fnmatchcase(f"{c.label}.x", p)
+                                         for p in patterns))]
+        if curves:
+            kept.append(Panel(panel.ylabel, curves, panel.xlabel, panel.path, panel.legend))
+    return kept
+
+
+def mark_noise(panels: list[Panel], atol: float) -> None:
+    """A panel whose every value is below the run's atol (rounding noise, 1e-16) is drawn as 0
+    within tolerance."""
+    for panel in panels:
+        values = [np.abs(c.y[np.isfinite(c.y)]) for c in panel.curves]
+        if not panel.path and values and all(v.size and v.max() < atol for v in values):
+            panel.within = atol
+
+
 def figure(res: SimulationResult, *, panels: Sequence[str] | None = None,
            outputs: Sequence[str] | None = None, dense_curves: bool = True,
-           x: str | None = None) -> Figure:
-    """The report figure of a run: the panels of the kinds asked for (default: all)."""
+           x: str | None = None, title: str | None = None,
+           size: tuple[float, float] | None = None,
+           only: Sequence[str] | None = None) -> Figure:
+    """The report figure of a run: the panels of the kinds asked for (default: all), only
+    the curves named (names or patterns) when given, TITLE and SIZE (inches) when given."""
     model = res.model
     if model is None:
         raise ValueError("this result does not know its model: plot a result of simulate()")
@@ -296,12 +392,17 @@ def figure(res: SimulationResult, *, panels: Sequence[str] | None = None,
     labels = Labels(model)
     state = state_panels(model, run, labels) if "state" in kinds else []
     drawn = output_panels(model, run, labels, selected_outputs(model, outputs), kinds)
+    if only is not None:
+        state, drawn = only_curves(state, only), only_curves(drawn, only)
     if x is not None and x != "t":
         state, drawn = against(state, model, run, labels, x), against(drawn, model, run, labels, x)
     if not state and not drawn:
-        raise ValueError("nothing to draw: no panel of the kinds asked for has data")
-    title = f"{model.name} ({run.method}, rtol {run.rtol:g}, atol {run.atol:g})"
-    return draw(state, drawn, title)
+        raise ValueError("nothing to draw: no panel of the kinds asked for has data"
+                         + (f" (only: {', '.join(only)})" if only is not None else ""))
+    mark_noise(state + drawn, run.atol)
+    if title is None:
+        title = f"{model.name} ({run.method}, rtol {run.rtol:g}, atol {run.atol:g})"
+    return draw(state, drawn, title, size)
 
 
 def plot_result(res: SimulationResult, path: str | os.PathLike | None = None,

@@ -7,6 +7,7 @@ import csv
 import re
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -113,9 +114,11 @@ def write_mat(model: Model, result: SimulationResult, path: Path,
 
 
 def plot(result: SimulationResult, path: Path, panels: Sequence[str] | None = None,
-         outputs: Sequence[str] | None = None, x: str | None = None) -> None:
+         outputs: Sequence[str] | None = None, x: str | None = None,
+         **options: Any) -> None:
     """The report figure (nemc.figures): the book's layout of the state, outputs by kind;
-    against X (a state entry or an output) instead of t when given."""
+    against X (a state entry or an output) instead of t when given; OPTIONS: figure()'s
+    title, size and only."""
     from .figures import plot_result
 
-    plot_result(result, path, panels=panels, outputs=outputs, x=x)
+    plot_result(result, path, panels=panels, outputs=outputs, x=x, **options)

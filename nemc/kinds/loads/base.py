@@ -72,3 +72,14 @@ class Load:
     def drawing(self) -> LoadDrawing:
         """How a picture of the mechanism shows it (default: not at all)."""
         return LoadDrawing()
+
+    def reported(self, kin: KinematicsView, rate: Callable[[Expr], Expr]
+                 ) -> list[tuple[str, Expr]]:
+        """What a named load reports as outputs: (suffix, value) ("" the load's name itself,
+        ".Fx" NAME.Fx, ...); RATE: an expression's time derivative."""
+        raise NotImplementedError
+
+    def reported_kinds(self, coordinate_kind: Callable[[str], str]) -> list[tuple[str, str]]:
+        """(suffix, kind of quantity) of what reported() gives, for the units: "couple" or
+        "joint force"; COORDINATE_KIND: a joint's name -> "angle" or "length"."""
+        raise NotImplementedError

@@ -13,14 +13,20 @@ body (every derivation takes the point's velocity as the body's at xy, xy held).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
+import sympy
+
+from ..spatial import rotation, vec
 from ..terms import Loc, Vec2
 from .base import Load
 
 if TYPE_CHECKING:
-    from ..contract import LoadSink, LoadView, Reader
+    from ..contract import KinematicsView, LoadSink, LoadView, Reader
+
+Expr = sympy.Expr
 
 
 @dataclass(frozen=True)
@@ -45,6 +51,17 @@ class Force(Load):
     def expressions(self) -> list[tuple[str, object]]:
         return [*((f"force[{i}]", c) for i, c in enumerate(self.components)),
                 *((f"at[{i}]", c) for i, c in enumerate(self.at))]
+
+    def reported(self, kin: KinematicsView, rate: Callable[[Expr], Expr]
+                 ) -> list[tuple[str, Expr]]:
+        """The force on the body in ground axes, NAME.Fx and NAME.Fy (a body-frame force
+        turned with its body)."""
+        force = (rotation(kin.angle(self.body)) * vec(self.components) if self.frame == "body"
+                 else vec(self.components))
+        return [(".Fx", force[0]), (".Fy", force[1])]
+
+    def reported_kinds(self, coordinate_kind: Callable[[str], str]) -> list[tuple[str, str]]:
+        return [(".Fx", "joint force"), (".Fy", "joint force")]
 
     def act(self, view: LoadView, sink: LoadSink) -> None:
         frame = view.frame(self.body)

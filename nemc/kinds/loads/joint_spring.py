@@ -9,6 +9,7 @@ the opposite on the parent; its elastic part has potential energy k (displacemen
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -20,6 +21,8 @@ from .base import Load, LoadDrawing
 
 if TYPE_CHECKING:
     from ..contract import KinematicsView, LoadSink, LoadView, Reader
+
+Expr = sympy.Expr
 
 
 @dataclass(frozen=True)
@@ -64,6 +67,20 @@ class JointSpring(Load):
         displacement = joint.displacement(kin.angle(joint.child), kin.angle(joint.parent),
                                           [kin.coordinate(c) for c in joint.coordinates])
         return self.k * (displacement - self.rest) ** 2 / 2
+
+    def reported(self, kin: KinematicsView, rate: Callable[[Expr], Expr]
+                 ) -> list[tuple[str, Expr]]:
+        """Its torque or force on the child, NAME.tension: -k (displacement - rest) - damping
+        d(displacement)/dt."""
+        joint = kin.joint(self.joint)
+        displacement = joint.displacement(kin.angle(joint.child), kin.angle(joint.parent),
+                                          [kin.coordinate(c) for c in joint.coordinates])
+        return [(".tension", -self.k * (displacement - self.rest)
+                 - self.damping * rate(displacement))]
+
+    def reported_kinds(self, coordinate_kind: Callable[[str], str]) -> list[tuple[str, str]]:
+        return [(".tension", "couple" if coordinate_kind(self.joint) == "angle"
+                 else "joint force")]
 
     def drawing(self) -> LoadDrawing:
         return LoadDrawing(on_joint=self.joint)

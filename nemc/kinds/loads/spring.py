@@ -9,6 +9,7 @@ between them; its elastic part has potential energy k (distance - length)^2 / 2.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -20,6 +21,8 @@ from .base import Load, LoadDrawing
 
 if TYPE_CHECKING:
     from ..contract import KinematicsView, LoadSink, LoadView, Reader
+
+Expr = sympy.Expr
 
 
 @dataclass(frozen=True)
@@ -63,6 +66,17 @@ class Spring(Load):
     def potential(self, kin: KinematicsView) -> sympy.Expr:
         d = kin.position(self.b.body, self.b.xy) - kin.position(self.a.body, self.a.xy)
         return self.k * (sympy.sqrt(d.dot(d)) - self.length) ** 2 / 2
+
+    def reported(self, kin: KinematicsView, rate: Callable[[Expr], Expr]
+                 ) -> list[tuple[str, Expr]]:
+        """Its tension, NAME.tension: k (distance - length) + damping d(distance)/dt, positive
+        when it pulls the points together."""
+        d = kin.position(self.b.body, self.b.xy) - kin.position(self.a.body, self.a.xy)
+        distance = sympy.sqrt(d.dot(d))
+        return [(".tension", self.k * (distance - self.length) + self.damping * rate(distance))]
+
+    def reported_kinds(self, coordinate_kind: Callable[[str], str]) -> list[tuple[str, str]]:
+        return [(".tension", "joint force")]
 
     def drawing(self) -> LoadDrawing:
         return LoadDrawing(between=(self.a, self.b))

@@ -7,6 +7,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -16,7 +17,9 @@ from ..terms import GROUND, Loc
 from .base import Load
 
 if TYPE_CHECKING:
-    from ..contract import LoadSink, LoadView, Reader
+    from ..contract import KinematicsView, LoadSink, LoadView, Reader
+
+Expr = sympy.Expr
 
 
 @dataclass(frozen=True)
@@ -41,6 +44,14 @@ class Torque(Load):
 
     def expressions(self) -> list[tuple[str, sympy.Expr]]:
         return [("torque", self.expr)]
+
+    def reported(self, kin: KinematicsView, rate: Callable[[Expr], Expr]
+                 ) -> list[tuple[str, Expr]]:
+        """The torque on the body, NAME."""
+        return [("", self.expr)]
+
+    def reported_kinds(self, coordinate_kind: Callable[[str], str]) -> list[tuple[str, str]]:
+        return [("", "couple")]
 
     def act(self, view: LoadView, sink: LoadSink) -> None:
         torque = view.frame(self.body).name(self.expr)
