@@ -1,5 +1,5 @@
 """How runs end, the runtime's side: run settings (max_step, tstops, the step budget), what a
-run that stopped early says, events through scipy's solve_ivp, Ctrl-C, and progress lines.
+run that stopped early says, events through scipy's solve_ivp, Ctrl-C (progress lines: progress.py).
 
 The native methods do the same in C (templates/run_control.c.tmpl); this module gives scipy's
 methods the same rules and every method the same messages. Like runtime.py it needs only numpy
@@ -11,9 +11,7 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 import threading
-import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -22,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from .failures import IntegrationFailure
+from .progress import Progress  # noqa: F401 - runs.Progress, as callers name it
 
 DEFAULT_MAX_STEPS = 1_000_000  # accepted steps; 0: no budget
 DEFAULT_MAX_EVENTS = 32  # simulate_many: the event times kept per run
@@ -356,40 +355,6 @@ def after_run(flag: Any) -> None:
             guard.release()
     if flag[0]:  # (raise_if_interrupted, its call saved in the usual case)
         raise_if_interrupted(flag)
-
-
-# ---- progress on a terminal ------------------------------------------------------------------
-
-
-class Progress:
-    """One line on stderr, only when stderr is a terminal and the work lasts longer than `delay`
-    seconds, refreshed at most 10 times a second and erased when done."""
-
-    def __init__(self, what: str, total: int | None = None, delay: float = 0.5,
-                 stream: Any = None):
-        self.what, self.total, self.delay = what, total, delay
-        self.stream = stream or sys.stderr
-        self.start = self.last = time.monotonic()
-        self.shown = False
-        self.enabled = bool(getattr(self.stream, "isatty", lambda: False)())
-
-    def update(self, done: int | None = None, note: str = "") -> None:
-        if not self.enabled:
-            return
-        now = time.monotonic()
-        if now - self.start < self.delay or (self.shown and now - self.last < 0.1):
-            return
-        self.last, self.shown = now, True
-        count = "" if done is None else f" {done:,}" + (f"/{self.total:,}" if self.total else "")
-        line = f"{self.what}{count}{': ' + note if note else ''} ({now - self.start:.0f} s)"
-        self.stream.write("\r\x1b[K" + line[:200])
-        self.stream.flush()
-
-    def close(self) -> None:
-        if self.shown:
-            self.stream.write("\r\x1b[K")
-            self.stream.flush()
-            self.shown = False
 
 
 # ---- scipy's methods: the same rules through solve_ivp -----------------------------------------
