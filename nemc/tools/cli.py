@@ -1,6 +1,5 @@
-"""The `nemc` command: compile, simulate, show, check, bench, stress, animate, sweep, linearize
-(plant_cli.py), export (fmu_cli.py).
-(plant_cli.py), fit (fit_cli.py).
+"""The `nemc` command: compile, simulate, show, check, bench, stress, animate, sweep
+(sweep_cli.py), linearize (plant_cli.py), export (fmu_cli.py), fit (fit_cli.py).
 
 Exit status: 0 success; 2 bad input (`FILE:LINE: key.path: what is wrong`, no traceback);
 1 any other failure (e.g. the C compiler failed: the message names the C file and its error);
@@ -27,6 +26,7 @@ from .files import output_refusal
 from .fit_cli import add_fit_parser, cmd_fit
 from .fmu_cli import add_export_parser, cmd_export
 from .plant_cli import add_linearize_parser, cmd_linearize
+from .sweep_cli import add_sweep_parser, cmd_sweep
 
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
 
@@ -149,7 +149,7 @@ def make_parser() -> argparse.ArgumentParser:
                        help="the scaling benchmark (benchmarks/scaling.py) instead of the suite")
     add_stress_parser(commands)
     add_animate_parser(commands)
-    add_sweep_parser(commands)
+    add_sweep_parser(commands, parse_assignment, finite_number, positive_number)
     add_linearize_parser(commands, parse_assignment, parse_initial)
     add_export_parser(commands)
     add_fit_parser(commands, parse_assignment)
@@ -221,168 +221,6 @@ def cmd_animate(args: argparse.Namespace) -> int:
         print(failure_line(result.message), file=sys.stderr)
         return 1
     return 0
-
-
-def sweep_axis(grid: bool):
-    """argparse type of --grid / --random (a bad value: argparse's message, exit status 2)."""
-    def parse(text: str):
-        from .sweep_plan import parse_axis
-
-        try:
-            return parse_axis(text, grid)
-        except ValueError as error:
-            raise argparse.ArgumentTypeError(str(error)) from None
-    return parse
-
-
-def positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a number >= 1, got {text!r}")
-    return value
-
-
-def add_sweep_parser(commands: argparse._SubParsersAction) -> None:
-    sweep = commands.add_parser(
-        "sweep", help="many runs over parameter and initial-value sets (this machine or Dask)")
-    sweep.add_argument("mechanism")
-    sweep.add_argument("--grid", action="append", default=[], type=sweep_axis(True),
-                       metavar="NAME=START:STOP:N", help="N values from START to STOP of a "
-                       "parameter or initial state (q1, dot(q1)); grids multiply (repeatable)")
-    sweep.add_argument("--random", action="append", default=[], type=sweep_axis(False),
-                       metavar="NAME=LOW:HIGH", help="uniform random values (repeatable)")
-    sweep.add_argument("--runs", type=positive_int,
-                       help="random draws (per grid point, with --grid); default 1")
-    sweep.add_argument("--seed", type=whole_number, default=0,
-                       help="of the random draws, a whole number >= 0 (0)")
-    sweep.add_argument("--set", dest="params", type=parse_assignment, action="append",
-                       default=[], metavar="NAME=VALUE", help="the same value for every run")
-    sweep.add_argument("--t-end", type=finite_number, help="end time (the scene's by default)")
-    sweep.add_argument("--times", type=positive_int, metavar="N", help="N output times equally"
-                       " spaced from the start to the end, both included (1: the end only; "
-                       "default: the scene's)")
-    sweep.add_argument("--method", help="nemc.DOP853 nemc.Vern9 nemc.Taylor nemc.Radau or auto "
-                       "(default: the scene's if native, else auto's choice)")
-    sweep.add_argument("--rtol", type=positive_number)
-    sweep.add_argument("--atol", type=positive_number)
-    sweep.add_argument("--dask", type=dask_address, metavar="ADDRESS",
-                       help="a Dask scheduler (tcp://host:8786), or local[:N] for N local "
-                       "worker processes (N <= 4 x cores); default: this machine's threads")
-    sweep.add_argument("--out", help="FILE.zarr, FILE.nc or FILE.npz (default "
-                       "<name>-sweep.zarr); the same command again resumes it")
-    sweep.add_argument("--resume", action="store_true",
-                       help="require an interrupted sweep in --out to continue")
-    sweep.add_argument("--chunk", type=positive_int, metavar="RUNS", help="runs per task")
-    sweep.add_argument("--threads", type=positive_int, help="threads without --dask (cores)")
-    sweep.add_argument("--no-outputs", dest="outputs", action="store_false",
-                       help="store the states only, not the scene's outputs (energy, "
-                       "reactions, expressions) beside them")
-
-
-def whole_number(text: str) -> int:
-    """A whole number >= 0 (a seed)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
-    return value
-
-
-MAX_LOCAL_WORKERS_PER_CORE = 4  # --dask local:N: at most this many worker processes a core
-
-
-def dask_address(text: str) -> str:
-    """--dask: local, local:N (1 <= N <= 4 x the cores: each worker is a process), or a
-    scheduler's address (distributed checks it)."""
-    name, colon, count = text.partition(":")
-    if name != "local" or not colon:
-        return text
-    most = MAX_LOCAL_WORKERS_PER_CORE * (os.cpu_count() or 1)
-    try:
-        workers = int(count)
-    except ValueError:
-        workers = 0
-    if not 1 <= workers <= most:
-        raise argparse.ArgumentTypeError(f"local:N: expected N, the worker processes, a whole "
-                                         f"number from 1 to {most}, got {text!r}")
-    return text
-
-
-def cmd_sweep(args: argparse.Namespace) -> int:
-    from ..pipeline import compile_mechanism
-    from ..runtime.model import ModelError
-    from . import sweep_plan, sweeps
-
-    model = compile_mechanism(args.mechanism).model
-    span = list(model.scene["t_span"] or [0.0, 10.0])
-    if args.t_end is not None:
-        span[1] = args.t_end
-    out = args.out or f"{model.name}-sweep.zarr"
-    try:
-        if not span[1] > span[0]:
-            raise ModelError(f"--t-end: must be after the start time {span[0]:g}")
-        y0, params, attrs = sweep_plan.plan_runs(model, args.grid, args.random, args.runs,
-                                             args.seed, dict(args.params))
-        times = None if args.times is None else sweep_plan.output_times(span, args.times)
-        with sweeps.dask_client(args.dask) as client:
-            result = sweeps.sweep(model, y0, params=params, t_span=span, t_eval=times,
-                                  method=args.method, rtol=args.rtol, atol=args.atol,
-                                  client=client, out=out, resume=args.resume,
-                                  chunk_runs=args.chunk, threads=args.threads, attrs=attrs,
-                                  outputs=args.outputs)
-    except (ModelError, sweeps.SweepStoreError) as error:
-        print(f"{args.mechanism}: {error}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt as stop:  # SweepInterrupted, or Ctrl-C while setting up
-        print(f"\n{interrupted_sweep(stop, out)}", file=sys.stderr)
-        return 130
-    except (ImportError, sweeps.WorkersFailed) as error:
-        print(f"nemc: {error}", file=sys.stderr)
-        return 1
-    return report_sweep(result)
-
-
-def interrupted_sweep(stop: KeyboardInterrupt, out: str) -> str:
-    """What a Ctrl-C kept: the runs done, the finished runs of a store that exists, or
-    nothing (before the store was made: it said runs were kept there)."""
-    from .sweep_store import partial_path
-    from .sweeps import SweepInterrupted
-
-    if isinstance(stop, SweepInterrupted):
-        return (f"interrupted: {stop.done} of {stop.runs} runs kept in {out}; run the same "
-                "command again to continue")
-    if os.path.lexists(out) or os.path.lexists(partial_path(Path(out))):
-        return (f"interrupted: the finished runs kept in {out}; run the same command again to "
-                "continue")
-    return f"interrupted before the sweep began: nothing kept, no {out} written"
-
-
-def report_sweep(result) -> int:
-    """The summary: runs, time, rate, failures counted by status and listed (the first 20);
-    1 if any run failed or did not run."""
-    import numpy as np
-
-    rate = f"{result.ran / result.seconds:.0f} runs/s" if result.ran else "nothing left to run"
-    print(f"{result.runs} runs ({result.resumed} done before) in {result.seconds:.1f} s, "
-          f"{rate}; {result.failed} failed, {result.not_run} not run -> {result.path}")
-    if result.failed:
-        from .sweep_store import STATUS_MEANINGS
-
-        codes, counts = np.unique(result.status[result.status != 0], return_counts=True)
-        print("failed runs: " + ", ".join(f"{n} {STATUS_MEANINGS.get(int(c), c)} ({c})"
-                                          for c, n in zip(codes, counts)))
-    for run, status, message in result.failures(20):
-        print(f"  run {run}: status {status}: {message}")
-    if result.failed > 20:
-        print(f"  ... and {result.failed - 20} more (status != 0 in the file)")
-    for error in result.chunk_errors:
-        print(f"  chunk failed: {error}", file=sys.stderr)
-    return 1 if result.failed or result.not_run else 0
 
 
 def cmd_compile(args: argparse.Namespace) -> int:
