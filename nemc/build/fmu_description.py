@@ -225,6 +225,22 @@ def own_rates(description: Description) -> set[tuple[int, int]]:
     return {(derivatives[i].vr, states[i + 1].vr) for i in range(0, len(states), 2)}
 
 
+def add_units_log_experiment(root: ET.Element, description: Description) -> None:
+    """The elements both versions write before the variables, in their schemas' order."""
+    add_units(root, description)
+    add_log_categories(root)
+    add_experiment(root, description.defaults)
+
+
+def variable_attributes(variable: Variable, has_loops: bool) -> dict[str, str]:
+    """A variable's name, value reference, description and causality (both versions)."""
+    attributes = {"name": variable.name, "valueReference": str(variable.vr)}
+    if variable.description:
+        attributes["description"] = variable.description
+    attributes.update(causality(variable, has_loops))
+    return attributes
+
+
 # ---- FMI 2.0 --------------------------------------------------------------------------------
 
 def fmi2_model_description(description: Description) -> str:
@@ -237,19 +253,14 @@ def fmi2_model_description(description: Description) -> str:
     for name in description.sources:
         if name.endswith(".c"):
             ET.SubElement(files, "File", name=name)
-    add_units(root, description)
-    add_log_categories(root)
-    add_experiment(root, description.defaults)
+    add_units_log_experiment(root, description)
     index = {v.vr: position for position, v in enumerate(layout.variables, start=1)}
     states = layout.of("state")
     variables = ET.SubElement(root, "ModelVariables")
     has_loops = bool(meta.get("constraint_equations"))
     for variable in layout.variables:
-        attributes = {"name": variable.name, "valueReference": str(variable.vr)}
-        if variable.description:
-            attributes["description"] = variable.description
-        attributes.update(causality(variable, has_loops))
-        element = ET.SubElement(variables, "ScalarVariable", attributes)
+        element = ET.SubElement(variables, "ScalarVariable",
+                                variable_attributes(variable, has_loops))
         of = str(index[states[variable.index].vr]) if variable.role == "derivative" \
             and description.kind == "me" else None
         ET.SubElement(element, "Integer" if variable.integer else "Real",
@@ -297,17 +308,12 @@ def fmi3_model_description(description: Description) -> str:
     root = ET.Element("fmiModelDescription", header(description))
     ET.SubElement(root, "ModelExchange" if description.kind == "me" else "CoSimulation",
                   interface_attributes(description))
-    add_units(root, description)
-    add_log_categories(root)
-    add_experiment(root, description.defaults)
+    add_units_log_experiment(root, description)
     states = layout.of("state")
     variables = ET.SubElement(root, "ModelVariables")
     has_loops = bool(meta.get("constraint_equations"))
     for variable in layout.variables:
-        attributes = {"name": variable.name, "valueReference": str(variable.vr)}
-        if variable.description:
-            attributes["description"] = variable.description
-        attributes.update(causality(variable, has_loops))
+        attributes = variable_attributes(variable, has_loops)
         of = str(states[variable.index].vr) if variable.role == "derivative" \
             and description.kind == "me" else None
         attributes.update(value_attributes(variable, of))

@@ -22,14 +22,21 @@ def sweep_axis(grid: bool):
     return parse
 
 
-def positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a number >= 1, got {text!r}")
-    return value
+def whole_number_from(least: int, what: str) -> Callable[[str], int]:
+    """argparse type of a whole number >= LEAST (WHAT it counts, for its help)."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if value < least:
+            raise argparse.ArgumentTypeError(f"expected {what} >= {least}, got {text!r}")
+        return value
+    return parse
+
+
+positive_int = whole_number_from(1, "a number")
+whole_number = whole_number_from(0, "a whole number")  # a seed
 
 
 def add_sweep_parser(commands: argparse._SubParsersAction,
@@ -71,17 +78,6 @@ def add_sweep_parser(commands: argparse._SubParsersAction,
     sweep.add_argument("--no-outputs", dest="outputs", action="store_false",
                        help="store the states only, not the scene's outputs (energy, "
                        "reactions, expressions) beside them")
-
-
-def whole_number(text: str) -> int:
-    """A whole number >= 0 (a seed)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
-    return value
 
 
 MAX_LOCAL_WORKERS_PER_CORE = 4  # --dask local:N: at most this many worker processes a core
