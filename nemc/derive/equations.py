@@ -30,6 +30,13 @@ from .c_cost import estimated_ns
 from .inputs import InputLaw, input_law
 from .kinematics import Kinematics, applied_loads, motion_substitutions
 from .linearization import Linearization, input_seeds, linearization, state_seeds
+from .friction import (
+    FrictionEquations,
+    friction_checks,
+    friction_equations,
+    friction_events,
+    friction_outputs,
+)
 from .loops import LoopEquations, loop_equations
 from .mass_form import (
     MAX_COORDINATES,
@@ -113,6 +120,7 @@ class Equations:
     linearization_unavailable: str | None = None  # why it is not, where it is asked for
     sensitivities: Sensitivities | None = None  # the variational equations' programs, if built
     sensitivities_unavailable: str | None = None  # why they are not (FILE:LINE: ...)
+    friction: FrictionEquations | None = None  # Coulomb friction's unknowns and terms
 
     @property
     def n(self) -> int:
@@ -216,6 +224,9 @@ def derive(mech: m.Mechanism) -> Equations:
         for field in ("mass", "inertia")
     ) + tuple((need.key, runtime(need.value)) for need in needs)
     check_strict = (False,) * (2 * len(mech.bodies)) + (True,) * len(needs)
+    friction_needs = friction_checks(mech, runtime)
+    checks += tuple((key, expr) for key, expr, _ in friction_needs)
+    check_strict += tuple(strict for _, _, strict in friction_needs)
     loops = loop_equations(mech, kin, runtime) if mech.constraints else None
     starts = tuple(offset for _, offset in loops.starts) if loops is not None else ()
     count = loops.count if loops is not None else 0
@@ -241,7 +252,8 @@ def derive(mech: m.Mechanism) -> Equations:
         dynamics=forms[form],
         outputs=tuple((name, runtime(expr)) for name, expr in
                       derive_outputs(mech, kin, dict(zip((j.name for j in mech.driven), drives)),
-                                     multipliers_by_constraint(mech, multipliers))),
+                                     multipliers_by_constraint(mech, multipliers))
+                      + friction_outputs(mech)),
         checks=checks,
         check_strict=check_strict,
         initial_state=initial_state(mech, runtime),
@@ -249,11 +261,12 @@ def derive(mech: m.Mechanism) -> Equations:
         loops=loops,
         multipliers=multipliers,
         drives=drives,
-        events=runtime_events(mech, runtime),
+        events=runtime_events(mech, runtime) + friction_events(mech),
         dynamics_form=form,
         forms=forms,
         derived_mass_forcing=mass_forcing,
         inputs=inputs,
+        friction=friction_equations(mech, kin, runtime),
     )
 
 

@@ -32,6 +32,8 @@ from .printing import (
     Caller,
     Printed,
     body,
+    comment_text,
+    indexed,
     program_body,
     symbols_used,
     template,
@@ -132,9 +134,11 @@ def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
             dynamics = Printed(printed.functions, angles.prologue + printed.body)
         form = DYNAMICS_FORMS[eqs.dynamics_form]
         inline = not dynamics.functions and estimated_ns(eqs.dynamics) <= INLINE_DYNAMICS_NS
+        rhs = friction_section(eqs, block, printer, prefix) if eqs.friction is not None \
+            else template("tree_rhs.c.tmpl").substitute(prefix=prefix)
         return template("tree.c.tmpl").substitute(
             prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body,
-            dynamics_form=form.label, singular_k=form.singular,
+            dynamics_form=form.label, singular_k=form.singular, rhs=rhs,
             linkage="static inline __attribute__((always_inline))" if inline else "static")
     targets = dynamics_targets(eqs.layout)
     if eqs.loops is not None:
@@ -201,3 +205,15 @@ DYNAMICS_FORMS = {
         "mass-matrix form, linearized, addition formulas",
         "\n * ".join((*MASS_MATRIX_LINES, LINEARIZED_LINE, ADDITION_LINE)), PIVOT),
 }
+
+
+def friction_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str
+                     ) -> str:
+    """Coulomb friction's solver and the right-hand side through it (templates/
+    friction.c.tmpl): each item's terms printed from the "friction" group."""
+    friction = eqs.friction
+    assert friction is not None
+    return template("friction.c.tmpl").substitute(
+        prefix=prefix, friction_names=comment_text(", ".join(friction.names)),
+        coordinates=", ".join(str(i) for i in friction.coordinates),
+        terms=body(printer, block, indexed("terms", block.groups["friction"])))

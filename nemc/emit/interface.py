@@ -21,6 +21,8 @@ def header(eqs: Equations, prefix: str) -> str:
         n_param=len(eqs.parameters), n_output=len(eqs.outputs), n_drive=len(eqs.drives),
         n_lambda=len(eqs.multipliers),
         n_event=len(eqs.events), n_input=len(eqs.inputs.names),
+        n_friction=eqs.friction.count if eqs.friction else 0,
+        friction_names=comment_text(", ".join(eqs.friction.names if eqs.friction else ())),
         input_names=comment_text(", ".join(eqs.inputs.names)),
         event_names=comment_text(", ".join(event.name for event in eqs.events)),
         parameter_names=comment_text(", ".join(s.name for s in eqs.parameters)),

@@ -39,6 +39,7 @@ def metadata(eqs: Equations, prefix: str) -> dict:
         "dynamics_program": eqs.dynamics_form,
         "drive_names": [joint.name for joint in mech.driven],
         "load_outputs": load_outputs(mech),
+        "friction": list(eqs.friction.names) if eqs.friction is not None else [],
         "constraint_equations": list(eqs.loops.owners) if eqs.loops is not None else [],
         "constraint_starts": [[k, eqs.parameters.index(offset)] for k, offset in starts],
         "constraint_on_velocities": list(eqs.loops.on_velocities) if eqs.loops is not None

@@ -56,7 +56,9 @@ def c_source(eqs: Equations, block: Block, prefix: str, chunk_steps: int,
         jacobian_section=jacobian,
         loops_absent="" if eqs.loops is not None else
         template("loops_absent.c.tmpl").substitute(prefix=prefix),
-    ) + events_section(eqs, block, printer, prefix)
+    ) + events_section(eqs, block, printer, prefix) + (
+        "" if eqs.friction is not None else
+        template("friction_absent.c.tmpl").substitute(prefix=prefix))
 
 
 def outputs_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str) -> str:
@@ -66,13 +68,16 @@ def outputs_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, p
     if not eqs.outputs:
         return template("outputs_absent.c.tmpl").substitute(prefix=prefix)
     exprs = block.groups["outputs"]
-    if eqs.layout is not None and eqs.layout.augmented:
+    given_p = "p"
+    if eqs.friction is not None:  # the accelerations and p with the friction forces solved
+        state, before, given_p = "y", read_template("friction_outputs.c.tmpl"), "p_given"
+    elif eqs.layout is not None and eqs.layout.augmented:
         state, before = "given", read_template("consistent_dynamics.c.tmpl")
     else:
         uses_qdd = any(s in eqs.accelerations for e in exprs for s in _all_symbols(block, e))
         state, before = "y", read_template("accelerations.c.tmpl") if uses_qdd else ""
     return template("outputs.c.tmpl").substitute(
-        prefix=prefix, state=state,
+        prefix=prefix, state=state, p=given_p,
         output_names=comment_text(", ".join(name for name, _ in eqs.outputs)),
         accelerations=before,
         outputs=body(printer, block, indexed("out", exprs)),
@@ -90,7 +95,8 @@ def _all_symbols(block: Block, expr: sympy.Expr) -> set[sympy.Symbol]:
 
 
 EVENT_DIRECTIONS = {"falling": "NEMC_FALLING", "both": "NEMC_BOTH", "rising": "NEMC_RISING"}
-EVENT_ACTIONS = {"record": "NEMC_RECORD", "stop": "NEMC_STOP", "impact": "NEMC_IMPACT"}
+EVENT_ACTIONS = {"record": "NEMC_RECORD", "stop": "NEMC_STOP", "impact": "NEMC_IMPACT",
+                 "switch": "NEMC_SWITCH"}
 
 
 def impact_case(eqs: Equations, block: Block, printer: SymbolTablePrinter, k: int) -> str:
@@ -121,4 +127,20 @@ def events_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, pr
         values=body(printer, block, indexed("g", block.groups["events"])),
         cases="\n".join(impact_case(eqs, block, printer, k)
                         for k, event in enumerate(eqs.events) if event.law),
+        **friction_events_c(eqs),
     )
+
+
+def friction_events_c(eqs: Equations) -> dict[str, str]:
+    """The friction items' switching events (the last N_FRICTION): their values and laws are
+    templates/friction.c.tmpl's."""
+    count = eqs.friction.count if eqs.friction is not None else 0
+    first = len(eqs.events) - count
+    if not count:
+        return {"friction_values": "", "friction_cases": ""}
+    values = (f"    {{\n        int status = friction_event_values(t, y, p, g + {first});\n"
+              "        if (status)\n            return status;\n    }")
+    cases = "\n".join(f"    case {first + k}: /* {comment_text(name)}.stick_slip */\n"
+                       f"        return friction_switch({k}, t, y, p);"
+                       for k, name in enumerate(eqs.friction.names))
+    return {"friction_values": values, "friction_cases": cases}

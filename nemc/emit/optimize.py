@@ -118,6 +118,7 @@ def optimize_equations(eqs: Equations) -> Block:
         "constraints": () if loops is None else
         (*loops.values, *(v for row in loops.jacobian for v in row), *loops.rate),
         **event_groups(eqs),
+        **({"friction": eqs.friction.terms} if eqs.friction else {}),
         **({"sensitivity_initial": eqs.sensitivities.initial} if eqs.sensitivities else {}),
     }
     primal = eqs.accelerations_program if eqs.jacobian is not None else None

@@ -48,6 +48,8 @@ def symbol_table(eqs: Equations, block: Block) -> dict[sympy.Symbol, str]:
     names.update({s: f"FORCE({k})" for k, s in enumerate(eqs.generalized_forces)})
     names.update({s: f"DRIVE({j})" for j, s in enumerate(eqs.drives)})
     names.update({s: f"LAMBDA({k})" for k, s in enumerate(eqs.multipliers)})
+    if eqs.friction is not None:
+        names.update({s: f"FRICTION({k})" for k, s in enumerate(eqs.friction.forces)})
 
     if eqs.seeds:
         for i, (q, u) in enumerate(zip(eqs.coordinates, eqs.speeds)):

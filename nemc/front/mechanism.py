@@ -70,7 +70,7 @@ class Outputs:
 
 
 EventDirection = Literal["rising", "falling", "both"]
-EventAction = Literal["record", "stop", "impact"]
+EventAction = Literal["record", "stop", "impact", "switch"]  # switch: friction's modes
 
 
 @dataclass(frozen=True)
@@ -140,6 +140,13 @@ class Mechanism:
     units: Units = field(default_factory=Units)
     inputs: tuple[Param, ...] = ()  # values set from outside at run time, with their defaults
     load_names: tuple[tuple[str, int], ...] = ()  # a named load's name, its index in loads
+    friction_count: int = 0  # the last loads are the `friction` items (nemc/kinds/friction.py)
+
+    @property
+    def frictions(self) -> tuple[Load, ...]:
+        """The friction items (format v3), in file order: Coulomb friction on joints."""
+        return self.loads[len(self.loads) - self.friction_count:] if self.friction_count \
+            else ()
 
     @property
     def coordinates(self) -> tuple[str, ...]:

@@ -22,6 +22,7 @@ from .context import Context, check_keys, entries_of
 from .fields import ZERO2, read_string, read_vec2
 from .inputs import read_inputs
 from .joints import read_joints
+from .friction import read_friction
 from .loads import read_loads
 from .mechanism import Mechanism, Outputs, Simulation, Units
 from .names import collect_names, model_name
@@ -32,7 +33,7 @@ from .reading import read_file
 from .scene import read_simulation, read_units
 
 TOP_KEYS = ("name", "description", "parameters", "constants", "inputs", "gravity", "bodies",
-            "joints", "constraints", "loads", "outputs", "simulation", "units")
+            "joints", "constraints", "loads", "friction", "outputs", "simulation", "units")
 # The largest mechanism nemc builds. The build grows linearly with the bodies (issue 19): a
 # 1000-body chain of revolute joints builds cold in 53 s with 224 MB at most (400 bodies 22 s,
 # 200 bodies 16 s), 264 s and 710 MB with its Jacobian (whose derivation, sympy's diff of every
@@ -81,6 +82,8 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
     check_carried(ctx)
     constraints = read_constraints(ctx, root["constraints"]) if "constraints" in root else ()
     loads, load_names = read_loads(ctx, root["loads"]) if "loads" in root else ((), ())
+    frictions = read_friction(ctx, root["friction"], bool(constraints)) \
+        if "friction" in root else ()
     outputs = read_outputs(ctx, root["outputs"]) if "outputs" in root else Outputs()
     simulation = read_simulation(ctx, root["simulation"]) if "simulation" in root else Simulation()
     units = read_units(ctx, root["units"]) if "units" in root else Units()
@@ -88,9 +91,10 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
         return None
     return Mechanism(name=name, description=description, source=ctx.file,
                      source_hash=source_hash, parameters=parameters, constants=constants,
-                     gravity=gravity, bodies=bodies, joints=joints, loads=loads,
+                     gravity=gravity, bodies=bodies, joints=joints, loads=loads + frictions,
                      outputs=outputs, simulation=simulation, constraints=constraints,
-                     units=units, inputs=inputs, load_names=load_names)
+                     units=units, inputs=inputs, load_names=load_names,
+                     friction_count=len(frictions))
 
 
 def _check_size(ctx: Context, root: Mapping[str, Node]) -> None:

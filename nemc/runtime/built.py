@@ -21,6 +21,7 @@ from .checks import (
 )
 from .compiled import Compiled
 from .failures import IntegrationFailure, ModelError
+from .friction import Friction
 from .inputs import InputLayout
 from .loops import Loops
 from .parameters import Parameters
@@ -52,6 +53,7 @@ class BuiltModel:
         self.input_names: tuple[str, ...] = self.input_layout.names
         self.constraint_equations: tuple[str, ...] = self.loops.constraint_equations
         self.has_loops: bool = self.loops.has_loops
+        self.friction = Friction(metadata, self.compiled)
         # Compiles this mechanism with more parts (set by nemc's pipeline; None in a
         # standalone package, which has only the parts it was built with): see compiled_with.
         self.part_compiler: Callable[[frozenset[str]], BuiltModel] | None = None

@@ -13,6 +13,7 @@ import numpy as np
 SERIES_NOT_FINITE = -3  # the model status NEMC_SERIES_NOT_FINITE (templates/nemc_run.h.tmpl)
 EVENT_NOT_FINITE = -4  # NEMC_EVENT_NOT_FINITE: an event's function
 LAW_NOT_FINITE = -5  # NEMC_LAW_NOT_FINITE: an impact law's new value
+FRICTION_UNSOLVABLE = -6  # NEMC_FRICTION_UNSOLVABLE: Painleve's paradox
 STATUS_CAUSES = {  # what these statuses mean, whatever the state (the state is checked first)
     SERIES_NOT_FINITE: "nemc.Taylor's series overflows here (a Taylor coefficient, or the "
                        "series' value at the step's end, is not finite): the solution blows up, "
@@ -23,6 +24,10 @@ STATUS_CAUSES = {  # what these statuses mean, whatever the state (the state is 
                       "a division by zero)",
     LAW_NOT_FINITE: "an impact law (simulation.events, `action`) gives a new value that is "
                     "not finite at this state (e.g. a division by zero)",
+    FRICTION_UNSOLVABLE: "Painleve's paradox: the friction forces and the normal forces they "
+                         "depend on have no unique solution at this state (a friction "
+                         "coefficient too large for this configuration: the sliding joint "
+                         "would jam or be thrown; friction section)",
 }
 
 

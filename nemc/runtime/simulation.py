@@ -35,6 +35,7 @@ from .checks import (
     within_budget,
 )
 from .failures import ModelError
+from .friction import FRICTION_METHOD
 from .inputs import RunInputs
 from .native import native_build, simulate_native
 from .outcome import RunSpec, at_start, lazy_outputs
@@ -101,6 +102,11 @@ def integrate(model: BuiltModel, spec: RunSpec) -> SimulationResult:
     method = spec.method
     if method == AUTO:
         return integrate_auto(model, spec)
+    model.friction.check_method(method)
+    if model.friction.present:
+        spec = RunSpec(method, spec.span, model.friction.started(spec.span[0], spec.state0, spec.p),
+                       spec.times, spec.rtol, spec.atol, spec.p, spec.settings,
+                       spec.user_events, spec.inputs)
     if method in NATIVE_METHODS and spec.inputs is not None and spec.inputs.callables:
         raise ModelError(f"an input given as a Python function runs with scipy's methods "
                          f"({', '.join(SCIPY_METHODS)}): {method} runs in C, where inputs are "
@@ -120,7 +126,10 @@ def integrate(model: BuiltModel, spec: RunSpec) -> SimulationResult:
 def integrate_auto(model: BuiltModel, spec: RunSpec) -> SimulationResult:
     """The method "auto" chooses (auto.auto_choice); an explicit start that turns stiff goes
     on with nemc.Radau from where the stiffness test stopped it (as LSODA switches)."""
-    if spec.user_events or spec.inputs is not None and spec.inputs.callables:
+    python_in_loop = spec.user_events or spec.inputs is not None and spec.inputs.callables
+    if model.friction.present:
+        return integrate(model, spec.but(method=FRICTION_METHOD))
+    if python_in_loop:
         return integrate(model, spec.but(method="LSODA"))  # Python in the loop: scipy's
         #                                                    LSODA switches by itself
     span, settings = spec.span, spec.settings

@@ -1,0 +1,89 @@
+"""Coulomb friction's equations (format v3 `friction`): what the generated C needs to solve
+the friction forces with the accelerations at every state (templates/friction.c.tmpl).
+
+Each item's force F is a runtime unknown (nemc/kinds/friction.py's friction_symbol) acting
+across its joint in the dynamics program. Here: per item, the coordinate whose rate is its
+sliding speed, and its terms mu, mu_static and the normal force's two components, in the
+coordinates, rates, accelerations (the reaction's Newton-Euler balance) and parameters. The
+state holds the mode: a stuck joint's rate is exactly 0 (decision 0039), so the outputs
+NAME.stuck and NAME.friction and the switching events follow from the state alone.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import sympy
+
+from ..front import mechanism as m
+from ..kinds.friction import Friction
+from .kinematics import Kinematics, applied_loads
+from .outputs import joint_reaction
+
+TERMS = 4  # per item: mu, mu_static, the normal force's x and y (magnitude: their norm)
+
+
+@dataclass(frozen=True)
+class FrictionEquations:
+    """The friction items' unknowns and terms, in the `friction` list's order."""
+
+    names: tuple[str, ...]  # each item's joint
+    forces: tuple[sympy.Symbol, ...]  # its friction force's symbol (FRICTION(k) in C)
+    coordinates: tuple[int, ...]  # the index of its joint's coordinate (its rate: the speed)
+    terms: tuple[sympy.Expr, ...]  # TERMS per item, in runtime symbols
+
+    @property
+    def count(self) -> int:
+        return len(self.names)
+
+
+def friction_equations(mech: m.Mechanism, kin: Kinematics,
+                       runtime: Callable[[object], sympy.Expr]) -> FrictionEquations | None:
+    """The friction items' equations, or None without any."""
+    items = [item for item in mech.frictions if isinstance(item, Friction)]
+    if not items:
+        return None
+    loads = applied_loads(mech, kin)
+    coordinates, terms = [], []
+    for item in items:
+        joint = mech.joint(item.joint)
+        reaction = joint_reaction(mech, kin, joint, loads, None)
+        force = (reaction[0][1], reaction[1][1])  # NAME.Fx, NAME.Fy: ground axes
+        axis = getattr(joint, "axis", None) if joint.type == "prismatic" else None
+        terms += [runtime(term) for term in item.terms(kin, force, joint.parent, axis)]
+        coordinates.append(mech.coordinates.index(joint.coordinates[0]))
+    return FrictionEquations(names=tuple(item.joint for item in items),
+                             forces=tuple(item.symbol for item in items),
+                             coordinates=tuple(coordinates), terms=tuple(terms))
+
+
+def friction_outputs(mech: m.Mechanism) -> list[tuple[str, sympy.Expr]]:
+    """Each item's outputs: NAME.friction (the force or torque on the child) and NAME.stuck
+    (1 while its joint is stuck, its rate exactly 0)."""
+    named: list[tuple[str, sympy.Expr]] = []
+    for item in mech.frictions:
+        if isinstance(item, Friction):
+            rate = m.rate_symbol(mech.joint(item.joint).coordinates[0])
+            stuck = sympy.Piecewise((sympy.S.One, sympy.Eq(rate, 0)), (sympy.S.Zero, True))
+            named += [(f"{item.joint}.friction", item.symbol), (f"{item.joint}.stuck", stuck)]
+    return named
+
+
+def friction_events(mech: m.Mechanism) -> tuple[m.Event, ...]:
+    """Each item's switching event NAME.stick_slip: its value and law are friction.c.tmpl's
+    (the speed while slipping, the holding margin while stuck), so `when` here is a stand-in."""
+    return tuple(m.Event(name=f"{item.joint}.stick_slip", when=sympy.S.Zero, direction="both",
+                         action="switch", loc=item.location)
+                 for item in mech.frictions)
+
+
+def friction_checks(mech: m.Mechanism, runtime: Callable[[object], sympy.Expr]
+                    ) -> list[tuple[str, sympy.Expr, bool]]:
+    """(key path, expression, strict) of what each item needs of the run's parameters."""
+    found = []
+    for k, item in enumerate(mech.frictions):
+        if isinstance(item, Friction):
+            found += [(f"friction.{k}.{key}", runtime(expr), strict)
+                      for key, expr, strict in item.checks()]
+    return found

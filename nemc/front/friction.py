@@ -1,0 +1,76 @@
+"""The `friction` list (format v3): Coulomb friction on joints, each item read by the kind
+(nemc/kinds/friction.py), then what the first implementation does not take refused by name.
+"""
+
+from __future__ import annotations
+
+from ..kinds.friction import KEYS, Friction
+from .context import Context, check_keys, described, items_of, join_path
+from .fields import default_value, has_defaults
+from .parse import Node
+from .reader import Reader
+
+
+def read_friction(ctx: Context, node: Node, has_loops: bool) -> tuple[Friction, ...]:
+    """The friction items, one per joint; HAS_LOOPS: the mechanism has constraints."""
+    if not node.is_list or not items_of(node):
+        ctx.problem(node.line, "friction", "expected a list of friction items "
+                    f"{{joint, mu, mu_static, radius}} or {{joint, torque}}, {described(node)}")
+        return ()
+    if has_loops:
+        ctx.problem(node.line, "friction", "friction in a mechanism with closed loops "
+                    "(constraints) is not supported yet: its normal forces would need the "
+                    "loops' multipliers (nemc handles friction on the joints of open trees)")
+        return ()
+    found: list[Friction] = []
+    for i, item in enumerate(items_of(node)):
+        path = join_path("friction", i)
+        if not check_keys(ctx, item, path, KEYS, ("joint",),
+                          what="a friction mapping {joint, mu, mu_static, radius}"):
+            continue
+        count = len(ctx.problems)
+        fields = Friction.read(Reader(ctx, item, path))
+        if fields is None or len(ctx.problems) > count:
+            continue
+        friction = Friction(loc=ctx.loc(item, path), **fields)
+        if _usable(ctx, friction, item, path, found):
+            found.append(friction)
+    return tuple(found)
+
+
+def _usable(ctx: Context, friction: Friction, node: Node, path: str,
+            found: list[Friction]) -> bool:
+    """Whether the item's joint can carry it: one item per joint, a free (not driven) joint
+    whose coordinate's rate is its sliding speed, pin friction with a radius."""
+    joint = ctx.joints.get(friction.joint)
+    where = join_path(path, "joint")
+    problem = None
+    if joint is None:
+        return False
+    if any(other.joint == friction.joint for other in found):
+        problem = f"joint {friction.joint!r} already has a friction item"
+    elif joint.driven:
+        problem = (f"joint {friction.joint!r} is driven (motion:): its drive already holds "
+                   "it, friction would only add to the drive's torque")
+    elif getattr(joint, "angle", "relative") != "relative":
+        problem = (f"joint {friction.joint!r} has an absolute angle: friction needs the "
+                   "joint's own rate (angle: relative)")
+    elif _static_below_kinetic(ctx, friction):
+        problem = "mu_static must be >= mu (the static coefficient limits the holding force)"
+        where = join_path(path, "mu_static")
+    elif joint.type == "revolute" and friction.given is None and friction.radius is None:
+        problem = ("pin friction on a revolute joint needs `radius` (the torque is "
+                   "mu * radius * |reaction|), or give the Coulomb torque as `torque:`")
+        where = path
+    if problem is not None:
+        ctx.problem(node.line, where, problem)
+    return problem is None
+
+
+def _static_below_kinetic(ctx: Context, friction: Friction) -> bool:
+    """Whether mu_static < mu at the default parameter values."""
+    difference = friction.mu_static - friction.mu
+    if not has_defaults(ctx, difference):
+        return False
+    value = default_value(ctx, difference)
+    return value is not None and value < 0

@@ -1,0 +1,54 @@
+"""Coulomb friction at run time (format v3 `friction`; decision 0039): which methods can run a
+mechanism with friction, and each run's start (the items at rest that cannot be held slip).
+
+The state is the mode: a stuck joint's rate is exactly 0, held there by the right-hand side's
+exact zeros, which an explicit Runge-Kutta step keeps (its increments are sums of zeros). An
+implicit method's Newton iteration mixes the state's entries (and differences of the
+right-hand side across a rate of 0 cross the switch), and nemc.Taylor's series has no switch:
+those are refused by name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from .compiled import Compiled
+from .failures import IntegrationFailure, ModelError
+
+FRICTION_METHODS = ("nemc.Vern9", "nemc.DOP853", "RK45", "RK23", "DOP853")  # explicit
+FRICTION_METHOD = "nemc.Vern9"  # method "auto"'s choice with friction
+
+
+class Friction:
+    """A build's friction items, by joint name (none: `present` is False)."""
+
+    def __init__(self, metadata: Mapping[str, Any], compiled: Compiled):
+        self.items: tuple[str, ...] = tuple(metadata.get("friction", ()))
+        self.present = bool(self.items)
+        self.compiled = compiled
+
+    def check_method(self, method: str) -> None:
+        """Refuse a method that cannot keep a stuck joint's rate exactly 0."""
+        if self.present and method not in FRICTION_METHODS:
+            raise ModelError(
+                f"{method} cannot run a mechanism with Coulomb friction (friction on "
+                f"{', '.join(self.items)}): a stuck joint's rate is held at exactly 0, which "
+                f"the explicit methods keep ({', '.join(FRICTION_METHODS)}; method auto "
+                "takes nemc.Vern9), switching modes at the events they locate; an implicit "
+                "method's Newton iteration and nemc.Taylor's series do not")
+
+    def started(self, t0: float, y0: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Y0 with every item at rest that its static friction cannot hold set slipping."""
+        if not self.present:
+            return y0
+        y = np.array(y0, dtype=float)
+        buffer = self.compiled.buffer
+        status = self.compiled.function("friction_start")(t0, buffer(y), buffer(p))
+        if status:
+            cause = self.compiled.status_cause(status)
+            raise IntegrationFailure(f"the friction at the start (t = {t0:g}) cannot be "
+                                     f"solved: {cause}")
+        return y

@@ -1,0 +1,203 @@
+"""Coulomb friction that sticks and slips (format v3 `friction`), against closed forms and an
+independent derivation: the block on a spring (its turning points, its rest, the energy
+friction took), a block pushed by a growing force (the instant it breaks free and its slide),
+a pendulum with pin friction (its normal force depends on its acceleration: solved together)
+against a hand-derived equation integrated by scipy; and bad files, one clear error each."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import nemc
+from nemc.errors import InputError
+from nemc.runtime.failures import ModelError
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+M, K, G, MU, MU_S = 1.0, 10.0, 9.81, 0.1, 0.15
+
+
+@pytest.fixture(scope="module")
+def block():
+    return nemc.compile(EXAMPLES / "coulomb_block.yaml")
+
+
+@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853", "auto", "DOP853", "RK45"])
+def test_the_block_turns_and_sticks_where_the_closed_form_says(block, method: str) -> None:
+    result = block.simulate(method=method)
+    assert result.success
+    half = math.pi / math.sqrt(K / M)
+    delta = 2 * MU * M * G / K
+    turns = [(-1) ** n * (1.0 - n * delta) for n in range(1, 6)]
+    assert abs(turns[-1]) * K <= MU_S * M * G < abs(turns[-2]) * K  # it sticks at the 5th
+    times, states = result.events["slide.stick_slip"]
+    np.testing.assert_allclose(times, [n * half for n in range(1, 6)], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(np.asarray(states)[:, 0], turns, rtol=0, atol=1e-9)
+    after = result.t > 5 * half + 1e-6
+    assert np.all(result.y[1, after] == 0.0)  # held exactly
+    assert np.all(result.y[0, after] == result.y[0, -1])
+    assert np.all(result.outputs["slide.stuck"][after] == 1.0)
+    sliding = (result.t > 1e-6) & (result.t < 5 * half - 1e-6)
+    assert np.all(result.outputs["slide.stuck"][sliding] == 0.0)
+
+
+def test_friction_takes_the_energy_its_work_says(block) -> None:
+    """The power balance: energy lost = the integral of the friction's power F v, each swing
+    mu m g times its path (closed form), to 1e-9; and F = -mu m g sign(v) while it slides."""
+    result = block.simulate()
+    energy = result.outputs["energy.total"]
+    delta = 2 * MU * M * G / K
+    path = sum(2 * (1.0 - n * delta) - delta for n in range(5))  # |x_n - x_{n+1}|
+    assert energy[0] - energy[-1] == pytest.approx(MU * M * G * path, abs=1e-9)
+    v, force = result.y[1], result.outputs["slide.friction"]
+    moving = v != 0
+    np.testing.assert_allclose(force[moving], -MU * M * G * np.sign(v[moving]), rtol=1e-12)
+    held = ~moving
+    np.testing.assert_allclose(force[held], K * result.y[0, held], rtol=1e-9, atol=1e-12)
+
+
+PUSHED = """
+name: pushed_block
+parameters: {m: 2.0, g: 9.81, mu: 0.3, mu_s: 0.5, c: 4.0}
+gravity: [0, -g]
+bodies:
+  block: {mass: m, inertia: 0.1}
+joints:
+  slide: {type: prismatic, parent: ground, child: block, coordinate: x}
+loads:
+  - {force: [c*t, 0], body: block}
+friction:
+  - {joint: slide, mu: mu, mu_static: mu_s}
+simulation:
+  t_span: [0, 6]
+  rtol: 1.0e-11
+  atol: 1.0e-13
+"""
+
+
+def test_a_pushed_block_breaks_free_when_the_push_reaches_static_friction(tmp_path: Path
+                                                                          ) -> None:
+    path = tmp_path / "pushed.yaml"
+    path.write_text(PUSHED)
+    model = nemc.compile(path)
+    m, g, mu, mu_s, c = 2.0, 9.81, 0.3, 0.5, 4.0
+    t_s = mu_s * m * g / c  # the push c t reaches mu_s m g
+    for method in ("nemc.Vern9", "nemc.DOP853", "DOP853"):
+        result = model.simulate(method=method, t_eval=[0.5 * t_s, 6.0])
+        assert result.success
+        times, _ = result.events["slide.stick_slip"]
+        assert times[0] == pytest.approx(t_s, abs=1e-9)
+        assert result.y[:, 0].tolist() == [0.0, 0.0]  # stuck before: exactly
+        t = 6.0
+        v = (c * (t**2 - t_s**2) / 2 - mu * m * g * (t - t_s)) / m
+        x = (c * (t**3 - t_s**3) / 6 - c * t_s**2 * (t - t_s) / 2
+             - mu * m * g * (t - t_s) ** 2 / 2) / m
+        assert result.y[0, -1] == pytest.approx(x, rel=1e-9)
+        assert result.y[1, -1] == pytest.approx(v, rel=1e-9)
+
+
+PIN = """
+name: pin_pendulum
+parameters: {m: 1.5, L: 0.8, g: 9.81, mu: 0.2, r: 0.05}
+gravity: [0, -g]
+bodies:
+  rod: {mass: m, inertia: m*L**2/12, com: [L/2, 0]}
+joints:
+  pin: {type: revolute, parent: ground, child: rod, coordinate: th}
+friction:
+  - {joint: pin, mu: mu, radius: r}
+simulation:
+  initial: {th: -0.3, dot(th): 6.0}
+  rtol: 1.0e-12
+  atol: 1.0e-13
+"""
+
+
+def pin_reference(t_end: float) -> np.ndarray:
+    """The rod's motion by hand: (I_O) th'' = -m g (L/2) cos(th) + tau, tau = -mu r |R|
+    sign(th'), R = m a_C - m g (the pin's push on the rod), a_C from th'' and th'^2: tau and
+    th'' solved together by fixed-point iteration (contracting: mu r m L/2 / I_O << 1)."""
+    m, length, g, mu, r = 1.5, 0.8, 9.81, 0.2, 0.05
+    arm, inertia = length / 2, m * length**2 / 3
+
+    def rhs(_t: float, y: np.ndarray) -> list[float]:
+        th, w = y
+        tau = 0.0
+        for _ in range(200):
+            a = (-m * g * arm * math.cos(th) + tau) / inertia
+            ax = -arm * (a * math.sin(th) + w * w * math.cos(th))
+            ay = arm * (a * math.cos(th) - w * w * math.sin(th))
+            new = -mu * r * math.hypot(m * ax, m * ay + m * g) * math.copysign(1.0, w)
+            if new == tau:
+                break
+            tau = new
+        return [w, (-m * g * arm * math.cos(th) + tau) / inertia]
+
+    sol = solve_ivp(rhs, (0, t_end), [-0.3, 6.0], method="DOP853", rtol=1e-13, atol=1e-14)
+    return sol.y[:, -1]
+
+
+def test_pin_friction_solved_with_its_reaction_matches_a_hand_derivation(tmp_path: Path
+                                                                         ) -> None:
+    path = tmp_path / "pin.yaml"
+    path.write_text(PIN)
+    model = nemc.compile(path)
+    t_end = 0.3  # before its rate first reaches 0
+    result = model.simulate((0, t_end), method="nemc.Vern9")
+    assert result.success and np.all(result.y[1] > 0)
+    np.testing.assert_allclose(result.y[:, -1], pin_reference(t_end), rtol=1e-9, atol=1e-11)
+    torque = result.outputs["pin.friction"]
+    assert np.all(torque < 0)
+
+
+def test_implicit_and_scipy_methods_are_refused_by_name(block) -> None:
+    for method in ("nemc.Radau", "Radau", "BDF", "LSODA", "nemc.Taylor"):
+        with pytest.raises(ModelError, match="Coulomb friction"):
+            block.simulate(method=method)
+
+
+BAD = {
+    "mu: -0.1": "must be > 0",
+    "mu: 0.3, mu_static: 0.2": "mu_static must be >= mu",
+    "mu: 0.3, bogus: 1": "bogus",
+}
+
+
+@pytest.mark.parametrize("item, message", BAD.items())
+def test_bad_friction_items_are_refused_with_their_line(tmp_path: Path, item: str,
+                                                        message: str) -> None:
+    path = tmp_path / "bad.yaml"
+    path.write_text(PUSHED.replace("{joint: slide, mu: mu, mu_static: mu_s}",
+                                   "{joint: slide, " + item + "}"))
+    with pytest.raises(InputError, match=message) as caught:
+        nemc.compile(path)
+    assert f"{path}:12:" in str(caught.value)
+
+
+@pytest.mark.parametrize("joints, item, message", [
+    ("slide: {type: weld, parent: ground, child: block}", "{joint: slide, mu: 0.2}",
+     "revolute or prismatic"),
+    ("slide: {type: revolute, parent: ground, child: block, coordinate: a}",
+     "{joint: slide, mu: 0.2}", "needs `radius`"),
+    ("slide: {type: prismatic, parent: ground, child: block, coordinate: x, motion: t}",
+     "{joint: slide, mu: 0.2}", "is driven"),
+])
+def test_friction_on_a_joint_that_cannot_carry_it_is_refused(tmp_path: Path, joints: str,
+                                                             item: str, message: str) -> None:
+    text = f"""
+name: bad
+bodies:
+  block: {{mass: 1, inertia: 0.1}}
+joints:
+  {joints}
+friction:
+  - {item}
+"""
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    with pytest.raises(InputError, match=message):
+        nemc.compile(path)
