@@ -201,3 +201,38 @@ friction:
     path.write_text(text)
     with pytest.raises(InputError, match=message):
         nemc.compile(path)
+
+
+def slider_crank_break_free() -> float:
+    """When the motor's ramped torque T0 t / 0.2 makes the slider-crank's stuck slider slip,
+    from statics by hand (examples/slider_crank_friction.yaml's numbers): virtual work on the
+    crank angle gives the holding force F = -(T + Q_gravity) / (ds/dq1), the rod's moments about
+    its crank pin and the slider's vertical balance its normal force N = tan(phi) F + m2 g / 2 +
+    ms g + load; it slips where |F| = mu_s N (both affine in T)."""
+    r, length, m1, m2, ms, t0, mu_s, load, g = 0.1, 0.35, 0.4, 0.9, 1.2, 3.0, 0.4, 40.0, 9.81
+    q1 = math.pi / 3
+    phi = math.asin(-r * math.sin(q1) / length)  # the rod's angle: its end on the x axis
+    ds = -r * math.sin(q1) + r * math.cos(q1) * math.tan(phi)
+    q_gravity = -m1 * g * r / 2 * math.cos(q1) - m2 * g * r * math.cos(q1) / 2
+
+    def margin(torque: float) -> float:
+        force = -(torque + q_gravity) / ds
+        normal = math.tan(phi) * force + m2 * g / 2 + ms * g + load
+        return mu_s * normal - abs(force)
+
+    from scipy.optimize import brentq
+    torque = brentq(margin, 0.0, t0)
+    return 0.2 * torque / t0
+
+
+def test_the_slider_crank_breaks_free_when_statics_says() -> None:
+    model = nemc.compile(EXAMPLES / "slider_crank_friction.yaml")
+    result = model.simulate()
+    assert result.success
+    times, _ = result.events["S.stick_slip"]
+    assert times[0] == pytest.approx(slider_crank_break_free(), abs=1e-9)
+    before = result.t < times[0]
+    assert np.ptp(result.y[0, before]) < 1e-12 and np.all(result.y[1, before] == 0.0)  # held
+    assert np.all(result.outputs["S.stuck"][before] == 1.0)
+    # it passes its dead centers (the slider's rate 0 by the kinematics): slips on
+    assert len(times) > 3 and np.all(result.outputs["S.stuck"][result.t > times[0] + 1e-6] == 0)

@@ -266,7 +266,8 @@ def derive(mech: m.Mechanism) -> Equations:
         forms=forms,
         derived_mass_forcing=mass_forcing,
         inputs=inputs,
-        friction=friction_equations(mech, kin, runtime),
+        friction=friction_equations(mech, kin, runtime,
+                                    multipliers_by_constraint(mech, multipliers)),
     )
 
 

@@ -19,7 +19,7 @@ import sympy
 from ..front import mechanism as m
 from ..kinds.friction import Friction
 from .kinematics import Kinematics, applied_loads
-from .outputs import joint_reaction
+from .outputs import constraint_loads, joint_reaction
 
 TERMS = 4  # per item: mu, mu_static, the normal force's x and y (magnitude: their norm)
 
@@ -39,12 +39,15 @@ class FrictionEquations:
 
 
 def friction_equations(mech: m.Mechanism, kin: Kinematics,
-                       runtime: Callable[[object], sympy.Expr]) -> FrictionEquations | None:
-    """The friction items' equations, or None without any."""
+                       runtime: Callable[[object], sympy.Expr],
+                       multipliers: dict[str, list[sympy.Symbol]]) -> FrictionEquations | None:
+    """The friction items' equations, or None without any. MULTIPLIERS: each loop
+    constraint's (its reaction is a load on the bodies a joint's reaction balances)."""
     items = [item for item in mech.frictions if isinstance(item, Friction)]
     if not items:
         return None
     loads = applied_loads(mech, kin)
+    constraint_loads(mech, kin, multipliers, loads)
     coordinates, terms = [], []
     for item in items:
         joint = mech.joint(item.joint)

@@ -134,8 +134,8 @@ def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
             dynamics = Printed(printed.functions, angles.prologue + printed.body)
         form = DYNAMICS_FORMS[eqs.dynamics_form]
         inline = not dynamics.functions and estimated_ns(eqs.dynamics) <= INLINE_DYNAMICS_NS
-        rhs = friction_section(eqs, block, printer, prefix) if eqs.friction is not None \
-            else template("tree_rhs.c.tmpl").substitute(prefix=prefix)
+        rhs = friction_section(eqs, block, printer, prefix, TREE_PASS) \
+            if eqs.friction is not None else template("tree_rhs.c.tmpl").substitute(prefix=prefix)
         return template("tree.c.tmpl").substitute(
             prefix=prefix, dynamics_parts=dynamics.functions, dynamics=dynamics.body,
             dynamics_form=form.label, singular_k=form.singular, rhs=rhs,
@@ -150,8 +150,10 @@ def dynamics_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
         functions = template("accelerations_augmented.c.tmpl").substitute(
             dynamics_parts=dynamics.functions, dynamics=dynamics.body)
     on_velocities = eqs.loops.on_velocities if eqs.loops is not None else ()
+    rhs = friction_section(eqs, block, printer, prefix, LOOPS_PASS) \
+        if eqs.friction is not None else template("loops_rhs.c.tmpl").substitute(prefix=prefix)
     return template("loops.c.tmpl").substitute(
-        prefix=prefix, dynamics_functions=functions,
+        prefix=prefix, dynamics_functions=functions, rhs=rhs,
         constraint_values=constraint_values(eqs, block, printer),
         on_velocities=" || ".join(f"(k) == {k}" for k in on_velocities) or "0")
 
@@ -207,13 +209,21 @@ DYNAMICS_FORMS = {
 }
 
 
-def friction_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str
-                     ) -> str:
+# friction.c.tmpl's pass of the dynamics: a tree's accelerations, or with drives or loops the
+# state brought onto the constraints with its accelerations, multipliers and drives
+TREE_PASS = """    for (int i = 0; i < N_STATE; ++i)
+        r->ys[i] = y[i];
+    int status = accelerations(t, y, pf, r->qdd);"""
+LOOPS_PASS = """    int status = consistent_dynamics(t, y, pf, r->ys, r->qdd, r->lambda, r->drive);"""
+
+
+def friction_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str,
+                     dynamics_call: str) -> str:
     """Coulomb friction's solver and the right-hand side through it (templates/
     friction.c.tmpl): each item's terms printed from the "friction" group."""
     friction = eqs.friction
     assert friction is not None
     return template("friction.c.tmpl").substitute(
         prefix=prefix, friction_names=comment_text(", ".join(friction.names)),
-        coordinates=", ".join(str(i) for i in friction.coordinates),
+        coordinates=", ".join(str(i) for i in friction.coordinates), dynamics_call=dynamics_call,
         terms=body(printer, block, indexed("terms", block.groups["friction"])))

@@ -70,7 +70,7 @@ def outputs_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, p
     exprs = block.groups["outputs"]
     given_p = "p"
     if eqs.friction is not None:  # the accelerations and p with the friction forces solved
-        state, before, given_p = "y", read_template("friction_outputs.c.tmpl"), "p_given"
+        state, before, given_p = "given", read_template("friction_outputs.c.tmpl"), "p_given"
     elif eqs.layout is not None and eqs.layout.augmented:
         state, before = "given", read_template("consistent_dynamics.c.tmpl")
     else:

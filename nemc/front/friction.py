@@ -11,16 +11,11 @@ from .parse import Node
 from .reader import Reader
 
 
-def read_friction(ctx: Context, node: Node, has_loops: bool) -> tuple[Friction, ...]:
-    """The friction items, one per joint; HAS_LOOPS: the mechanism has constraints."""
+def read_friction(ctx: Context, node: Node) -> tuple[Friction, ...]:
+    """The friction items, one per joint."""
     if not node.is_list or not items_of(node):
         ctx.problem(node.line, "friction", "expected a list of friction items "
                     f"{{joint, mu, mu_static, radius}} or {{joint, torque}}, {described(node)}")
-        return ()
-    if has_loops:
-        ctx.problem(node.line, "friction", "friction in a mechanism with closed loops "
-                    "(constraints) is not supported yet: its normal forces would need the "
-                    "loops' multipliers (nemc handles friction on the joints of open trees)")
         return ()
     found: list[Friction] = []
     for i, item in enumerate(items_of(node)):

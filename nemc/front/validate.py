@@ -82,8 +82,7 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
     check_carried(ctx)
     constraints = read_constraints(ctx, root["constraints"]) if "constraints" in root else ()
     loads, load_names = read_loads(ctx, root["loads"]) if "loads" in root else ((), ())
-    frictions = read_friction(ctx, root["friction"], bool(constraints)) \
-        if "friction" in root else ()
+    frictions = read_friction(ctx, root["friction"]) if "friction" in root else ()
     outputs = read_outputs(ctx, root["outputs"]) if "outputs" in root else Outputs()
     simulation = read_simulation(ctx, root["simulation"]) if "simulation" in root else Simulation()
     units = read_units(ctx, root["units"]) if "units" in root else Units()

@@ -27,6 +27,7 @@ class Friction:
 
     def __init__(self, metadata: Mapping[str, Any], compiled: Compiled):
         self.items: tuple[str, ...] = tuple(metadata.get("friction", ()))
+        self.rates: list[int] = list(metadata.get("friction_rates", ()))
         self.present = bool(self.items)
         self.compiled = compiled
 
@@ -52,3 +53,12 @@ class Friction:
             raise IntegrationFailure(f"the friction at the start (t = {t0:g}) cannot be "
                                      f"solved: {cause}")
         return y
+
+    def held(self, raw: np.ndarray, projected: np.ndarray) -> np.ndarray:
+        """PROJECTED (a closed loop's states brought onto its constraints) with each stuck
+        joint's rate exactly 0 where the run's RAW states have it so: the mode kept."""
+        if not self.present or not projected.size:
+            return projected
+        for i in self.rates:
+            projected[i, raw[i] == 0.0] = 0.0
+        return projected

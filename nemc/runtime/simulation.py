@@ -69,7 +69,7 @@ def simulate(model: BuiltModel, arguments: tuple, t_eval: Any) -> SimulationResu
     if freedom == 0:
         return kinematic_run(model, spec)
     result = integrate(model, spec)
-    result.y = model.loops.projected(result.t, result.y, spec.p)
+    result.y = model.friction.held(result.y, model.loops.projected(result.t, result.y, spec.p))
     return result
 
 
