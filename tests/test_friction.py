@@ -236,3 +236,34 @@ def test_the_slider_crank_breaks_free_when_statics_says() -> None:
     assert np.all(result.outputs["S.stuck"][before] == 1.0)
     # it passes its dead centers (the slider's rate 0 by the kinematics): slips on
     assert len(times) > 3 and np.all(result.outputs["S.stuck"][result.t > times[0] + 1e-6] == 0)
+
+
+def test_an_ensemble_starts_each_run_in_its_own_mode(block) -> None:
+    """Runs from rest at several stretches: each turns and sticks where its closed form says
+    (one too little stretched to move at all), on one thread and on two."""
+    delta = 2 * MU * M * G / K
+    starts = [1.0, 0.5, 0.1]
+    expected = []
+    for x in starts:  # the turning points until the spring cannot beat static friction
+        while abs(x) * K > MU_S * M * G:
+            x = -(x - math.copysign(delta, x))
+        expected.append(x)
+    y0s = np.array([[x, 0.0] for x in starts])
+    for threads in (1, 2):
+        runs = block.simulate_many(y0s, t_eval=[0.0, 7.0], threads=threads)
+        assert np.all(runs.success)
+        np.testing.assert_allclose(runs.y[:, 0, -1], expected, rtol=0, atol=1e-9)
+        assert np.all(runs.y[:, 1, -1] == 0.0)
+
+
+@pytest.mark.parametrize("call", ["linearize", "trim", "sensitivities", "taylor"])
+def test_what_needs_a_derivative_is_refused_by_name(block, call: str) -> None:
+    with pytest.raises(ModelError, match="friction"):
+        if call == "linearize":
+            block.linearize()
+        elif call == "trim":
+            block.trim()
+        elif call == "sensitivities":
+            block.simulate(sensitivities=["mu"])
+        else:
+            block.simulate_many(np.array([[1.0, 0.0]]), method="nemc.Taylor")

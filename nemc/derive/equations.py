@@ -36,6 +36,7 @@ from .friction import (
     friction_equations,
     friction_events,
     friction_outputs,
+    friction_refusal,
 )
 from .loops import LoopEquations, loop_equations
 from .mass_form import (
@@ -268,6 +269,7 @@ def derive(mech: m.Mechanism) -> Equations:
         inputs=inputs,
         friction=friction_equations(mech, kin, runtime,
                                     multipliers_by_constraint(mech, multipliers)),
+        sensitivities_unavailable=friction_refusal(mech, "sensitivities"),
     )
 
 
@@ -339,7 +341,7 @@ def with_diagnostics(eqs: Equations) -> Equations:
 def with_jacobian(eqs: Equations) -> Equations:
     """Add the Jacobian of the right-hand side: the forward-mode derivative of the program, or
     for a closed loop's projected right-hand side, differences (jacobian_differences.c.tmpl)."""
-    if eqs.loops is not None:
+    if eqs.loops is not None or eqs.friction is not None:
         return dataclasses.replace(eqs, jacobian_by_differences=True)
     seeds = dict(zip(eqs.state, seed_symbols(len(eqs.state))))
     return dataclasses.replace(eqs, jacobian=tangent_program(eqs.accelerations_program, seeds),
@@ -362,6 +364,8 @@ def with_sensitivities(eqs: Equations) -> Equations:
     a tree's dynamics and outputs along the state's and the parameters' seeds, and the initial
     state's derivatives by the parameters. A closed loop's are refused, with its line."""
     mech = eqs.mechanism
+    if eqs.sensitivities_unavailable:
+        return eqs
     if eqs.loops is not None:
         where = mech.constraints[0].loc
         return dataclasses.replace(eqs, sensitivities_unavailable=(
@@ -430,6 +434,8 @@ def taylor_refusal(eqs: Equations) -> str | None:
     """Where the equations use an operation with no Taylor recurrence here, with its place in
     the file, or None."""
     mech = eqs.mechanism
+    if mech.frictions:
+        return friction_refusal(mech, "nemc.Taylor's series")
     if mech.constraints:
         where = mech.constraints[0].loc
         return (f"{where.file}:{where.line}: {where.key}: a closed loop's state is projected "

@@ -90,3 +90,14 @@ def friction_checks(mech: m.Mechanism, runtime: Callable[[object], sympy.Expr]
             found += [(f"friction.{k}.{key}", runtime(expr), strict)
                       for key, expr, strict in item.checks()]
     return found
+
+
+def friction_refusal(mech: m.Mechanism, what: str) -> str | None:
+    """Why WHAT (a part of the build that differentiates or expands the right-hand side) is
+    not available with Coulomb friction, at the first item's FILE:LINE; None without any."""
+    if not mech.frictions:
+        return None
+    where = mech.frictions[0].location
+    return (f"{where.file}:{where.line}: {where.key}: {what} of a mechanism with Coulomb "
+            "friction are not available: its right-hand side switches between modes at "
+            "events (stuck, slipping either way) and is not differentiable across them")

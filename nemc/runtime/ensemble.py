@@ -33,6 +33,7 @@ from .checks import (
     within_budget,
 )
 from .failures import BuildNotice, ModelError
+from .friction import FRICTION_METHOD
 from .inputs import RunInputs
 from .native import native_build, new_run, table_inputs
 from .results import EnsembleResult
@@ -74,12 +75,14 @@ def simulate_many(model: BuiltModel, call: EnsembleCall) -> EnsembleResult:
     inputs = None  # (parameters, starts, tables), made once
     if method is None or (isinstance(method, str) and method == AUTO):
         inputs = ps, starts, _ = ensemble_inputs(model, call.y0s, call.params, call.inputs)
-        method = ensemble_method(model, span, starts[0], ps[0], call.rtol, len(starts))
+        method = FRICTION_METHOD if model.friction.present else \
+            ensemble_method(model, span, starts[0], ps[0], call.rtol, len(starts))
         lanes = lanes and (len(starts) >= AUTO_LANES_MIN_RUNS or model.has_part("lanes"))
     if not isinstance(method, str) or method not in NATIVE_METHODS:
         got = repr(method) if isinstance(method, str) else type(method).__name__
         raise ModelError(f"simulate_many: method must be one of {', '.join(NATIVE_METHODS)}"
                          f" or auto, got {got}")
+    model.friction.check_method(method)
     in_lanes = method in TAYLOR_METHODS and bool(lanes) and not has_tables(call.inputs)
     build = model.compiled_with("lanes") if in_lanes else model
     in_lanes = in_lanes and build.has_part("lanes")
@@ -119,6 +122,7 @@ def run_ensemble(model: BuiltModel, call: EnsembleCall, span: tuple[float, float
     if model.has_loops:  # each run from its assembled state
         ps = np.ascontiguousarray(model.loops.started_runs(span[0], y0s, ps))
         y0s = model.loops.assembled_runs(span[0], y0s, given, ps)
+    y0s = model.friction.started_runs(span[0], y0s, ps)
     settings = checked_settings(model.scene, span, call.max_step, call.tstops, call.max_steps)
     if tables is not None:  # every step lands on the tables' samples
         settings = with_tstops(settings, tables.tstops, span)
@@ -154,7 +158,7 @@ def run_ensemble(model: BuiltModel, call: EnsembleCall, span: tuple[float, float
                     runs.Progress(f"{model.name}: runs", k) if call.progress is not False
                     else None, call.progress)
     if model.has_loops:
-        y = model.loops.projected_runs(keep[0], y, ps)
+        y = model.friction.held_runs(y, model.loops.projected_runs(keep[0], y, ps))
     return EnsembleResult(
         t=keep[0], y=y.transpose(0, 2, 1), status=statuses.astype(int),
         success=statuses >= 0, nfev=counts[:, 0].copy(), njev=counts[:, 1].copy(),

@@ -30,6 +30,7 @@ PATTERN_SEED = 48
 
 def export_fmu(model: Model, path: str | Path, fmi: int, kind: str) -> Path:
     """MODEL as an FMU at PATH (Model.export_fmu checks the arguments here)."""
+    model.friction.refuse("an FMU export")
     if fmi not in FMI_VERSIONS or isinstance(fmi, bool):
         raise ModelError(f"export_fmu: fmi must be 2 or 3, got {fmi!r}")
     if kind not in FMU_KINDS:

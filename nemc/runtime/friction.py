@@ -41,6 +41,23 @@ class Friction:
                 "takes nemc.Vern9), switching modes at the events they locate; an implicit "
                 "method's Newton iteration and nemc.Taylor's series do not")
 
+    def refuse(self, what: str) -> None:
+        """Refuse WHAT (the model as a plant, an FMU) with friction, which switches modes."""
+        if self.present:
+            raise ModelError(
+                f"{what}: a mechanism with Coulomb friction (on {', '.join(self.items)}) "
+                "switches between modes (stuck, slipping either way) at events, so its "
+                "right-hand side has no derivative there; refused rather than answered for "
+                "one mode")
+
+    def started_runs(self, t0: float, y0s: np.ndarray, ps: np.ndarray) -> np.ndarray:
+        """An ensemble's initial states (k, n_state), each started as `started` does, with
+        its run's parameters (ps: one row, or one per run)."""
+        if not self.present:
+            return y0s
+        return np.ascontiguousarray([self.started(t0, y0, ps[min(k, len(ps) - 1)])
+                                     for k, y0 in enumerate(y0s)])
+
     def started(self, t0: float, y0: np.ndarray, p: np.ndarray) -> np.ndarray:
         """Y0 with every item at rest that its static friction cannot hold set slipping."""
         if not self.present:
@@ -61,4 +78,12 @@ class Friction:
             return projected
         for i in self.rates:
             projected[i, raw[i] == 0.0] = 0.0
+        return projected
+
+    def held_runs(self, raw: np.ndarray, projected: np.ndarray) -> np.ndarray:
+        """`held` for an ensemble's states (k, n_t, n_state)."""
+        if not self.present or not projected.size:
+            return projected
+        for i in self.rates:
+            projected[..., i][raw[..., i] == 0.0] = 0.0
         return projected

@@ -60,6 +60,7 @@ def linearize(model: BuiltModel, y: Any = None, u: Any = None, *, t: float = 0.0
               params: Mapping[str, float] | None = None,
               independent: Sequence[str] | None = None) -> Linearization:
     """A, B, C, D at (t, y, u), exact (see Model.linearize)."""
+    model.friction.refuse("linearize")
     t = checked_time(t)
     p = with_inputs(model, model.parameter_vector(params), u)
     state, p = point_state(model, y, t, p, params)
@@ -176,6 +177,7 @@ def trim(model: BuiltModel, y: Any = None, u: Any = None, *, fix: Mapping[str, f
          = None, free: Sequence[str] | None = None, t: float = 0.0,
          params: Mapping[str, float] | None = None) -> OperatingPoint:
     """An equilibrium (see Model.trim)."""
+    model.friction.refuse("trim")
     from scipy.optimize import least_squares
 
     t = checked_time(t)
@@ -321,6 +323,7 @@ def floquet(model: BuiltModel, period: float, y: Any = None, *, t0: float = 0.0,
             params: Mapping[str, float] | None = None, u: Any = None,
             rtol: float = 1e-11, atol: float = 1e-13) -> Floquet:
     """The Floquet multipliers of the motion from y at t0 over PERIOD (see Model.floquet)."""
+    model.friction.refuse("floquet")
     from scipy.integrate import solve_ivp
 
     if model.has_loops:
