@@ -267,3 +267,28 @@ def test_what_needs_a_derivative_is_refused_by_name(block, call: str) -> None:
             block.simulate(sensitivities=["mu"])
         else:
             block.simulate_many(np.array([[1.0, 0.0]]), method="nemc.Taylor")
+
+
+def stick_slip_cycle() -> tuple[float, float, float]:
+    """The belt-driven oscillator's first stick, then each slip and stick, in closed form
+    (examples/stick_slip.yaml: a harmonic arc about x_k = mu m g / k from x_s = mu_s m g / k at
+    the belt's speed to 2 x_k - x_s at the belt's speed again, then riding the belt back)."""
+    m, k, g, mu, mu_s, v_b = 1.0, 100.0, 9.81, 0.3, 0.5, 0.5
+    x_s, x_k, omega = mu_s * m * g / k, mu * m * g / k, math.sqrt(k / m)
+    phi0 = math.atan2((x_s - x_k) * omega, v_b)
+    return x_s / v_b, (2 * math.pi - 2 * phi0) / omega, 2 * (x_s - x_k) / v_b
+
+
+@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853"])
+def test_the_stick_slip_oscillator_keeps_its_closed_form_cycle(method: str) -> None:
+    """100 cycles at rtol 1e-11: every switch where the closed form has it, to 1e-9."""
+    model = nemc.compile(EXAMPLES / "stick_slip.yaml")
+    first, slip, stick = stick_slip_cycle()
+    cycles = 100
+    end = first + cycles * (slip + stick) - stick / 2
+    result = model.simulate((0, end), method=method, t_eval=[0, end], rtol=1e-11)
+    assert result.success
+    times, _ = result.events["belt.stick_slip"]
+    expected = first + np.cumsum([0.0] + [slip, stick] * cycles)[: 2 * cycles]
+    assert len(times) == len(expected)
+    np.testing.assert_allclose(times, expected, rtol=0, atol=1e-9)

@@ -16,6 +16,7 @@ expression this stage returns is in the coordinates, their rates, time and the r
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import cached_property
@@ -36,6 +37,7 @@ from .friction import (
     friction_equations,
     friction_events,
     friction_outputs,
+    friction_modes,
     friction_refusal,
 )
 from .loops import LoopEquations, loop_equations
@@ -247,8 +249,9 @@ def derive(mech: m.Mechanism) -> Equations:
         coordinates=kin.q,
         speeds=kin.u,
         accelerations=kin.qdd,
-        parameters=values.runtime_symbols + inputs.coefficients + starts,
-        parameter_defaults=values.runtime_defaults + inputs.defaults + (0.0,) * len(starts),
+        parameters=values.runtime_symbols + inputs.coefficients + starts + friction_modes(mech),
+        parameter_defaults=values.runtime_defaults + inputs.defaults + (0.0,) * len(starts)
+        + (math.nan,) * len(mech.frictions),
         derived_parameters=values.derived,
         dynamics=forms[form],
         outputs=tuple((name, runtime(expr)) for name, expr in

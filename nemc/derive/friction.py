@@ -61,6 +61,13 @@ def friction_equations(mech: m.Mechanism, kin: Kinematics,
                              coordinates=tuple(coordinates), terms=tuple(terms))
 
 
+def friction_modes(mech: m.Mechanism) -> tuple[sympy.Symbol, ...]:
+    """Each item's mode, the last runtime parameters (NaN by default: read from the state):
+    a run sets them at its start and each switch writes its item's (friction.c.tmpl)."""
+    return tuple(m.symbol(f"mode({item.joint})") for item in mech.frictions
+                 if isinstance(item, Friction))
+
+
 def friction_outputs(mech: m.Mechanism) -> list[tuple[str, sympy.Expr]]:
     """Each item's outputs: NAME.friction (the force or torque on the child) and NAME.stuck
     (1 while its joint is stuck, its rate exactly 0)."""

@@ -13,8 +13,10 @@ from .jacobian_c import has_jacobian
 def metadata(eqs: Equations, prefix: str) -> dict:
     mech, sim = eqs.mechanism, eqs.mechanism.simulation
     starts = eqs.loops.starts if eqs.loops is not None else ()
-    # the parameters, then the inputs' laws, then the offsets of constraints "as at the start"
-    settable = len(eqs.parameters) - len(eqs.inputs.coefficients) - len(starts)
+    # the parameters, then the inputs' laws, then the offsets of constraints "as at the start",
+    # then the friction items' modes
+    settable = len(eqs.parameters) - len(eqs.inputs.coefficients) - len(starts) - (
+        eqs.friction.count if eqs.friction is not None else 0)
     return {
         "name": mech.name,
         "description": mech.description,

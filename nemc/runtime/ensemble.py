@@ -122,7 +122,9 @@ def run_ensemble(model: BuiltModel, call: EnsembleCall, span: tuple[float, float
     if model.has_loops:  # each run from its assembled state
         ps = np.ascontiguousarray(model.loops.started_runs(span[0], y0s, ps))
         y0s = model.loops.assembled_runs(span[0], y0s, given, ps)
-    y0s = model.friction.started_runs(span[0], y0s, ps)
+    if model.friction.present:  # each run its own parameter row: its modes
+        model.friction.refuse_varying_inputs(tables is not None)
+        y0s, ps = model.friction.started_runs(span[0], y0s, ps)
     settings = checked_settings(model.scene, span, call.max_step, call.tstops, call.max_steps)
     if tables is not None:  # every step lands on the tables' samples
         settings = with_tstops(settings, tables.tstops, span)

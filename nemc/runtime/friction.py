@@ -1,11 +1,12 @@
 """Coulomb friction at run time (format v3 `friction`; decision 0039): which methods can run a
-mechanism with friction, and each run's start (the items at rest that cannot be held slip).
+mechanism with friction, each run's start (its own parameter vector, whose last entries are
+the items' modes, and the items at rest that cannot be held set slipping), and the modes read
+from the states for the outputs.
 
-The state is the mode: a stuck joint's rate is exactly 0, held there by the right-hand side's
-exact zeros, which an explicit Runge-Kutta step keeps (its increments are sums of zeros). An
-implicit method's Newton iteration mixes the state's entries (and differences of the
-right-hand side across a rate of 0 cross the switch), and nemc.Taylor's series has no switch:
-those are refused by name.
+A stuck joint's rate is held at exactly 0 by the right-hand side's exact zeros, which an
+explicit Runge-Kutta step keeps (its increments are sums of zeros). An implicit method's
+Newton iteration mixes the state's entries, and nemc.Taylor's series has no switch: those are
+refused by name.
 """
 
 from __future__ import annotations
@@ -50,26 +51,46 @@ class Friction:
                 "right-hand side has no derivative there; refused rather than answered for "
                 "one mode")
 
-    def started_runs(self, t0: float, y0s: np.ndarray, ps: np.ndarray) -> np.ndarray:
-        """An ensemble's initial states (k, n_state), each started as `started` does, with
-        its run's parameters (ps: one row, or one per run)."""
-        if not self.present:
-            return y0s
-        return np.ascontiguousarray([self.started(t0, y0, ps[min(k, len(ps) - 1)])
-                                     for k, y0 in enumerate(y0s)])
+    def started_runs(self, t0: float, y0s: np.ndarray, ps: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+        """An ensemble's initial states (k, n_state) and parameter rows, one per run (each
+        run's modes its own), each started as `started` does."""
+        rows = np.repeat(ps, len(y0s), axis=0) if len(ps) == 1 else np.array(ps, dtype=float)
+        starts = np.array(y0s, dtype=float)
+        for k in range(len(starts)):
+            starts[k], rows[k] = self.started(t0, starts[k], rows[k])
+        return np.ascontiguousarray(starts), np.ascontiguousarray(rows)
 
-    def started(self, t0: float, y0: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """Y0 with every item at rest that its static friction cannot hold set slipping."""
-        if not self.present:
-            return y0
-        y = np.array(y0, dtype=float)
+    def started(self, t0: float, y0: np.ndarray, p: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """A run's start: Y0 with every item at rest that its static friction cannot hold set
+        slipping, and a copy of P with each item's mode (what the switches then write)."""
+        y, p = np.array(y0, dtype=float), np.array(p, dtype=float)
         buffer = self.compiled.buffer
         status = self.compiled.function("friction_start")(t0, buffer(y), buffer(p))
         if status:
             cause = self.compiled.status_cause(status)
             raise IntegrationFailure(f"the friction at the start (t = {t0:g}) cannot be "
                                      f"solved: {cause}")
-        return y
+        return y, p
+
+    def inferring(self, p: np.ndarray) -> np.ndarray:
+        """P with the modes read from the state (NaN): what a run's outputs are computed with,
+        the states along it saying each point's mode."""
+        if not self.present:
+            return p
+        p = np.array(p, dtype=float)
+        p[len(p) - len(self.items):] = np.nan
+        return p
+
+    def refuse_varying_inputs(self, varying: bool) -> None:
+        """Refuse inputs that vary along a run (tables, functions) with friction: each run's
+        modes live in its parameter vector, which those rebuild as the run goes."""
+        if self.present and varying:
+            raise ModelError("inputs given as tables or functions are not supported with "
+                             "Coulomb friction yet (each run keeps its friction modes in its "
+                             "parameter vector, which such inputs rebuild at each step); give "
+                             "inputs as numbers")
 
     def held(self, raw: np.ndarray, projected: np.ndarray) -> np.ndarray:
         """PROJECTED (a closed loop's states brought onto its constraints) with each stuck

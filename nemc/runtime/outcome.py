@@ -49,6 +49,7 @@ def lazy_outputs(model: BuiltModel, t: np.ndarray, y: np.ndarray, p: np.ndarray,
     values), computed when first read."""
     if not t.size or not model.output_names:
         return NO_OUTPUTS
+    p = model.friction.inferring(p)  # each point's friction mode from its state
     if inputs is not None:
         return LazyOutputs(outputs_along, model, t, y, inputs)
     return LazyOutputs(model.compiled.outputs_at, t, y, p)  # p: never written to
