@@ -292,3 +292,83 @@ def test_the_stick_slip_oscillator_keeps_its_closed_form_cycle(method: str) -> N
     expected = first + np.cumsum([0.0] + [slip, stick] * cycles)[: 2 * cycles]
     assert len(times) == len(expected)
     np.testing.assert_allclose(times, expected, rtol=0, atol=1e-9)
+
+
+INCLINE = dict(m=0.5, g=9.81, mu=0.35, mu_s=0.5, a0=0.2, w=0.4, s0=1.0)
+
+
+def incline_reference(t_end: float) -> tuple[float, np.ndarray]:
+    """The block on the tilting incline by hand, in the incline's turning frame: at rest
+    static friction holds F = m g sin(a) - m w^2 s against mu_s N, N = m g cos(a), until
+    they are equal (the break-free instant, by brentq); then it slides down, m s'' = -m g
+    sin(a) + m w^2 s + F, F = mu |N| (up the incline), N = m g cos(a) + 2 m w s' (Coriolis)."""
+    from scipy.optimize import brentq
+    m, g, mu, mu_s, a0, w, s0 = (INCLINE[k] for k in ("m", "g", "mu", "mu_s", "a0", "w", "s0"))
+
+    def margin(t: float) -> float:
+        a = a0 + w * t
+        return mu_s * m * g * math.cos(a) - abs(m * g * math.sin(a) - m * w * w * s0)
+
+    t_free = brentq(margin, 0.0, 2.0, xtol=1e-15)
+
+    def rhs(t: float, y: np.ndarray) -> list[float]:
+        a = a0 + w * t
+        normal = m * g * math.cos(a) + 2 * m * w * y[1]
+        return [y[1], -g * math.sin(a) + w * w * y[0] + mu * abs(normal) / m]
+
+    sol = solve_ivp(rhs, (t_free, t_end), [s0, 0.0], method="DOP853", rtol=1e-13, atol=1e-14)
+    assert np.all(sol.y[1, 1:] < 0)  # it slides down all along: no other switch
+    return t_free, sol.y[:, -1]
+
+
+@pytest.mark.parametrize("method", ["nemc.Vern9", "DOP853"])
+def test_a_block_breaks_free_as_its_incline_tilts_and_slides_as_derived_by_hand(
+        method: str) -> None:
+    model = nemc.compile(EXAMPLES / "block_on_tilting_incline.yaml")
+    t_end = 2.0
+    result = model.simulate((0, t_end), method=method, t_eval=[0.0, t_end])
+    assert result.success
+    t_free, state = incline_reference(t_end)
+    times, _ = result.events["slide.stick_slip"]
+    assert times.tolist() == pytest.approx([t_free], abs=1e-9)
+    np.testing.assert_allclose(result.y[:, -1], state, rtol=1e-9, atol=1e-10)
+
+
+FLYWHEEL = """
+name: flywheel
+parameters: {I: 0.2, T_c: 0.5, T_a: 0.3, w0: 10.0}
+bodies:
+  wheel: {mass: 1, inertia: I}
+joints:
+  spin: {type: revolute, parent: ground, child: wheel, coordinate: th}
+loads:
+  - {torque: T_a, body: wheel}
+friction:
+  - {joint: spin, torque: T_c}
+simulation:
+  t_span: [0, 6]
+  initial: {dot(th): w0}
+  rtol: 1.0e-11
+  atol: 1.0e-13
+"""
+
+
+def test_a_given_coulomb_torque_stops_a_flywheel_and_holds_it(tmp_path: Path) -> None:
+    """Spinning down under a Coulomb torque T_c: w = w0 - T_c t / I until it stops at
+    t = I w0 / T_c (4 s), angle w0^2 I / (2 T_c); with a torque T_a < T_c driving it, it stops
+    later (w' = -(T_c - T_a) / I: at 10 s) and, once stopped, T_a cannot turn it again."""
+    path = tmp_path / "flywheel.yaml"
+    path.write_text(FLYWHEEL.replace("{torque: T_a, body: wheel}", "{torque: 0, body: wheel}"))
+    plain = nemc.compile(path).simulate(t_eval=[0.0, 6.0])
+    inertia, t_c, t_a, w0 = 0.2, 0.5, 0.3, 10.0
+    t_stop = inertia * w0 / t_c
+    assert plain.events["spin.stick_slip"][0].tolist() == pytest.approx([t_stop], abs=1e-9)
+    assert plain.y[:, -1].tolist() == pytest.approx([w0**2 * inertia / (2 * t_c), 0.0],
+                                                   abs=1e-9)
+    path.write_text(FLYWHEEL)
+    pushed = nemc.compile(path).simulate((0.0, 12.0), t_eval=[0.0, 12.0])
+    t_stop = inertia * w0 / (t_c - t_a)
+    angle = w0**2 * inertia / (2 * (t_c - t_a))
+    assert pushed.events["spin.stick_slip"][0].tolist() == pytest.approx([t_stop], abs=1e-9)
+    assert pushed.y[:, -1].tolist() == pytest.approx([angle, 0.0], abs=1e-9)
+    assert pushed.outputs["spin.friction"][-1] == pytest.approx(-t_a, abs=1e-12)
