@@ -185,6 +185,11 @@ def test_bad_friction_items_are_refused_with_their_line(tmp_path: Path, item: st
      "{joint: slide, mu: 0.2}", "needs `radius`"),
     ("slide: {type: prismatic, parent: ground, child: block, coordinate: x, motion: t}",
      "{joint: slide, mu: 0.2}", "is driven"),
+    ("slide: {type: prismatic, parent: ground, child: block, coordinate: x}",
+     "{constraint: guide, mu: 0.2}", "friction on a constraint"),
+    ("slide: {type: prismatic, parent: ground, child: block, coordinate: x}",
+     "{joint: slide, mu: 0.2}\ncontacts:\n  floor: {point: block.origin}",
+     "contacts .* are not implemented yet"),
 ])
 def test_friction_on_a_joint_that_cannot_carry_it_is_refused(tmp_path: Path, joints: str,
                                                              item: str, message: str) -> None:
@@ -372,3 +377,42 @@ def test_a_given_coulomb_torque_stops_a_flywheel_and_holds_it(tmp_path: Path) ->
     assert pushed.events["spin.stick_slip"][0].tolist() == pytest.approx([t_stop], abs=1e-9)
     assert pushed.y[:, -1].tolist() == pytest.approx([angle, 0.0], abs=1e-9)
     assert pushed.outputs["spin.friction"][-1] == pytest.approx(-t_a, abs=1e-12)
+
+
+ROD = """
+name: painleve_rod
+parameters: {m: 1.0, l: 0.5, g: 9.81, mu: 2.0, th0: 0.5235987755982988}
+gravity: [0, -g]
+bodies:
+  foot: {mass: 0, inertia: 0}
+  rod: {mass: m, inertia: m*l**2/3, com: [l, 0]}
+joints:
+  slide: {type: prismatic, parent: ground, child: foot, coordinate: x}
+  hinge: {type: revolute, parent: foot, child: rod, coordinate: th}
+friction:
+  - {joint: slide, mu: mu}
+outputs:
+  reactions: [slide]
+simulation:
+  t_span: [0, 0.01]
+  initial: {th: th0, dot(x): -1.0}
+"""
+
+
+def test_painleves_rod_normal_force_and_its_paradox(tmp_path: Path) -> None:
+    """A rod (length 2l, I = m l^2/3) whose end slides on a rough floor, at rest at 30 degrees,
+    its end moving away: by hand, N (1 + 3 cos^2 th - 3 mu sin th cos th) = m g. For mu = 2
+    nemc's coupled solve gives that N; past mu = (1 + 3 cos^2 th) / (3 sin th cos th) = 2.50
+    the factor is negative: Painleve's paradox, reported by name."""
+    path = tmp_path / "rod.yaml"
+    path.write_text(ROD)
+    model = nemc.compile(path)
+    th = math.pi / 6
+    for mu in (0.5, 2.0):
+        result = model.simulate(params={"mu": mu}, t_eval=[0.0, 0.01])
+        assert result.success
+        normal = 9.81 / (1 + 3 * math.cos(th) ** 2 - 3 * mu * math.sin(th) * math.cos(th))
+        assert result.outputs["slide.Fy"][0] == pytest.approx(normal, rel=1e-12)
+        assert result.outputs["slide.friction"][0] == pytest.approx(mu * normal, rel=1e-12)
+    failed = model.simulate(params={"mu": 3.0})
+    assert not failed.success and "Painleve's paradox" in failed.message

@@ -28,18 +28,18 @@ from ..front.carried import carried
 from ..front.values import resolve_values
 from .articulated import dynamics_program, generalized_force_symbols, inverse_mass_program
 from .c_cost import estimated_ns
-from .inputs import InputLaw, input_law
-from .kinematics import Kinematics, applied_loads, motion_substitutions
-from .linearization import Linearization, input_seeds, linearization, state_seeds
 from .friction import (
     FrictionEquations,
     friction_checks,
     friction_equations,
     friction_events,
-    friction_outputs,
     friction_modes,
+    friction_outputs,
     friction_refusal,
 )
+from .inputs import InputLaw, input_law
+from .kinematics import Kinematics, applied_loads, motion_substitutions
+from .linearization import Linearization, input_seeds, linearization, state_seeds
 from .loops import LoopEquations, loop_equations
 from .mass_form import (
     MAX_COORDINATES,

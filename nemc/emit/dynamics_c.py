@@ -214,7 +214,8 @@ DYNAMICS_FORMS = {
 TREE_PASS = """    for (int i = 0; i < N_STATE; ++i)
         r->ys[i] = y[i];
     int status = accelerations(t, y, pf, r->qdd);"""
-LOOPS_PASS = """    int status = consistent_dynamics(t, y, pf, r->ys, r->qdd, r->lambda, r->drive);"""
+LOOPS_PASS = ("    int status = consistent_dynamics(t, y, pf, r->ys, r->qdd, r->lambda, "
+              "r->drive);")
 
 
 def friction_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str,

@@ -5,7 +5,7 @@
 from __future__ import annotations
 
 from ..kinds.friction import KEYS, Friction
-from .context import Context, check_keys, described, items_of, join_path
+from .context import Context, check_keys, described, entries_of, items_of, join_path
 from .fields import default_value, has_defaults
 from .parse import Node
 from .reader import Reader
@@ -20,6 +20,12 @@ def read_friction(ctx: Context, node: Node) -> tuple[Friction, ...]:
     found: list[Friction] = []
     for i, item in enumerate(items_of(node)):
         path = join_path("friction", i)
+        if item.is_map and "constraint" in entries_of(item):
+            ctx.problem(item.line, join_path(path, "constraint"), "friction on a constraint (a "
+                        "loop's slot or prismatic pair) is not supported yet: make the sliding "
+                        "pair a prismatic joint of the tree and close the loop with a revolute "
+                        "constraint (as examples/slider_crank_friction.yaml does)")
+            continue
         if not check_keys(ctx, item, path, KEYS, ("joint",),
                           what="a friction mapping {joint, mu, mu_static, radius}"):
             continue

@@ -20,9 +20,9 @@ from .carried import check_carried
 from .constraints import read_constraints
 from .context import Context, check_keys, entries_of
 from .fields import ZERO2, read_string, read_vec2
+from .friction import read_friction
 from .inputs import read_inputs
 from .joints import read_joints
-from .friction import read_friction
 from .loads import read_loads
 from .mechanism import Mechanism, Outputs, Simulation, Units
 from .names import collect_names, model_name
@@ -33,7 +33,8 @@ from .reading import read_file
 from .scene import read_simulation, read_units
 
 TOP_KEYS = ("name", "description", "parameters", "constants", "inputs", "gravity", "bodies",
-            "joints", "constraints", "loads", "friction", "outputs", "simulation", "units")
+            "joints", "constraints", "loads", "friction", "contacts", "outputs", "simulation",
+            "units")
 # The largest mechanism nemc builds. The build grows linearly with the bodies (issue 19): a
 # 1000-body chain of revolute joints builds cold in 53 s with 224 MB at most (400 bodies 22 s,
 # 200 bodies 16 s), 264 s and 710 MB with its Jacobian (whose derivation, sympy's diff of every
@@ -83,6 +84,10 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
     constraints = read_constraints(ctx, root["constraints"]) if "constraints" in root else ()
     loads, load_names = read_loads(ctx, root["loads"]) if "loads" in root else ((), ())
     frictions = read_friction(ctx, root["friction"]) if "friction" in root else ()
+    if "contacts" in root:
+        ctx.problem(root["contacts"].line, "contacts", "contacts (format v3: a point or disc "
+                    "against a line, lasting contact) are not implemented yet: model a contact "
+                    "by an impact event (simulation.events) or a stiff one-sided spring")
     outputs = read_outputs(ctx, root["outputs"]) if "outputs" in root else Outputs()
     simulation = read_simulation(ctx, root["simulation"]) if "simulation" in root else Simulation()
     units = read_units(ctx, root["units"]) if "units" in root else Units()

@@ -27,9 +27,9 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import sympy
 
+from .loads.base import Load, LoadDrawing
 from .spatial import rotation, vec
 from .terms import Loc, symbol
-from .loads.base import Load, LoadDrawing
 
 if TYPE_CHECKING:
     from .contract import KinematicsView, LoadSink, LoadView, Reader
