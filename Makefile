@@ -30,7 +30,7 @@ run: $(STAMP)
 # The figures of the docs' tutorials (docs/figures/): the book's four systems, then those the
 # other tutorials' code blocks draw (docs/tutorials/blocks.py runs them and checks their output).
 BOOK := compound_pendulum double_pendulum robot_arm two_link_robot_arm
-TUTORIALS := slider-crank events sweep
+TUTORIALS := slider-crank events sweep friction
 figures: $(STAMP)
 	for name in $(BOOK); do \
 	  $(BIN)/nemc simulate examples/$$name.yaml --plot docs/figures/$$name.png > /dev/null && \

@@ -22,6 +22,7 @@ PAGES = {
     "sweep.md": ["fourbar_sweep.png"],
     "control.md": [],  # its figures: docs/tutorials/control_figures.py
     "fitting.md": [],
+    "friction.md": ["friction.png"],
 }
 
 
