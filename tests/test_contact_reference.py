@@ -1,0 +1,346 @@
+"""Checks of tests/contact_reference.py itself, against what it does not compute the same way.
+
+- Block on a driven incline: the event-driven run against the closed-form slip time and slide,
+  the friction work against the quadrature of the closed form, and the polar equation of motion
+  against Newton in Cartesian axes (the closed form's position differentiated numerically).
+- Stick-slip oscillator: switch times and states against the closed-form limit cycle over 20
+  periods; dissipation per cycle; the harmonic limit mu_s = mu_k.
+- Slider-crank with friction: the power balance (motor work + friction work = change of
+  energy); the crank's acceleration against a one-coordinate Lagrange equation with the
+  friction as a given force; the normal force against the moment balance of rod and slider
+  about the crank pin; the holding force against virtual work; the stick and slip thresholds.
+- Ball: bounce times from located events against the closed form, t_inf by summation, angular
+  momentum about the contact point through impacts (the rolling speed at the end), the
+  friction's and the impacts' energy.
+- Rocking block: impact times and speeds from located events against quadrature and energy;
+  energy between impacts; r and the impact's friction ratio from the momentum change.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from contact_reference import (
+    Ball,
+    Incline,
+    PainleveError,
+    RockingBlock,
+    SliderCrank,
+    StickSlip,
+    ball_accumulation_time,
+    ball_bounce_times,
+    ball_rest,
+    ball_run,
+    incline_friction_work,
+    incline_run,
+    incline_slide,
+    incline_slip_time,
+    rocking_accumulation_time,
+    rocking_amplitudes,
+    rocking_energy,
+    rocking_impact_speeds,
+    rocking_impact_times,
+    rocking_run,
+    slider_crank_energy,
+    slider_crank_holding,
+    slider_crank_pose,
+    slider_crank_run,
+    slider_crank_sliding,
+    slider_crank_torque,
+    stick_slip_closed_form,
+    stick_slip_cycle,
+    stick_slip_run,
+    stick_slip_stick_intervals,
+    stick_slip_switches,
+)
+
+# --- a. block on a driven incline ------------------------------------------------------------
+
+
+def test_incline_slips_when_tan_alpha_reaches_mu_static() -> None:
+    p = Incline()
+    run = incline_run(p, 4.0)
+    assert [n for _, n in run.switches] == ["slip"]
+    assert run.switches[0][0] == pytest.approx(incline_slip_time(p), abs=1e-9)
+    assert math.tan(p.alpha(incline_slip_time(p))) == pytest.approx(p.mu_s, rel=1e-12)
+
+
+def test_incline_slide_and_friction_work_match_the_closed_form() -> None:
+    p = Incline()
+    run = incline_run(p, 4.0)
+    for t in np.linspace(incline_slip_time(p), 4.0, 7):
+        s, sd = incline_slide(p, t)
+        assert run.state(t) == pytest.approx([s, sd], abs=1e-9)
+    assert run.friction_work == pytest.approx(incline_friction_work(p, 4.0), abs=1e-9)
+    assert run.friction_work < -1.0
+
+
+def test_incline_closed_form_obeys_newton_in_cartesian_axes() -> None:
+    """m a = m g + N e_n + mu_k N e_t, with a the second difference of s(t) e_t(alpha(t))."""
+    p = Incline()
+    h = 1e-3
+
+    def position(t: float) -> np.ndarray:
+        s, _ = incline_slide(p, t)
+        a = p.alpha(t)
+        return float(s) * np.array([math.cos(a), math.sin(a)])
+
+    for t in (2.8, 3.3, 3.9):
+        acc = (position(t + h) - 2 * position(t) + position(t - h)) / h**2
+        a = p.alpha(t)
+        _, sd = incline_slide(p, t)
+        n = p.normal(t, float(sd))
+        force = np.array([0.0, -p.m * p.g]) + n * np.array([-math.sin(a), math.cos(a)])
+        force += p.mu_k * n * np.array([math.cos(a), math.sin(a)])
+        assert p.m * acc == pytest.approx(force, abs=1e-5)
+
+
+def test_incline_stuck_off_the_pivot_slips_where_holding_reaches_its_limit() -> None:
+    p = Incline(w=0.5)
+    s0 = 0.8
+    run = incline_run(p, 3.0, s0=s0)
+    t = run.switches[0][0]
+    assert abs(p.holding(t, s0)) == pytest.approx(p.mu_s * p.normal(t, 0.0), rel=1e-9)
+    # the centrifugal term holds it longer than at the pivot
+    assert t > incline_slip_time(p) + 0.01
+
+
+# --- b. stick-slip oscillator ----------------------------------------------------------------
+
+
+def test_stick_slip_switches_match_the_limit_cycle() -> None:
+    p = StickSlip()
+    cycle = stick_slip_cycle(p)
+    t_end = 20 * cycle.period
+    run = stick_slip_run(p, t_end)
+    expected = stick_slip_switches(p, t_end)
+    assert [n for _, n in run.switches] == [n for _, n in expected]
+    assert np.array([t for t, _ in run.switches]) == pytest.approx(
+        [t for t, _ in expected], abs=1e-9)
+    rng = np.random.default_rng(50)
+    for t in rng.uniform(0.0, t_end, 40):
+        x, xd, _ = stick_slip_closed_form(p, t)
+        assert run.state(t) == pytest.approx([x, xd], abs=1e-9)
+
+
+def test_stick_slip_dissipation_per_cycle() -> None:
+    p = StickSlip()
+    cycle = stick_slip_cycle(p)
+    n = 10
+    t_end = p.x_static / p.v_belt + n * cycle.period  # the first stick dissipates nothing
+    run = stick_slip_run(p, t_end)
+    assert -run.friction_work == pytest.approx(n * cycle.dissipation, rel=1e-9)
+    # the slip arc ends at the stick start with the belt's velocity (energy on the ellipse)
+    d = p.x_static - p.x_kinetic
+    assert cycle.x_stick == pytest.approx(p.x_kinetic - d)
+    assert math.hypot(cycle.x_stick - p.x_kinetic, p.v_belt / p.omega) == pytest.approx(
+        cycle.amplitude)
+
+
+def test_stick_slip_equal_coefficients_is_harmonic() -> None:
+    p = StickSlip(mu_s=0.3, mu_k=0.3)
+    cycle = stick_slip_cycle(p)
+    assert cycle.stick_time == 0.0
+    assert cycle.period == pytest.approx(2 * math.pi / p.omega, rel=1e-14)
+
+
+def test_stick_slip_intervals_have_the_stick_time() -> None:
+    p = StickSlip()
+    cycle = stick_slip_cycle(p)
+    spans = stick_slip_stick_intervals(p, 5 * cycle.period)
+    assert spans[0] == pytest.approx((0.0, p.x_static / p.v_belt))
+    assert [b - a for a, b in spans[1:-1]] == pytest.approx([cycle.stick_time] * (len(spans) - 2))
+
+
+# --- c. slider-crank with friction -----------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def crank_run():
+    p = SliderCrank()
+    return p, slider_crank_run(p, 3.0, math.pi / 3)
+
+
+def test_slider_crank_sticks_slips_and_passes_a_dead_centre(crank_run) -> None:
+    p, run = crank_run
+    names = [n for _, n in run.switches]
+    assert names[:5] == ["slip", "stick", "slip", "stick", "slip"]
+    assert "dead_centre" in names
+    for t, name in run.switches:
+        if name not in ("stick", "slip"):
+            continue  # at a dead centre the holding problem is singular
+        th, _ = run.state(t)
+        f, n = slider_crank_holding(p, t, float(th))
+        if name == "stick":
+            assert abs(f) < p.mu_s * abs(n)
+        elif name == "slip":
+            assert abs(f) == pytest.approx(p.mu_s * abs(n), rel=1e-8)
+
+
+def test_slider_crank_power_balance(crank_run) -> None:
+    p, run = crank_run
+    th, thd = run.state(3.0)
+    change = slider_crank_energy(p, th, thd) - slider_crank_energy(p, math.pi / 3, 0.0)
+    assert change == pytest.approx(run.input_work + run.friction_work, abs=1e-8)
+    assert run.friction_work < -0.1
+
+
+def _mass_and_potential(p: SliderCrank, th: float) -> tuple[float, float]:
+    """The one-coordinate mechanism's generalized mass and potential energy."""
+    q, v = slider_crank_pose(p, th, 1.0)
+    masses = [p.m1, p.m1, p.i1, p.m2, p.m2, p.m2 * p.rod**2 / 12, p.ms, p.ms, 0.0]
+    return float(np.sum(np.array(masses) * v**2)), p.g * (p.m2 * q[4] + p.ms * q[7])
+
+
+@pytest.mark.parametrize("th, thd, sigma", [(0.7, 3.0, -1.0), (2.2, 5.0, -1.0), (4.0, -2.0, -1.0),
+                                             (5.0, 6.0, 1.0)])
+def test_slider_crank_acceleration_by_lagrange(th: float, thd: float, sigma: float) -> None:
+    """M(th) th'' + M'(th) th'^2 / 2 + V'(th) = T + F dx3/dth, F the reference's friction."""
+    p = SliderCrank()
+    t = 0.1
+    acc, _, friction = slider_crank_sliding(p, t, th, thd, sigma)
+    h = 1e-5
+    m0, _ = _mass_and_potential(p, th)
+    dm = (_mass_and_potential(p, th + h)[0] - _mass_and_potential(p, th - h)[0]) / (2 * h)
+    dv = (_mass_and_potential(p, th + h)[1] - _mass_and_potential(p, th - h)[1]) / (2 * h)
+    jx = slider_crank_pose(p, th, 1.0)[1][6]
+    expected = (slider_crank_torque(p, t) + friction * jx - dv - 0.5 * dm * thd**2) / m0
+    assert acc[2] == pytest.approx(expected, rel=1e-7)
+
+
+@pytest.mark.parametrize("th, thd, sigma", [(0.7, 3.0, -1.0), (2.2, 5.0, -1.0), (5.0, 6.0, 1.0)])
+def test_slider_crank_normal_force_by_moments_about_the_pin(th: float, thd: float,
+                                                            sigma: float) -> None:
+    """Rod and slider about the crank pin B: the moments of N, F and gravity equal
+    sum (r_i - r_B) x m_i a_i + I_2 alpha_2."""
+    p = SliderCrank()
+    acc, normal, friction = slider_crank_sliding(p, 0.1, th, thd, sigma)
+    q, _ = slider_crank_pose(p, th, thd)
+    pin = p.r * np.array([math.cos(th), math.sin(th)])
+    rod, slider = q[3:5] - pin, q[6:8] - pin
+
+    def cross(a: np.ndarray, b: np.ndarray) -> float:
+        return float(a[0] * b[1] - a[1] * b[0])
+
+    applied = (cross(slider, np.array([friction, normal - p.ms * p.g]))
+               + cross(rod, np.array([0.0, -p.m2 * p.g])))
+    inertial = (cross(rod, p.m2 * acc[3:5]) + cross(slider, p.ms * acc[6:8])
+                + p.m2 * p.rod**2 / 12 * acc[5])
+    assert applied == pytest.approx(inertial, abs=1e-9)
+    assert friction == pytest.approx(-sigma * p.mu_k * abs(normal))
+
+
+def test_slider_crank_holding_force_by_virtual_work() -> None:
+    """At rest: T - V'(th) + F dx3/dth = 0."""
+    p = SliderCrank()
+    for t, th in ((0.1, 1.0), (0.3, 2.5), (0.7, 4.0)):
+        f, _ = slider_crank_holding(p, t, th)
+        h = 1e-6
+        dv = (_mass_and_potential(p, th + h)[1] - _mass_and_potential(p, th - h)[1]) / (2 * h)
+        jx = slider_crank_pose(p, th, 1.0)[1][6]
+        assert slider_crank_torque(p, t) - dv + f * jx == pytest.approx(0.0, abs=1e-8)
+
+
+@pytest.mark.parametrize("sigma, count", [(1.0, 0), (-1.0, 2)])
+def test_slider_crank_painleve_is_reported(sigma: float, count: int) -> None:
+    """A friction coefficient large enough for the coupled problem to have no solution (one
+    direction of sliding) or two (the other) is refused by name."""
+    p = SliderCrank(mu_k=50.0, ms=0.01, m2=0.01, rod=0.12)
+    with pytest.raises(PainleveError, match=f"Painleve's paradox at t = 0.0: {count} solutions"):
+        slider_crank_sliding(p, 0.0, math.radians(15), 1.0, sigma)
+    # the default mechanism has one solution in every position, both directions
+    q = SliderCrank()
+    for th in np.linspace(0.0, 2 * math.pi, 37):
+        for direction in (1.0, -1.0):
+            slider_crank_sliding(q, 0.0, th, 1.0, direction)
+
+
+# --- d. ball bouncing to rest ----------------------------------------------------------------
+
+
+def test_ball_bounce_times_and_accumulation() -> None:
+    p = Ball()
+    times, _ = ball_run(p, 12)
+    assert times == pytest.approx(ball_bounce_times(p, 12), abs=1e-12)
+    intervals = np.diff(ball_bounce_times(p, 2000))
+    assert p.t1 + intervals.sum() == pytest.approx(ball_accumulation_time(p), abs=1e-12)
+    assert ball_accumulation_time(p) == pytest.approx(p.t1 * 3.0)  # e = 0.5
+
+
+def test_ball_angular_momentum_about_the_contact_is_kept() -> None:
+    """I th' - m r x' is kept by every impact (the impulses act at the contact point), the
+    flights and the sliding on the floor: it fixes the final rolling speed."""
+    p = Ball()
+    kept = p.inertia * p.thd0 - p.m * p.r * p.xd0
+    _, states = ball_run(p, 12)
+    assert p.inertia * states[:, 5] - p.m * p.r * states[:, 3] == pytest.approx(
+        np.full(12, kept), abs=1e-14)
+    rest = ball_rest(p)
+    assert rest.xd_roll == pytest.approx(-kept / (p.inertia / p.r + p.m * p.r), rel=1e-12)
+    assert rest.t_roll > rest.t_inf  # still sliding when the bounces end
+
+
+def test_ball_energy_goes_to_impacts_and_friction() -> None:
+    p = Ball()
+    rest = ball_rest(p)
+    assert rest.impact_loss == pytest.approx(p.m * p.g * (p.y0 - p.r), rel=1e-14)
+    start = 0.5 * p.m * p.xd0**2 + 0.5 * p.inertia * p.thd0**2
+    end = 0.5 * (p.m + p.inertia / p.r**2) * rest.xd_roll**2
+    assert rest.friction_work == pytest.approx(end - start, rel=1e-12)
+
+
+def test_ball_that_sticks_at_its_first_impact_rolls_at_five_sevenths() -> None:
+    p = Ball(mu=0.5, thd0=0.0, xd0=0.3)
+    rest = ball_rest(p)
+    assert rest.t_roll == pytest.approx(p.t1)
+    assert rest.xd_roll == pytest.approx(5 / 7 * 0.3, rel=1e-12)
+
+
+# --- e. rocking block ------------------------------------------------------------------------
+
+
+def test_rocking_impacts_match_quadrature_and_energy() -> None:
+    p = RockingBlock()
+    theta0 = 0.8 * p.alpha
+    times, speeds, run = rocking_run(p, theta0, 12)
+    assert times == pytest.approx(rocking_impact_times(p, theta0, 12), abs=1e-9)
+    assert np.abs(speeds) == pytest.approx(rocking_impact_speeds(p, theta0, 12), abs=1e-9)
+    for seg in run.segments:
+        energies = [rocking_energy(p, *seg.state(t)) for t in np.linspace(seg.t0, seg.t1, 9)]
+        assert np.ptp(energies) < 1e-10 * energies[0]
+
+
+def test_rocking_restitution_from_angular_momentum() -> None:
+    """Velocity of the mass center before (about the left corner) and after (about the right),
+    with w+ = r w-: the angular momentum about the right corner is the same; the impulse's
+    tangential to normal ratio is the one the reference states."""
+    p = RockingBlock()
+    w = -1.0
+    i_g = p.m * (p.b**2 + p.h**2) / 3
+    before = w * np.array([-p.h, p.b])
+    after = p.restitution * w * np.array([-p.h, -p.b])
+    arm = np.array([-p.b, p.h])  # right corner -> mass center
+
+    def momentum(omega: float, vel: np.ndarray) -> float:
+        return i_g * omega + p.m * (arm[0] * vel[1] - arm[1] * vel[0])
+
+    assert momentum(p.restitution * w, after) == pytest.approx(momentum(w, before), rel=1e-14)
+    impulse = p.m * (after - before)
+    assert impulse[1] > 0
+    assert abs(impulse[0] / impulse[1]) == pytest.approx(p.impact_friction_ratio, rel=1e-12)
+
+
+def test_rocking_amplitudes_decay_as_r_squared_when_small() -> None:
+    p = RockingBlock()
+    amp = rocking_amplitudes(p, 1e-6 * p.alpha, 5)
+    assert amp[1:] / amp[:-1] == pytest.approx(np.full(4, p.restitution**2), rel=1e-5)
+
+
+def test_rocking_accumulation_time() -> None:
+    p = RockingBlock()
+    theta0 = 0.8 * p.alpha
+    many = rocking_impact_times(p, theta0, 400)
+    assert rocking_accumulation_time(p, theta0) == pytest.approx(many[-1], abs=1e-9)
+    assert rocking_accumulation_time(p, theta0) > many[40]
