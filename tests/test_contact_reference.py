@@ -14,14 +14,21 @@
   friction's and the impacts' energy.
 - Rocking block: impact times and speeds from located events against quadrature and energy;
   energy between impacts; r and the impact's friction ratio from the momentum change.
+- The example files of tests/data/friction/: their parameters and initial states are the
+  references' (read as YAML: nemc does not load them until issue 50 lands), and their
+  `friction` and `contacts` entries use only the spec's keys.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
+import sympy as sp
+import yaml
 from contact_reference import (
     Ball,
     Incline,
@@ -344,3 +351,61 @@ def test_rocking_accumulation_time() -> None:
     many = rocking_impact_times(p, theta0, 400)
     assert rocking_accumulation_time(p, theta0) == pytest.approx(many[-1], abs=1e-9)
     assert rocking_accumulation_time(p, theta0) > many[40]
+
+
+# --- the example files (tests/data/friction/) hold the references' numbers ---------------------
+
+FRICTION_DATA = Path(__file__).parent / "data" / "friction"
+FRICTION_KEYS = {"joint", "constraint", "mu", "mu_static", "radius", "torque", "force"}
+CONTACT_KEYS = {"point", "radius", "surface", "restitution", "mu"}
+
+
+def _file(name: str) -> dict:
+    return yaml.safe_load((FRICTION_DATA / name).read_text())
+
+
+def _number(value: object, names: dict[str, float] | None = None) -> float:
+    return float(sp.sympify(str(value)).subs(names or {}))
+
+
+@pytest.mark.parametrize("name, reference, renamed", [
+    ("block_incline.yaml", Incline(), {}),
+    ("stick_slip.yaml", StickSlip(), {"v": "v_belt"}),
+    ("slider_crank_friction.yaml", SliderCrank(), {"l": "rod"}),
+    ("ball_to_rest.yaml", Ball(), {}),
+    ("rocking_block.yaml", RockingBlock(), {}),
+])
+def test_example_files_have_the_references_parameters(name: str, reference: object,
+                                                      renamed: dict[str, str]) -> None:
+    data = _file(name)
+    fields = {f.name for f in dataclasses.fields(reference)}
+    compared = 0
+    for key, value in data["parameters"].items():
+        field = renamed.get(key, key)
+        if field in fields:
+            assert _number(value) == pytest.approx(getattr(reference, field), rel=1e-15), key
+            compared += 1
+    assert compared >= 4
+    for item in data.get("friction", []):
+        assert set(item) <= FRICTION_KEYS
+    for contact in data.get("contacts", {}).values():
+        assert set(contact) <= CONTACT_KEYS
+
+
+def test_example_files_initial_states() -> None:
+    ball, sim = Ball(), _file("ball_to_rest.yaml")["simulation"]
+    assert [sim["initial"][k] for k in ("y", "dot(x)", "dot(th)")] == [ball.y0, ball.xd0, ball.thd0]
+    p = StickSlip()
+    t_end = _file("stick_slip.yaml")["simulation"]["t_span"][1]
+    assert t_end == pytest.approx(p.x_static / p.v_belt + 100 * stick_slip_cycle(p).period,
+                                  rel=1e-15)
+    block = RockingBlock()
+    data = _file("rocking_block.yaml")
+    values = {sp.Symbol(k): _number(v) for k, v in data["parameters"].items() if k != "th0"}
+    th0 = _number(data["parameters"]["th0"], values)
+    assert th0 == pytest.approx(0.8 * block.alpha, rel=1e-15)
+    values[sp.Symbol("th0")] = th0
+    x, y = (_number(data["simulation"]["initial"][k], values) for k in ("x", "y"))
+    corner = np.array([x, y]) + np.array([[math.cos(th0), -math.sin(th0)],
+                                          [math.sin(th0), math.cos(th0)]]) @ [-block.b, -block.h]
+    assert corner == pytest.approx([-block.b, 0.0], abs=1e-15)  # on the floor, where it pivots
