@@ -174,15 +174,15 @@ def _incline_slip_rhs(p: Incline, sigma: float) -> Callable[[float, np.ndarray],
 
 def incline_run(p: Incline, t_end: float, s0: float = 0.0, sd0: float = 0.0) -> Run:
     """Event-driven run from (s0, s0'): stuck while |holding| <= mu_s N, else sliding; switches
-    'slip' (holding force reaches its limit, or a stop that cannot hold) and 'stick' (s' = 0
-    with a holding force within the limit). State: [s, s']."""
+    'slip' (the holding force reaches its limit), 'stick' (s' = 0 with the holding force within
+    it) and 'reverse' (s' = 0, not held: it slides back). State: [s, s']."""
     run = Run()
     t, s, sd = 0.0, s0, sd0
     mode = "stick" if sd0 == 0.0 and _incline_holds(p, t, s) else "slip"
     while t < t_end:
         if mode == "stick":
             t1 = _incline_stick_end(p, t, s, t_end)
-            run.segments.append(Segment(t, t1, "stick", _constant_state(s)))
+            run.segments.append(Segment(t, t1, "stick", _at_rest(s)))
             t = t1
             if t1 < t_end:
                 run.switches.append((t, "slip"))
@@ -196,9 +196,9 @@ def incline_run(p: Incline, t_end: float, s0: float = 0.0, sd0: float = 0.0) -> 
         run.friction_work += sol.y[2, -1]
         t, s, sd = sol.t[-1], sol.y[0, -1], 0.0 if sol.status == 1 else sol.y[1, -1]
         if sol.status == 1:
-            if _incline_holds(p, t, s):
-                run.switches.append((t, "stick"))
-                mode = "stick"
+            held = _incline_holds(p, t, s)
+            run.switches.append((t, "stick" if held else "reverse"))
+            mode = "stick" if held else "slip"
     return run
 
 
@@ -214,11 +214,13 @@ def _incline_stick_end(p: Incline, t0: float, s: float, t_end: float) -> float:
     return float(sol.t_events[0][0]) if sol.status == 1 else t_end
 
 
-def _constant_state(*values: float) -> Callable[[float], np.ndarray]:
-    return lambda _t: np.array([*values, 0.0][: len(values) + 1])
+def _at_rest(position: float) -> Callable[[float], np.ndarray]:
+    """A stuck segment's state [position, 0]."""
+    return lambda _t: np.array([position, 0.0])
 
 
 def _first_two(sol: Callable[[float], np.ndarray]) -> Callable[[float], np.ndarray]:
+    """A slip segment's state [position, rate] from its dense output (work integrals left out)."""
     return lambda t: np.asarray(sol(t))[:2]
 
 
@@ -407,7 +409,10 @@ class SliderCrank:
     of an added row x3 = const, held while |F| <= mu_s |N|.
 
     The state integrated is the crank's (t1, t1'); the maximal q and v follow from it in closed
-    form (rod angle t2 = asin(-r sin t1 / l), the slider to the right of the crank).
+    form (rod angle t2 = asin(-r sin t1 / l), the slider to the right of the crank). At a dead
+    centre the slider's velocity is zero whatever the crank's rate: the slider reverses there
+    (sigma flips, no stick test); a stop exactly at a dead centre (the holding problem
+    singular) is not handled.
     """
 
     r: float = 0.1
@@ -566,7 +571,7 @@ def slider_crank_run(p: SliderCrank, t_end: float, th0: float, thd0: float = 0.0
     while t < t_end:
         if mode == "stick":
             t1 = _crank_stick_end(p, t, th, t_end)
-            run.segments.append(Segment(t, t1, "stick", _constant_state(th)))
+            run.segments.append(Segment(t, t1, "stick", _at_rest(th)))
             t = t1
             if t < t_end:
                 run.switches.append((t, "slip"))

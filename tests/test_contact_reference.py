@@ -17,11 +17,14 @@
 - The example files of tests/data/friction/: their parameters and initial states are the
   references' (read as YAML: nemc does not load them until issue 50 lands), and their
   `friction` and `contacts` entries use only the spec's keys.
+- benchmarks/stick_slip_tanh.py: its smooth law peaks at mu_s N, and its stick-phase error
+  tells a creeping regularization from a nearly sticking one.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import math
 from pathlib import Path
 
@@ -409,3 +412,34 @@ def test_example_files_initial_states() -> None:
     corner = np.array([x, y]) + np.array([[math.cos(th0), -math.sin(th0)],
                                           [math.sin(th0), math.cos(th0)]]) @ [-block.b, -block.h]
     assert corner == pytest.approx([-block.b, 0.0], abs=1e-15)  # on the floor, where it pivots
+
+
+# --- the smooth-law baseline (benchmarks/stick_slip_tanh.py) measures what it says ------------
+
+
+@pytest.fixture(scope="module")
+def tanh_baseline():
+    path = Path(__file__).resolve().parent.parent / "benchmarks" / "stick_slip_tanh.py"
+    spec = importlib.util.spec_from_file_location("stick_slip_tanh", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_tanh_law_peaks_at_mu_static(tanh_baseline) -> None:
+    p = StickSlip()
+    c = tanh_baseline.bump_coefficient(p.mu_s, p.mu_k)
+    speeds = np.linspace(-3e-5, 3e-5, 600001)
+    force = tanh_baseline.friction(p, speeds, 1e-5, c)
+    assert np.max(np.abs(force)) == pytest.approx(p.mu_s * p.m * p.g, rel=1e-9)
+    assert abs(tanh_baseline.friction(p, 1.0, 1e-5, c)) == pytest.approx(
+        p.mu_k * p.m * p.g, rel=1e-12)
+
+
+def test_tanh_baseline_stick_error_follows_its_creep(tanh_baseline) -> None:
+    """A wide regularization creeps through the stick phases; a narrow one nearly sticks."""
+    wide = tanh_baseline.run_tanh(1e-2, 1e-9, periods=3)
+    narrow = tanh_baseline.run_tanh(1e-6, 1e-9, periods=3)
+    assert wide["success"] and narrow["success"]
+    assert wide["stick_error"] > 0.05
+    assert 1e-7 < narrow["stick_error"] < 1e-4
