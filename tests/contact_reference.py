@@ -21,6 +21,9 @@ tests/data/friction/):
   coming to rest (lasting contact), sliding, then rolling (ball_to_rest.yaml). Closed form.
 - ``RockingBlock``: Housner's rigid block rocking on its corners on a rigid floor
   (rocking_block.yaml). Amplitude decay and impact times exact (the times by quadrature).
+  On a table shaken by a half-sine pulse of acceleration (``BasePulse``,
+  rocking_block_pulse.yaml): it rests, lifts and rocks, or slides, then rests again; the
+  onsets and the slide in closed form.
 """
 
 from __future__ import annotations
@@ -933,12 +936,165 @@ def _rocking_rhs(p: RockingBlock, side: float) -> Callable[[float, np.ndarray], 
     return rhs
 
 
-def rocking_pivot_force(p: RockingBlock, theta: float, thetad: float) -> tuple[float, float]:
+def rocking_pivot_force(p: RockingBlock, theta: float, thetad: float,
+                        base_accel: float = 0.0) -> tuple[float, float]:
     """(F_t, F_n): the floor's force on the pivot corner (Newton for the mass center) while
-    rocking: m a_G = F + m g. theta > 0 pivots on the left corner."""
+    rocking: m (a_G + a_base) = F + m g, a_G in the base's frame, the base accelerating at
+    base_accel along x. theta > 0 pivots on the left corner."""
     sign = math.copysign(1.0, theta) if theta != 0.0 else 1.0
-    thdd = -p.p2 * math.sin(p.alpha * sign - theta)
+    phase = p.alpha * sign - theta
+    thdd = -p.p2 * (math.sin(phase) - base_accel / p.g * math.cos(phase))
     arm = _rot(theta) @ np.array([sign * p.b, p.h])  # pivot -> mass center
-    acc = thdd * np.array([-arm[1], arm[0]]) - thetad**2 * arm
+    acc = thdd * np.array([-arm[1], arm[0]]) - thetad**2 * arm + np.array([base_accel, 0.0])
     force = p.m * acc - p.m * np.array([0.0, -p.g])
     return float(force[0]), float(force[1])
+
+
+@dataclass(frozen=True)
+class BasePulse:
+    """A base (table) under the block, moving horizontally: its acceleration a half-sine pulse,
+    a(t) = A sin(pi t / tp) for 0 <= t <= tp and 0 after (it then moves on at 2 A tp / pi)."""
+
+    A: float = 4.0
+    tp: float = 0.25
+
+    def accel(self, t: float) -> float:
+        return self.A * math.sin(math.pi * t / self.tp) if 0.0 <= t <= self.tp else 0.0
+
+    def onset(self, level: float) -> float:
+        """First time a(t) reaches level (0 < level <= A), closed form."""
+        return self.tp / math.pi * math.asin(level / self.A)
+
+
+def base_slide_closed_form(base: BasePulse, g: float, mu: float) -> tuple[float, float, float]:
+    """A block resting on the base that slides (mu g < g tan(alpha), mu g < A) with mu_s =
+    mu_k = mu: (slide onset t0, stick time T, its slide s(T) on the base), closed form. From
+    t0 (phi0 = pi t0 / tp) s' = -V(t) + mu g (t - t0), V the base's speed gained since t0; it
+    sticks after the pulse, at T = t0 + (A tp / pi) (1 + cos phi0) / (mu g), and
+    s(T) = -(A tp / pi) (cos phi0 (T - t0) + (tp / pi) sin phi0 + T - tp) + mu g (T - t0)^2 / 2.
+    """
+    t0 = base.onset(mu * g)
+    phi0 = math.pi * t0 / base.tp
+    scale = base.A * base.tp / math.pi
+    stick = t0 + scale * (1.0 + math.cos(phi0)) / (mu * g)
+    dist = -scale * (math.cos(phi0) * (stick - t0) + base.tp / math.pi * math.sin(phi0)
+                     + stick - base.tp) + 0.5 * mu * g * (stick - t0) ** 2
+    return t0, stick, dist
+
+
+def rocking_base_rhs(p: RockingBlock, base: BasePulse,
+                     side: float) -> Callable[[float, np.ndarray], np.ndarray]:
+    """Rocking on a base accelerating at a(t) (Yim, Chopra and Penzien's equation), in the
+    base's frame, where the inertial force -m a(t) acts at the mass center:
+
+        theta'' = -p^2 (sin(alpha s - theta) - (a / g) cos(alpha s - theta)),
+
+    s = +1 on the left corner (theta > 0), -1 on the right. The state [theta, theta', W] also
+    integrates W, the inertial force's work in the base's frame, m a R cos(alpha s - theta)
+    theta' (its moment about the pivot times the rate)."""
+
+    def rhs(t: float, y: np.ndarray) -> np.ndarray:
+        a = base.accel(t)
+        phase = p.alpha * side - y[0]
+        thdd = -p.p2 * (math.sin(phase) - a / p.g * math.cos(phase))
+        return np.array([y[1], thdd, p.m * a * p.radius * math.cos(phase) * y[1]])
+
+    return rhs
+
+
+def rocking_base_run(p: RockingBlock, base: BasePulse, t_end: float, mu_s: float,
+                     mu_k: float) -> Run:
+    """Event-driven response of a block resting on a base given the pulse: it rests until the
+    base's acceleration reaches g tan(alpha) (it lifts onto the trailing corner: 'rock') or
+    mu_s g (it slides on the base: 'slide'), whichever comes first. Rocking: Housner's impacts,
+    back to rest ('rest') when the impacts accumulate (the rate after an impact below 1e-9 p,
+    or impacts closer than 1e-9 s). Sliding (without rocking: mu_k <= mu_s < tan(alpha) keeps
+    the base's reaction inside the base), s'' = -a(t) - mu_k g sign(s'), sticks ('stick') when
+    s' = 0 and |a| <= mu_s g. Sliding while rocking is outside the reference: the friction
+    the pivot needs is left for the caller to check (rocking_pivot_force). State
+    [theta, theta', s, s'] (s: the block's slide on the base); friction_work: the sliding's;
+    input_work: the inertial force's work while rocking (in the base's frame)."""
+    run, t, y, mode = Run(), 0.0, np.zeros(4), "rest"
+    while t < t_end:
+        if mode == "rest":
+            t1, name = _rest_until(p, base, t, t_end, mu_s)
+            run.segments.append(Segment(t, t1, "rest", _resting(y[2])))
+            t = t1
+            if name:
+                run.switches.append((t, name))
+                mode = name
+        elif mode == "rock":
+            t, y, mode = _rock(p, base, run, t, y, t_end)
+        else:
+            t, y, mode = _slide_on_base(p, base, run, t, y, t_end, mu_s, mu_k)
+    return run
+
+
+def _resting(s: float) -> Callable[[float], np.ndarray]:
+    return lambda _t: np.array([0.0, 0.0, s, 0.0])
+
+
+def _rest_until(p: RockingBlock, base: BasePulse, t0: float, t_end: float,
+                mu_s: float) -> tuple[float, str]:
+    """At rest from t0: the first time |a| reaches g tan(alpha) ('rock') or mu_s g ('slide')."""
+    lift = _event(lambda t, _y: abs(base.accel(t)) - p.g * math.tan(p.alpha), 1.0)
+    slip = _event(lambda t, _y: abs(base.accel(t)) - mu_s * p.g, 1.0)
+    sol = solve_ivp(lambda _t, _y: np.zeros(1), (t0, t_end), [0.0], events=[lift, slip],
+                    max_step=base.tp / 50.0, rtol=RTOL, atol=ATOL)
+    if sol.status != 1:
+        return t_end, ""
+    return float(sol.t[-1]), "rock" if len(sol.t_events[0]) else "slide"
+
+
+def _rock(p: RockingBlock, base: BasePulse, run: Run, t: float, y: np.ndarray,
+          t_end: float) -> tuple[float, np.ndarray, str]:
+    """One rocking arc to the next impact (or t_end); Housner's impact there."""
+    if y[1] != 0.0:
+        side = math.copysign(1.0, y[1])
+    else:
+        side = math.copysign(1.0, base.accel(t))  # from rest: onto the trailing corner
+    impact = _event(lambda _t, s: s[0], -side)
+    sol = solve_ivp(rocking_base_rhs(p, base, side), (t, t_end), [y[0], y[1], 0.0],
+                    method="DOP853", rtol=RTOL, atol=ATOL, events=impact, dense_output=True)
+    s_fixed = y[2]
+    run.segments.append(Segment(t, sol.t[-1], "rock", _rocking_state(sol.sol, s_fixed)))
+    run.input_work += sol.y[2, -1]
+    t1 = float(sol.t[-1])
+    if sol.status != 1:
+        return t1, np.array([sol.y[0, -1], sol.y[1, -1], s_fixed, 0.0]), "rock"
+    w = p.restitution * sol.y[1, -1]
+    run.switches.append((t1, "impact"))
+    if abs(w) < 1e-9 * math.sqrt(p.p2) or t1 - t < 1e-9:  # the impacts accumulate
+        w = 0.0
+        if abs(base.accel(t1)) <= p.g * math.tan(p.alpha):
+            run.switches.append((t1, "rest"))
+            return t1, np.array([0.0, 0.0, s_fixed, 0.0]), "rest"
+    return t1, np.array([0.0, w, s_fixed, 0.0]), "rock"
+
+
+def _rocking_state(sol: Callable[[float], np.ndarray],
+                   s: float) -> Callable[[float], np.ndarray]:
+    return lambda t: np.array([*np.asarray(sol(t))[:2], s, 0.0])
+
+
+def _slide_on_base(p: RockingBlock, base: BasePulse, run: Run, t: float, y: np.ndarray,
+                   t_end: float, mu_s: float, mu_k: float) -> tuple[float, np.ndarray, str]:
+    """Slide on the base until the relative velocity is zero again (or t_end)."""
+    sigma = math.copysign(1.0, y[3]) if y[3] != 0.0 else -math.copysign(1.0, base.accel(t))
+    friction = -sigma * mu_k * p.g  # per unit mass
+
+    def rhs(tt: float, s: np.ndarray) -> np.ndarray:
+        return np.array([s[1], -base.accel(tt) + friction, p.m * friction * s[1]])
+
+    stop = _event(lambda _t, s: s[1], -sigma)
+    sol = solve_ivp(rhs, (t, t_end), [y[2], y[3], 0.0], method="DOP853", rtol=RTOL,
+                    atol=ATOL, events=stop, dense_output=True)
+    run.segments.append(Segment(t, sol.t[-1], "slide",
+                                lambda tt: np.array([0.0, 0.0, *np.asarray(sol.sol(tt))[:2]])))
+    run.friction_work += sol.y[2, -1]
+    t1 = float(sol.t[-1])
+    if sol.status != 1:
+        return t1, np.array([0.0, 0.0, sol.y[0, -1], sol.y[1, -1]]), "slide"
+    held = abs(base.accel(t1)) <= mu_s * p.g
+    run.switches.append((t1, "stick" if held else "reverse"))
+    return t1, np.array([0.0, 0.0, sol.y[0, -1], 0.0]), "rest" if held else "slide"
