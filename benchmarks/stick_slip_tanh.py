@@ -33,8 +33,10 @@ import argparse
 import importlib.util
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -78,12 +80,13 @@ def bump_coefficient(mu_s: float, mu_k: float) -> float:
     return brentq(peak, 0.5 * (mu_s - mu_k), mu_s, xtol=1e-15, rtol=1e-15)
 
 
-def friction(p, v_rel: np.ndarray | float, v0: float, c: float):  # noqa: ANN001
+def friction(p: Any, v_rel: np.ndarray | float, v0: float, c: float) -> np.ndarray | float:
     """Brown-McPhee's smooth Coulomb law on p (a REF.StickSlip), its static peak mu_s N."""
     return -p.m * p.g * _shape(p.mu_k, c, v_rel / v0)
 
 
-def _rhs_and_jacobian(p, v0: float):  # noqa: ANN001, ANN202
+def _rhs_and_jacobian(p: Any, v0: float) -> tuple[Callable[..., np.ndarray],
+                                                   Callable[..., np.ndarray]]:
     c = bump_coefficient(p.mu_s, p.mu_k)
 
     def rhs(_t: float, y: np.ndarray) -> np.ndarray:
@@ -98,7 +101,8 @@ def _rhs_and_jacobian(p, v0: float):  # noqa: ANN001, ANN202
     return rhs, jac
 
 
-def stick_phase_error(p, t_end: float, velocity) -> float:  # noqa: ANN001
+def stick_phase_error(p: Any, t_end: float,
+                      velocity: Callable[[np.ndarray], np.ndarray]) -> float:
     """Largest |x'(t) - v_belt| / v_belt at the sample points inside the closed form's stick
     intervals over [0, t_end]; `velocity` maps an array of times to x' there."""
     times = np.concatenate([a + (b - a) * SAMPLES
@@ -112,8 +116,10 @@ def run_tanh(v0: float, rtol: float, method: str = "LSODA", periods: int = PERIO
     wall time of solve_ivp alone, accepted steps, RHS and Jacobian calls, the stick-phase error
     (relative to v_belt) and the position error in the middle of the last slip arc (relative to
     the arc's amplitude). LSODA is the default: of Radau, LSODA and RK45 it is the fastest at
-    every v0 (the steps are alike; Radau's cost per step in Python is ~20x, and RK45 turns stiff
-    in the stick phases as v0 shrinks)."""
+    v0 down to 1e-8 (the steps are alike; Radau's cost per step in Python is ~20x, and RK45
+    turns stiff in the stick phases as v0 shrinks); from v0 = 1e-9 LSODA fails (repeated
+    convergence failures, `success` False) where Radau still succeeds. `p` in these functions
+    is a contact_reference.StickSlip (Any: that module is loaded by path)."""
     p = REF.StickSlip()
     t_end = p.x_static / p.v_belt + periods * REF.stick_slip_cycle(p).period
     rhs, jac = _rhs_and_jacobian(p, v0)
@@ -161,14 +167,14 @@ def main() -> None:
     print(f"stick-slip oscillator, {args.periods} periods, rtol {args.rtol:g}; error: the largest"
           " |x' - v_belt| / v_belt inside the exact stick phases")
     print(f"{'method':<10} {'v0':>8} {'time s':>9} {'steps':>8} {'nfev':>9} {'stick error':>12}"
-          f" {'slip error':>12}")
+          f" {'slip error':>12}  success")
     for v0 in (float(v) for v in args.v0.split(",")):
         for method in args.methods.split(","):
             if method in ("RK45", "RK23", "DOP853") and v0 < args.rk45_max_v0:
                 continue
             r = run_tanh(v0, args.rtol, method, args.periods)
             print(f"{method:<10} {v0:>8.0e} {r['time_s']:>9.3f} {r['steps']:>8d} {r['nfev']:>9d}"
-                  f" {r['stick_error']:>12.2e} {r['slip_error']:>12.2e}")
+                  f" {r['stick_error']:>12.2e} {r['slip_error']:>12.2e}  {r['success']}")
     exact = run_exact(args.rtol, args.periods)
     print(f"exact reference (event-driven, {exact['switches']} switches): {exact['time_s']:.3f} s,"
           f" stick error {exact['stick_error']:.1e}")
