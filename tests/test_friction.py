@@ -26,7 +26,7 @@ def block():
     return nemc.compile(EXAMPLES / "coulomb_block.yaml")
 
 
-@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853", "auto", "DOP853", "RK45"])
+@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853", "auto"])
 def test_the_block_turns_and_sticks_where_the_closed_form_says(block, method: str) -> None:
     result = block.simulate(method=method)
     assert result.success
@@ -86,7 +86,7 @@ def test_a_pushed_block_breaks_free_when_the_push_reaches_static_friction(tmp_pa
     model = nemc.compile(path)
     m, g, mu, mu_s, c = 2.0, 9.81, 0.3, 0.5, 4.0
     t_s = mu_s * m * g / c  # the push c t reaches mu_s m g
-    for method in ("nemc.Vern9", "nemc.DOP853", "DOP853"):
+    for method in ("nemc.Vern9", "nemc.DOP853"):
         result = model.simulate(method=method, t_eval=[0.5 * t_s, 6.0])
         assert result.success
         times, _ = result.events["slide.stick_slip"]
@@ -155,7 +155,7 @@ def test_pin_friction_solved_with_its_reaction_matches_a_hand_derivation(tmp_pat
 
 
 def test_implicit_and_scipy_methods_are_refused_by_name(block) -> None:
-    for method in ("nemc.Radau", "Radau", "BDF", "LSODA", "nemc.Taylor"):
+    for method in ("nemc.Radau", "Radau", "BDF", "LSODA", "nemc.Taylor", "RK45", "DOP853"):
         with pytest.raises(ModelError, match="Coulomb friction"):
             block.simulate(method=method)
 
@@ -326,7 +326,7 @@ def incline_reference(t_end: float) -> tuple[float, np.ndarray]:
     return t_free, sol.y[:, -1]
 
 
-@pytest.mark.parametrize("method", ["nemc.Vern9", "DOP853"])
+@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853"])
 def test_a_block_breaks_free_as_its_incline_tilts_and_slides_as_derived_by_hand(
         method: str) -> None:
     model = nemc.compile(EXAMPLES / "block_on_tilting_incline.yaml")

@@ -5,8 +5,9 @@ from the states for the outputs.
 
 A stuck joint's rate is held at exactly 0 by the right-hand side's exact zeros, which an
 explicit Runge-Kutta step keeps (its increments are sums of zeros). An implicit method's
-Newton iteration mixes the state's entries, and nemc.Taylor's series has no switch: those are
-refused by name.
+Newton iteration mixes the state's entries, nemc.Taylor's series has no switch, and scipy's
+events are looked at only at each step's end (a stuck mechanism at rest takes long steps, over
+which a holding margin may dip and recover): those are refused by name.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import numpy as np
 from .compiled import Compiled
 from .failures import IntegrationFailure, ModelError
 
-FRICTION_METHODS = ("nemc.Vern9", "nemc.DOP853", "RK45", "RK23", "DOP853")  # explicit
+FRICTION_METHODS = ("nemc.Vern9", "nemc.DOP853")  # explicit, their events in C
 FRICTION_METHOD = "nemc.Vern9"  # method "auto"'s choice with friction
 
 
@@ -38,9 +39,10 @@ class Friction:
             raise ModelError(
                 f"{method} cannot run a mechanism with Coulomb friction (friction on "
                 f"{', '.join(self.items)}): a stuck joint's rate is held at exactly 0, which "
-                f"the explicit methods keep ({', '.join(FRICTION_METHODS)}; method auto "
-                "takes nemc.Vern9), switching modes at the events they locate; an implicit "
-                "method's Newton iteration and nemc.Taylor's series do not")
+                f"nemc's explicit methods keep ({', '.join(FRICTION_METHODS)}; method auto "
+                "takes nemc.Vern9), switching modes at the events they locate, also inside "
+                "long steps; an implicit method's Newton iteration and nemc.Taylor's series "
+                "do not, and scipy's event search looks only at each step's end")
 
     def refuse(self, what: str) -> None:
         """Refuse WHAT (the model as a plant, an FMU) with friction, which switches modes."""

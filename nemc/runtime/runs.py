@@ -708,12 +708,6 @@ class _Segments:
         crossed: np.ndarray | None = None
         for k in impacted:
             moving = int(np.sign(later[k] - now[k]))
-            if events.actions[k] == "switch":  # a mode switch: its value starts anew
-                side = int(np.sign(now[k])) or moving
-                if side:
-                    self.cooldown[k] = (t + self.direction * (
-                        window + 64 * np.finfo(float).eps * abs(t)), side)
-                continue
             crossed_to = events.directions[k]
             if crossed_to == 0:  # either way: the way it went before the impact
                 if crossed is None:
