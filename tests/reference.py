@@ -285,12 +285,13 @@ def tree_example_names(folder: Path) -> list[str]:
     """The example files this reference covers: trees without driven joints or inputs. Closed
     loops (`constraints`) and driven joints (`motion`) are tests/loop_reference.py's; a tree
     with `inputs:` (cart_pole) is checked through complex_step_linearization below
-    (tests/test_examples_plant.py, tests/test_plant.py), which takes the inputs' values."""
+    (tests/test_examples_plant.py, tests/test_plant.py), which takes the inputs' values; a
+    mechanism with Coulomb friction (`friction`) is tests/test_friction.py's."""
     names = []
     for path in sorted(folder.glob("*.yaml")):
         data = yaml.safe_load(path.read_text())
         driven = any("motion" in joint for joint in data["joints"].values())
-        if "constraints" not in data and not driven and "inputs" not in data:
+        if not {"constraints", "inputs", "friction"} & set(data) and not driven:
             names.append(path.stem)
     return names
 

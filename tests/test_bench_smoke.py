@@ -193,3 +193,13 @@ def test_sensitivities_smoke_mode_writes_its_table(tmp_path: Path) -> None:
     assert row["plain"]["median"] > 0 and row["sensitivities"]["median"] > 0
     assert row["error"] < 1e-8  # the sensitivities against scipy's tight run
     assert (out / "sensitivities-latest.md").read_text().startswith("# Sensitivities")
+
+
+def test_friction_smoke_mode_compares_exact_friction_with_the_tanh_law(tmp_path: Path) -> None:
+    out = run_script("friction.py", tmp_path)
+    result = json.loads((out / "friction-latest.json").read_text())
+    contenders = [row["contender"] for row in result["rows"]]
+    assert contenders[0] == "nemc.Vern9" and any("tanh" in c for c in contenders)
+    exact = result["rows"][0]
+    assert exact["stick_error"] == 0.0 and exact["switch_error"] < 1e-8
+    assert "| nemc.Vern9 | exact |" in (out / "friction-latest.md").read_text()

@@ -261,10 +261,12 @@ def test_an_ensemble_starts_each_run_in_its_own_mode(block) -> None:
         assert np.all(runs.y[:, 1, -1] == 0.0)
 
 
-@pytest.mark.parametrize("call", ["linearize", "trim", "sensitivities", "taylor"])
-def test_what_needs_a_derivative_is_refused_by_name(block, call: str) -> None:
+@pytest.mark.parametrize("call", ["linearize", "trim", "sensitivities", "taylor", "fmu"])
+def test_what_needs_a_derivative_is_refused_by_name(block, call: str, tmp_path: Path) -> None:
     with pytest.raises(ModelError, match="friction"):
-        if call == "linearize":
+        if call == "fmu":
+            block.export_fmu(tmp_path / "block.fmu")
+        elif call == "linearize":
             block.linearize()
         elif call == "trim":
             block.trim()

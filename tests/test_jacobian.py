@@ -54,7 +54,13 @@ def assert_jacobian_matches(model, seed: int) -> None:
         assert np.abs(exact - approx).max() <= tolerance * scale
 
 
-@pytest.mark.parametrize("example", sorted(EXAMPLES.glob("*.yaml")), ids=lambda p: p.stem)
+# A mechanism with Coulomb friction has no derivative across its mode switches (a stuck
+# joint's rate perturbed is a slipping one): tests/test_friction.py checks it is refused where
+# one is needed.
+SMOOTH = [path for path in sorted(EXAMPLES.glob("*.yaml")) if "\nfriction:" not in path.read_text()]
+
+
+@pytest.mark.parametrize("example", SMOOTH, ids=lambda p: p.stem)
 def test_example_jacobians_match_differences(example: Path) -> None:
     assert_jacobian_matches(nemc.compile(example, jacobian=True), seed=3)
 

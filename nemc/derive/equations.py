@@ -16,7 +16,6 @@ expression this stage returns is in the coordinates, their rates, time and the r
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import cached_property
@@ -33,8 +32,8 @@ from .friction import (
     friction_checks,
     friction_equations,
     friction_events,
-    friction_modes,
     friction_outputs,
+    friction_parameters,
     friction_refusal,
 )
 from .inputs import InputLaw, input_law
@@ -244,14 +243,15 @@ def derive(mech: m.Mechanism) -> Equations:
         mass_forcing = mass_and_forcing(mech)
         forms.update(mass_forms(*mass_forcing))
     form = fastest_dynamics(forms)
+    hidden = friction_parameters(mech)
     return Equations(
         mechanism=mech,
         coordinates=kin.q,
         speeds=kin.u,
         accelerations=kin.qdd,
-        parameters=values.runtime_symbols + inputs.coefficients + starts + friction_modes(mech),
+        parameters=values.runtime_symbols + inputs.coefficients + starts + hidden[0],
         parameter_defaults=values.runtime_defaults + inputs.defaults + (0.0,) * len(starts)
-        + (math.nan,) * len(mech.frictions),
+        + hidden[1],
         derived_parameters=values.derived,
         dynamics=forms[form],
         outputs=tuple((name, runtime(expr)) for name, expr in

@@ -11,6 +11,7 @@ NAME.stuck and NAME.friction and the switching events follow from the state alon
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -49,23 +50,28 @@ def friction_equations(mech: m.Mechanism, kin: Kinematics,
     loads = applied_loads(mech, kin)
     constraint_loads(mech, kin, multipliers, loads)
     coordinates, terms = [], []
-    for item in items:
-        joint = mech.joint(item.joint)
+    names = [item.on_joint for item in items]
+    for item, name in zip(items, names):
+        joint = mech.joint(name)
         reaction = joint_reaction(mech, kin, joint, loads, None)
         force = (reaction[0][1], reaction[1][1])  # NAME.Fx, NAME.Fy: ground axes
-        axis = getattr(joint, "axis", None) if joint.type == "prismatic" else None
-        terms += [runtime(term) for term in item.terms(kin, force, joint.parent, axis)]
+        normal = joint.friction_normal(kin.angle(joint.parent), force)
+        assert normal is not None  # the front end refused the others
+        terms += [runtime(term) for term in item.terms(normal, joint.friction_lever)]
         coordinates.append(mech.coordinates.index(joint.coordinates[0]))
-    return FrictionEquations(names=tuple(item.joint for item in items),
+    return FrictionEquations(names=tuple(names),
                              forces=tuple(item.symbol for item in items),
                              coordinates=tuple(coordinates), terms=tuple(terms))
 
 
-def friction_modes(mech: m.Mechanism) -> tuple[sympy.Symbol, ...]:
-    """Each item's mode, the last runtime parameters (NaN by default: read from the state):
-    a run sets them at its start and each switch writes its item's (friction.c.tmpl)."""
-    return tuple(m.symbol(f"mode({item.joint})") for item in mech.frictions
-                 if isinstance(item, Friction))
+def friction_parameters(mech: m.Mechanism) -> tuple[tuple[sympy.Symbol, ...], tuple[float, ...]]:
+    """The last runtime parameters, and their defaults: each item's force (0: no friction
+    where a call outside friction.c.tmpl's solver reads it), then each item's mode (NaN: read
+    from the state; a run sets them at its start and each switch writes its item's)."""
+    items = [item for item in mech.frictions if isinstance(item, Friction)]
+    forces = tuple(item.symbol for item in items)
+    modes = tuple(m.symbol(f"mode({item.on_joint})") for item in items)
+    return forces + modes, (0.0,) * len(forces) + (math.nan,) * len(modes)
 
 
 def friction_outputs(mech: m.Mechanism) -> list[tuple[str, sympy.Expr]]:
@@ -74,18 +80,19 @@ def friction_outputs(mech: m.Mechanism) -> list[tuple[str, sympy.Expr]]:
     named: list[tuple[str, sympy.Expr]] = []
     for item in mech.frictions:
         if isinstance(item, Friction):
-            rate = m.rate_symbol(mech.joint(item.joint).coordinates[0])
+            name = item.on_joint
+            rate = m.rate_symbol(mech.joint(name).coordinates[0])
             stuck = sympy.Piecewise((sympy.S.One, sympy.Eq(rate, 0)), (sympy.S.Zero, True))
-            named += [(f"{item.joint}.friction", item.symbol), (f"{item.joint}.stuck", stuck)]
+            named += [(f"{name}.friction", item.symbol), (f"{name}.stuck", stuck)]
     return named
 
 
 def friction_events(mech: m.Mechanism) -> tuple[m.Event, ...]:
     """Each item's switching event NAME.stick_slip: its value and law are friction.c.tmpl's
     (the speed while slipping, the holding margin while stuck), so `when` here is a stand-in."""
-    return tuple(m.Event(name=f"{item.joint}.stick_slip", when=sympy.S.Zero, direction="both",
-                         action="switch", loc=item.location)
-                 for item in mech.frictions)
+    return tuple(m.Event(name=f"{item.on_joint}.stick_slip", when=sympy.S.Zero,
+                         direction="both", action="switch", loc=item.location)
+                 for item in mech.frictions if isinstance(item, Friction))
 
 
 def friction_checks(mech: m.Mechanism, runtime: Callable[[object], sympy.Expr]

@@ -14,8 +14,8 @@ def metadata(eqs: Equations, prefix: str) -> dict:
     mech, sim = eqs.mechanism, eqs.mechanism.simulation
     starts = eqs.loops.starts if eqs.loops is not None else ()
     # the parameters, then the inputs' laws, then the offsets of constraints "as at the start",
-    # then the friction items' modes
-    settable = len(eqs.parameters) - len(eqs.inputs.coefficients) - len(starts) - (
+    # then the friction items' forces and modes
+    settable = len(eqs.parameters) - len(eqs.inputs.coefficients) - len(starts) - 2 * (
         eqs.friction.count if eqs.friction is not None else 0)
     return {
         "name": mech.name,

@@ -4,6 +4,8 @@
 
 from __future__ import annotations
 
+import sympy
+
 from ..kinds.friction import KEYS, Friction
 from .context import Context, check_keys, described, entries_of, items_of, join_path
 from .fields import default_value, has_defaults
@@ -41,36 +43,28 @@ def read_friction(ctx: Context, node: Node) -> tuple[Friction, ...]:
 
 def _usable(ctx: Context, friction: Friction, node: Node, path: str,
             found: list[Friction]) -> bool:
-    """Whether the item's joint can carry it: one item per joint, a free (not driven) joint
-    whose coordinate's rate is its sliding speed, pin friction with a radius."""
-    joint = ctx.joints.get(friction.joint)
-    where = join_path(path, "joint")
-    problem = None
+    """Whether the item's joint can carry it (the kind and the joint say), one item a joint,
+    mu_static >= mu at the defaults."""
+    name = friction.on_joint
+    joint = ctx.joints.get(name)
     if joint is None:
         return False
-    if any(other.joint == friction.joint for other in found):
-        problem = f"joint {friction.joint!r} already has a friction item"
-    elif joint.driven:
-        problem = (f"joint {friction.joint!r} is driven (motion:): its drive already holds "
-                   "it, friction would only add to the drive's torque")
-    elif getattr(joint, "angle", "relative") != "relative":
-        problem = (f"joint {friction.joint!r} has an absolute angle: friction needs the "
-                   "joint's own rate (angle: relative)")
-    elif _static_below_kinetic(ctx, friction):
-        problem = "mu_static must be >= mu (the static coefficient limits the holding force)"
-        where = join_path(path, "mu_static")
-    elif joint.type == "revolute" and friction.given is None and friction.radius is None:
-        problem = ("pin friction on a revolute joint needs `radius` (the torque is "
-                   "mu * radius * |reaction|), or give the Coulomb torque as `torque:`")
-        where = path
-    if problem is not None:
-        ctx.problem(node.line, where, problem)
-    return problem is None
+    zero = sympy.S.Zero
+    refused = friction.refusal(joint.driven, joint.friction_normal(zero, (zero, zero))
+                               is not None, joint.friction_lever)
+    if any(other.symbol == friction.symbol for other in found):
+        refused = ("joint", f"joint {name!r} already has a friction item")
+    elif refused is None and _static_below_kinetic(ctx, friction):
+        refused = ("mu_static", "mu_static must be >= mu (the static coefficient limits the "
+                   "holding force)")
+    if refused is not None:
+        ctx.problem(node.line, join_path(path, refused[0]) if refused[0] else path, refused[1])
+    return refused is None
 
 
 def _static_below_kinetic(ctx: Context, friction: Friction) -> bool:
     """Whether mu_static < mu at the default parameter values."""
-    difference = friction.mu_static - friction.mu
+    difference = friction.static_excess
     if not has_defaults(ctx, difference):
         return False
     value = default_value(ctx, difference)

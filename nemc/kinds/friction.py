@@ -28,7 +28,6 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import sympy
 
 from .loads.base import Load, LoadDrawing
-from .spatial import rotation, vec
 from .terms import Loc, symbol
 
 if TYPE_CHECKING:
@@ -59,8 +58,9 @@ class Friction(Load):
 
     @classmethod
     def read(cls, read: Reader) -> dict[str, Any] | None:
-        joint = read.joint("joint", lambda kind: kind.relative and kind.type in (
-            "revolute", "prismatic"), "friction needs a revolute or prismatic joint")
+        joint = read.joint("joint", lambda kind: kind.relative,
+                           "friction needs a joint with a relative coordinate (revolute or "
+                           "prismatic)")
         given_keys = [key for key in ("torque", "force") if read.has(key)]
         if len(given_keys) > 1:
             read.problem("force", "a friction item has `torque` or `force`, not both")
@@ -84,6 +84,11 @@ class Friction(Load):
         if fields is None or (read.has("radius") and radius is None):
             return None
         return {**fields, "radius": radius, "given": None}
+
+    @property
+    def on_joint(self) -> str:
+        """The name of the joint it acts across."""
+        return self.joint
 
     @property
     def symbol(self) -> sympy.Symbol:
@@ -118,20 +123,33 @@ class Friction(Load):
             found.append(("radius", self.radius, True))
         return found
 
-    def terms(self, kin: KinematicsView, reaction: Sequence[Expr], parent: str,
-              axis: tuple[Expr, Expr] | None) -> tuple[Expr, Expr, Expr, Expr]:
+    def terms(self, normal: Sequence[Expr], lever: bool) -> tuple[Expr, Expr, Expr, Expr]:
         """mu, mu_static and the normal force's two components (its magnitude is what mu
-        multiplies): REACTION is the joint's reaction force (ground axes); AXIS a prismatic
-        joint's (in the parent's frame), None for a revolute joint."""
+        multiplies): NORMAL, what the joint says its friction takes from its reaction
+        (Joint.friction_normal), times the radius where LEVER (pin friction's couple)."""
         if self.given is not None:
             return (sympy.S.One, sympy.S.One, self.given, sympy.S.Zero)
-        force = vec(reaction)
-        if axis is None:  # pin friction: radius * |reaction|
-            radius = self.radius if self.radius is not None else sympy.S.One
-            return (self.mu, self.mu_static, radius * force[0], radius * force[1])
-        along = rotation(kin.angle(parent)) * vec(axis)
-        across = sympy.Matrix([-along[1], along[0]]) / sympy.sqrt(along.dot(along))
-        return (self.mu, self.mu_static, force.dot(across), sympy.S.Zero)
+        scale = self.radius if lever and self.radius is not None else sympy.S.One
+        return (self.mu, self.mu_static, scale * normal[0], scale * normal[1])
+
+    def refusal(self, driven: bool, takes_friction: bool, lever: bool) -> tuple[str, str] | None:
+        """(key, why) the joint cannot carry this item: DRIVEN (its motion prescribed),
+        not TAKES_FRICTION (Joint.friction_normal gives none), a LEVER without a radius."""
+        if driven:
+            return ("joint", f"joint {self.joint!r} is driven (motion:): its drive already "
+                    "holds it, friction would only add to the drive's torque")
+        if not takes_friction:
+            return ("joint", f"joint {self.joint!r} has an absolute angle: friction needs the "
+                    "joint's own rate (angle: relative)")
+        if lever and self.given is None and self.radius is None:
+            return ("", "pin friction on a revolute joint needs `radius` (the torque is "
+                    "mu * radius * |reaction|), or give the Coulomb torque as `torque:`")
+        return None
+
+    @property
+    def static_excess(self) -> Expr:
+        """mu_static - mu, which must not be negative."""
+        return self.mu_static - self.mu
 
     def reported(self, kin: KinematicsView, rate: Callable[[Expr], Expr]
                  ) -> list[tuple[str, Expr]]:

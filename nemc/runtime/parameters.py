@@ -43,8 +43,9 @@ class Parameters:
         # the parameters, then the inputs' laws' coefficients (inputs.py): never written
         laws = (metadata.get("inputs") or {}).get("defaults", [])
         offsets = [0.0] * len(metadata.get("constraint_starts", []))  # set at a run's start
-        modes = [np.nan] * len(metadata.get("friction", []))  # NaN: read from the state
-        self.defaults = np.array([*metadata["parameter_defaults"], *laws, *offsets, *modes],
+        items = len(metadata.get("friction", []))  # forces 0 (solved in C), modes NaN (from
+        hidden = [0.0] * items + [np.nan] * items  # the state; a run sets its own)
+        self.defaults = np.array([*metadata["parameter_defaults"], *laws, *offsets, *hidden],
                                  dtype=float)
         self._checked: tuple[tuple, np.ndarray] = ((), self.defaults)  # the latest vector
         # the latest dict checked: its names, its values (the objects), its vector (None: none)

@@ -54,6 +54,7 @@ class Joint:
     reaction_couple: ClassVar[bool] = False  # its reaction has a couple (output NAME.M)
     relative: ClassVar[bool] = False  # it has a relative displacement (a joint_spring acts on)
     drivable: ClassVar[bool] = False  # it may carry `motion:` (one coordinate, prescribed)
+    friction_lever: ClassVar[bool] = False  # its friction is a couple: mu * radius * |normal|
 
     name: str
     parent: str  # a body name or "ground"
@@ -157,6 +158,13 @@ class Joint:
     def spring_force_on_child(self, parent_angle: Expr, tension: Expr) -> V2 | None:
         """The force (ground axes) a joint_spring of this tension puts on the child, when it
         acts by a force (not a couple): the reaction output leaves it out."""
+        return None
+
+    def friction_normal(self, parent_angle: Expr, force: Sequence[Expr]
+                        ) -> tuple[Expr, Expr] | None:
+        """The normal force Coulomb friction on this joint multiplies (`friction`: its two
+        components, whose norm is its magnitude), from the joint's reaction FORCE on the child
+        (ground axes); None: this joint takes no friction."""
         return None
 
     # -- the picture -----------------------------------------------------------------------------

@@ -76,5 +76,12 @@ class Prismatic(Joint):
         force = axis / sympy.sqrt(axis.dot(axis)) * tension
         return force[0], force[1]
 
+    def friction_normal(self, parent_angle: Expr, force: Sequence[Expr]
+                        ) -> tuple[Expr, Expr] | None:
+        """The reaction's component across the axis (the guide's push on the slider)."""
+        along = rotation(parent_angle) * vec(self.axis)
+        across = sympy.Matrix([-along[1], along[0]]) / sympy.sqrt(along.dot(along))
+        return vec(force).dot(across), sympy.S.Zero
+
     def drawing(self) -> JointDrawing:
         return JointDrawing("slider", self.axis)

@@ -36,6 +36,7 @@ class Revolute(Joint):
     coordinate_kinds: ClassVar[tuple[str, ...]] = ("angle",)
     relative: ClassVar[bool] = True
     drivable: ClassVar[bool] = True
+    friction_lever: ClassVar[bool] = True
 
     angle: Literal["relative", "absolute"] = "relative"
     offset: Expr = sympy.S.Zero
@@ -92,3 +93,9 @@ class Revolute(Joint):
             sink.apply(self.child, couple(forces[0]))
         else:
             self.joint_load(sink, parent, child_origin, forces[0])
+
+    def friction_normal(self, parent_angle: Expr, force: Sequence[Expr]
+                        ) -> tuple[Expr, Expr] | None:
+        """The whole reaction force (pin friction: mu * radius * its magnitude); none on an
+        absolute angle, whose rate is not the joint's own."""
+        return None if self.absolute else (force[0], force[1])
