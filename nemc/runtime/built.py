@@ -62,6 +62,10 @@ class BuiltModel:
         # sensitivity system: sensitivities.py), their cffi module (set by nemc's pipeline, which
         # builds them once per size; None in a standalone package).
         self.system_drivers: Callable[[int], Any] | None = None
+        # The regressor's code for the linear coefficients named (set by nemc's pipeline,
+        # which derives it; None in a standalone package): Model.regressor, regressor.py.
+        self.regressor_maker: Callable[[tuple[str, ...]], Any] | None = None
+        self._regressor_code: dict[tuple[str, ...], Any] = {}  # regressor_maker's, by names
         self._variants: dict[str, BuiltModel] = {}  # compiled_with's, by the part asked for
         # the seconds its compile took when the pipeline built it now rather than loaded it
         # from the cache, until a BuildNotice reported them (None: nothing to report)
