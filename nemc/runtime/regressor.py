@@ -27,6 +27,7 @@ import numpy as np
 import scipy.linalg
 
 RANK_TOLERANCE = 1e-8  # a scaled column with |R_kk| below this (relative) is dependent
+ZERO_COLUMN = 1e-12  # a column this small (relative to the largest) is rounding: zero
 COEFFICIENT_TOLERANCE = 1e-9  # a combination's coefficient this small (relative) is 0
 LOOP_CONDITION = 1e12  # [Phi_q^T B] this ill-conditioned: a singular configuration
 SAMPLES = 64  # Model.base_parameters' random states (trees)
@@ -173,18 +174,17 @@ def base_parameters(stacked: np.ndarray, names: Sequence[str]) -> BaseParameters
     norms = np.linalg.norm(stacked, axis=0)
     if not np.any(norms > 0):
         raise ValueError("the regressor is zero over these data: they identify no parameter")
-    alive = norms > 1e-12 * norms.max()
+    alive = norms > ZERO_COLUMN * norms.max()
     order = [k for k in preferred_order(names) if alive[k]]
     scaled = stacked[:, order] / norms[order]
     r_diagonal = np.abs(np.diag(scipy.linalg.qr(scaled, mode="r")[0]))
     kept = sorted(k for k, d in zip(order, r_diagonal) if d > RANK_TOLERANCE)
-    others = [k for k in range(len(names)) if k not in kept]
+    others = [k for k in order if k not in kept]  # dependent; a zero column is in none
     combination = np.zeros((len(kept), len(names)))
     combination[range(len(kept)), kept] = 1.0
     if others:
         beta = np.linalg.lstsq(stacked[:, kept], stacked[:, others], rcond=None)[0]
-        small = (np.abs(beta) * norms[kept][:, None]
-                 <= COEFFICIENT_TOLERANCE * np.maximum(norms[others], norms.max() * 1e-12))
+        small = np.abs(beta) * norms[kept][:, None] <= COEFFICIENT_TOLERANCE * norms[others]
         combination[:, others] = np.where(small, 0.0, beta)
     return BaseParameters(tuple(combination_name(row, names) for row in combination),
                           combination, tuple(kept), tuple(names))
