@@ -132,6 +132,25 @@ def test_the_slider_cranks_damper_named_linear_and_its_drive(tmp_path: Path) -> 
     assert found.values[found.names.index("c")] == pytest.approx(4.0, rel=1e-10)
 
 
+def test_a_driven_tree_joints_row_is_its_drive_the_free_ones_zero(tmp_path: Path) -> None:
+    """Kapitza's pendulum (a prismatic pivot shaken by its motion, a free hinge): along the run,
+    the shaker's row is the compiled drive and the hinge's is 0 (nothing acts on it)."""
+    model = nemc.compile(with_accelerations("kapitza", tmp_path))
+    res = model.simulate(rtol=1e-12, atol=1e-13)
+    amplitude, rate = model.parameters["A"], model.parameters["W"]
+    phase = rate * res.t
+    q = np.vstack([amplitude * np.cos(phase), res.y[0]])
+    qd = np.vstack([-amplitude * rate * np.sin(phase), res.y[1]])
+    qdd = np.vstack([-amplitude * rate**2 * np.cos(phase), res.outputs["ddot(th)"]])
+    reg = model.regressor_at()
+    assert reg.row_names == ("s", "th")
+    y, loads = reg.matrix(res.t, q, qd, qdd)
+    tau = y @ reg.values() - loads
+    drive = res.outputs["shaker.drive"]
+    assert np.max(np.abs(tau[:, 0] - drive)) <= 1e-12 * np.max(np.abs(drive))
+    assert np.max(np.abs(tau[:, 1])) <= 1e-12 * np.max(np.abs(drive))
+
+
 def double_pendulum_base(l1: float) -> np.ndarray:
     """The closed form's base parameters of the double pendulum (absolute angles, link2 hung at
     L1 along link1) as rows over phi = (m1, mx1, my1, I1, m2, mx2, my2, I2)."""
