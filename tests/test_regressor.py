@@ -28,7 +28,7 @@ from nemc.front.validate import validate_text
 from nemc.front.values import resolve_values
 from nemc.runtime.failures import ModelError
 from nemc.runtime.load import load_package
-from nemc.runtime.regressor import Regressor, random_states
+from nemc.runtime.regressor import Regressor, identify, random_states
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 SAMPLES = 20
@@ -222,6 +222,32 @@ def test_a_damping_named_linear_is_a_column_of_its_own() -> None:
     assert np.allclose(y[:, 0, -1], qd[0], rtol=0, atol=0)  # torque -c dot(theta)
     assert np.all(loads == 0.0)
     check_against_reference(mech, reg, seed=4)
+
+
+COULOMB = """\
+name: coulomb
+parameters: {m: 1.5, L: 0.8, g: 9.81, c: 0.3, fc: 0.7}
+gravity: [0, -g]
+bodies:
+  rod: {mass: m, inertia: m*L**2/12, com: [L/2, 0]}
+joints:
+  O: {type: revolute, parent: ground, child: rod, at: [0, 0], coordinate: th}
+loads:
+  - {torque: -c*dot(th) - fc*tanh(dot(th)/0.05) + 0.2*sin(t), body: rod}
+"""
+
+
+def test_viscous_and_coulomb_coefficients_are_recovered_exactly() -> None:
+    """A pendulum with a damper c and a smoothed Coulomb friction fc at its pin (and a known
+    torque): c and fc are columns, the forcing the rest; from the Lagrangian reference's torque
+    at seeded states, c and fc come back to 1e-10."""
+    mech, reg = derived(COULOMB, "coulomb", linear=("c", "fc"))
+    check_against_reference(mech, reg, seed=8)
+    t, q, qd, qdd = random_states(1, 30, seed=9)
+    tau = reference_forces(mech, t, q, qd, qdd)
+    found = identify(reg, t, q, qd, qdd, tau.T)
+    assert found.names == ("rod.mx", "rod.my", "rod.I", "c", "fc")
+    assert np.allclose(found.values, [0.6, 0.0, 0.32, 0.3, 0.7], rtol=1e-10, atol=1e-12)
 
 
 @pytest.mark.parametrize(("name", "message"), [
