@@ -209,6 +209,8 @@ def test_the_fourbars_base_parameters_from_noisy_drive_torque(fourbar) -> None:
         inside.append(np.abs(found.values - found.expected) <= 2 * found.stderr)
         if draw == 0:
             assert found.rank == 7 and all(inside[0])
+            given = nemc.identify(fourbar, t, q, qd, qdd, noisy, sigma=2 * found.sigma)
+            assert np.allclose(given.stderr, 2 * found.stderr, rtol=1e-12)
     coverage = np.mean(inside)
     assert 0.9 <= coverage <= 0.99, coverage
 
@@ -252,11 +254,11 @@ def test_viscous_and_coulomb_coefficients_are_recovered_exactly() -> None:
 
 @pytest.mark.parametrize(("name", "message"), [
     ("g", "does not enter the equations linearly through the loads alone"),
-    ("nope", "is not a runtime parameter")])
-def test_a_coefficient_not_linear_or_unknown_is_refused(name: str, message: str) -> None:
+    ("nope", "is not a runtime parameter"), (("c", "c"), "names a parameter twice")])
+def test_a_coefficient_not_linear_or_unknown_is_refused(name, message: str) -> None:
     text = (EXAMPLES / "damped_compound_pendulum.yaml").read_text()
     with pytest.raises(ValueError, match=message):
-        derived(text, "damped", linear=(name,))
+        derived(text, "damped", linear=name if isinstance(name, tuple) else (name,))
 
 
 def test_bad_samples_are_one_clear_error_each(double_pendulum, fourbar) -> None:

@@ -131,6 +131,8 @@ def with_linear_columns(columns: list[list[sympy.Expr]], phi: list[sympy.Expr],
     """Add to COLUMNS (and PHI) a column per name in LINEAR: -dQ/dc (tau = Y phi - Q); the
     loads' Q without those parts. ValueError: an unknown name, or one not linear in Q alone."""
     by_name = {symbol.name: symbol for symbol in symbols}
+    if len(set(linear)) != len(linear):
+        raise ValueError(f"linear names a parameter twice: {list(linear)}")
     for name in linear:
         symbol = by_name.get(name)
         if symbol is None:
