@@ -19,7 +19,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from reference import ReferenceModel, random_mechanism_yaml, tree_example_names
+from reference import (
+    ReferenceModel,
+    random_mechanism_yaml,
+    relative_chain_yaml,
+    tree_example_names,
+)
 
 import nemc
 from nemc.derive.regressor import regressor_equations
@@ -28,7 +33,7 @@ from nemc.front.validate import validate_text
 from nemc.front.values import resolve_values
 from nemc.runtime.failures import ModelError
 from nemc.runtime.load import load_package
-from nemc.runtime.regressor import Regressor, identify, random_states
+from nemc.runtime.regressor import Regressor, base_parameters, identify, random_states
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 SAMPLES = 20
@@ -174,6 +179,22 @@ def test_the_double_pendulums_base_parameters_are_the_closed_forms(double_pendul
     assert base.names[0] == "link1.mx + 0.7*link2.m"
     assert "link1.I + 0.49*link2.m" in base.names
     assert base.parameter_names[0] == "link1.m" and 0 not in base.independent  # m1: none
+
+
+@pytest.mark.parametrize("links", [3, 4])
+def test_a_planar_chain_has_three_base_parameters_a_link(links: int) -> None:
+    """A chain of revolute joints in the vertical plane: per link ZZ_R, MX_R and MY_R (Khalil
+    and Dombre, the masses regrouped), 3 n; no mass kept alone."""
+    mech, reg = derived(relative_chain_yaml(links, "chain", 1.2, 0.5), "chain")
+    y, _ = reg.matrix(*random_states(links, 40, seed=links))
+    base = base_parameters(y.reshape(-1, len(reg.names)), reg.names)
+    assert base.rank == 3 * links
+    assert not any(reg.names[k].endswith(".m") for k in base.independent)
+    if links == 3:  # L = 0.5: each link's mass regrouped into those it hangs from
+        assert base.names == (
+            "link1.mx + 0.5*link2.m + 0.5*link3.m", "link1.my",
+            "link1.I + 0.25*link2.m + 0.25*link3.m", "link2.mx + 0.5*link3.m", "link2.my",
+            "link2.I + 0.25*link3.m", "link3.mx", "link3.my", "link3.I")
 
 
 def test_base_parameters_are_recovered_exactly_from_noise_free_data(double_pendulum) -> None:
