@@ -33,7 +33,14 @@ from nemc.front.validate import validate_text
 from nemc.front.values import resolve_values
 from nemc.runtime.failures import ModelError
 from nemc.runtime.load import load_package
-from nemc.runtime.regressor import Regressor, base_parameters, identify, random_states
+from nemc.runtime.regressor import (
+    Regressor,
+    base_parameters,
+    combination_name,
+    identify,
+    random_states,
+)
+from nemc.runtime.regressor_names import coefficient_texts
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 SAMPLES = 20
@@ -43,7 +50,9 @@ def derived(text: str, name: str, linear: tuple[str, ...] = ()):
     """(the mechanism, its regressor at the default parameters), without compiling C."""
     mech = validate_text(text.encode(), f"{name}.yaml")
     code = regressor_code(regressor_equations(mech, linear))
-    return mech, Regressor(code, np.array(resolve_values(mech).runtime_defaults))
+    values = resolve_values(mech)
+    return mech, Regressor(code, np.array(values.runtime_defaults),
+                           tuple(symbol.name for symbol in values.runtime_symbols))
 
 
 def reference_forces(mech, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray
@@ -176,8 +185,8 @@ def test_the_double_pendulums_base_parameters_are_the_closed_forms(double_pendul
     known = double_pendulum_base(0.7)
     assert base.rank == 6
     assert np.linalg.matrix_rank(np.vstack([base.combination, known]), tol=1e-9) == 6
-    assert base.names[0] == "link1.mx + 0.7*link2.m"
-    assert "link1.I + 0.49*link2.m" in base.names
+    assert base.names == ("link1.mx + L1*link2.m", "link1.my", "link1.I + L1**2*link2.m",
+                          "link2.mx", "link2.my", "link2.I")
     assert base.parameter_names[0] == "link1.m" and 0 not in base.independent  # m1: none
 
 
@@ -186,15 +195,32 @@ def test_a_planar_chain_has_three_base_parameters_a_link(links: int) -> None:
     """A chain of revolute joints in the vertical plane: per link ZZ_R, MX_R and MY_R (Khalil
     and Dombre, the masses regrouped), 3 n; no mass kept alone."""
     mech, reg = derived(relative_chain_yaml(links, "chain", 1.2, 0.5), "chain")
-    y, _ = reg.matrix(*random_states(links, 40, seed=links))
-    base = base_parameters(y.reshape(-1, len(reg.names)), reg.names)
+    base = reg.base(*random_states(links, 40, seed=links))
     assert base.rank == 3 * links
     assert not any(reg.names[k].endswith(".m") for k in base.independent)
-    if links == 3:  # L = 0.5: each link's mass regrouped into those it hangs from
+    if links == 3:  # each link's mass regrouped into those it hangs from, at its length L
         assert base.names == (
-            "link1.mx + 0.5*link2.m + 0.5*link3.m", "link1.my",
-            "link1.I + 0.25*link2.m + 0.25*link3.m", "link2.mx + 0.5*link3.m", "link2.my",
-            "link2.I + 0.25*link3.m", "link3.mx", "link3.my", "link3.I")
+            "link1.mx + L*link2.m + L*link3.m", "link1.my",
+            "link1.I + L**2*link2.m + L**2*link3.m", "link2.mx + L*link3.m", "link2.my",
+            "link2.I + L**2*link3.m", "link3.mx", "link3.my", "link3.I")
+        assert base.combination[2, 4] == pytest.approx(0.25, rel=1e-12)
+
+
+def test_a_coefficient_is_named_in_the_parameters_only_when_it_is_a_monomial() -> None:
+    """Synthetic columns x, y, L^2/(3 h) x and (L + h) y: the first coefficient is named, the
+    sum keeps its number."""
+    rng = np.random.default_rng(1)
+    x, y = rng.standard_normal((2, 30))
+
+    def restack(p: np.ndarray) -> np.ndarray:
+        length, height = p
+        return np.column_stack([x, y, length**2 / (3 * height) * x, (length + height) * y])
+
+    p = np.array([0.7, 1.3])
+    base = base_parameters(restack(p), ("a", "b", "c", "d"))
+    texts = coefficient_texts(base.combination, base.independent, restack, p, ("L", "h"))
+    assert texts == {(0, 2): "L**2/(3*h)"}
+    assert combination_name(base.combination[1], ("a", "b", "c", "d")) == "b + 2*d"
 
 
 def test_base_parameters_are_recovered_exactly_from_noise_free_data(double_pendulum) -> None:

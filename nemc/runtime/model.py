@@ -228,7 +228,7 @@ class Model(BuiltModel):
         """The regressor at these parameters: its names, phi's values, Y and the loads' Q over
         samples (regression.py)."""
         return regression.Regressor(self._regressor_source(tuple(linear)),
-                                   self.parameter_table.vector(params))
+                                   self.parameter_table.vector(params), self.parameter_names)
 
     def base_parameters(self, params: Mapping[str, float] | None = None,
                         linear: Sequence[str] = (), samples: int = regression.SAMPLES,
@@ -240,8 +240,7 @@ class Model(BuiltModel):
         if self.has_loops:
             raise ValueError("a closed loop's states are not free: its base parameters come "
                              "from data (nemc.identify)")
-        y, _ = reg.matrix(*regression.random_states(len(reg.coordinate_names), samples, seed))
-        return regression.base_parameters(y.reshape(-1, len(reg.names)), reg.names)
+        return reg.base(*regression.random_states(len(reg.coordinate_names), samples, seed))
 
     def _regressor_source(self, linear: tuple[str, ...]) -> Any:
         """The regressor's code for LINEAR, derived once (the pipeline's regressor_maker)."""

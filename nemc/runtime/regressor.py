@@ -13,18 +13,22 @@ The base parameters are the combinations of phi the data identify (Gautier, Khal
 columns of Y stacked over the samples, scaled to unit norm, kept in a preferred order when
 independent of those kept before (a QR factorization's diagonal: the inertias and first
 moments body by body, then the linear coefficients, then the masses, so that a body's mass is
-regrouped into the bodies it hangs from, "link1.I + 0.25*link2.m"), every other column written in
-the kept ones (least squares, exact: it is dependent).
+regrouped into the bodies it hangs from, "link1.I + L1**2*link2.m"), every other column written
+in the kept ones (least squares, exact: it is dependent), its coefficients named in the
+parameters where they are monomials of them (regressor_names.py).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import dataclasses
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
 import scipy.linalg
+
+from .regressor_names import coefficient_texts
 
 RANK_TOLERANCE = 1e-8  # a scaled column with |R_kk| below this (relative) is dependent
 ZERO_COLUMN = 1e-12  # a column this small (relative to the largest) is rounding: zero
@@ -50,7 +54,7 @@ class RegressorSource(Protocol):
 class BaseParameters:
     """The identifiable combinations of phi: base = combination @ phi."""
 
-    names: tuple[str, ...]  # readable: "link1.I + 0.25*link2.m"
+    names: tuple[str, ...]  # readable: "link1.I + L1**2*link2.m" (or "+ 0.25*link2.m")
     combination: np.ndarray  # (r, len(phi))
     independent: tuple[int, ...]  # phi's entries kept, one per base parameter
     parameter_names: tuple[str, ...]  # phi's
@@ -86,8 +90,10 @@ class Identification:
 class Regressor:
     """A model's regressor at one parameter vector p (Model.regressor_at)."""
 
-    def __init__(self, code: RegressorSource, p: np.ndarray):
+    def __init__(self, code: RegressorSource, p: np.ndarray,
+                 parameter_names: Sequence[str] = ()):
         self.code, self.p = code, [float(v) for v in p]
+        self.parameter_names = tuple(parameter_names)  # p's first entries' (the base's names)
         self.names: tuple[str, ...] = code.names
         self.coordinate_names: tuple[str, ...] = code.coordinate_names
         n, loops = len(code.coordinate_names), code.equations
@@ -97,6 +103,26 @@ class Regressor:
                 f"{n} coordinates, {loops} constraint equations, {len(code.driven)} driven")
         self.row_names: tuple[str, ...] = tuple(
             code.coordinate_names[i] for i in code.driven) if loops else code.coordinate_names
+
+    def at(self, p: np.ndarray) -> Regressor:
+        """The same regressor at another parameter vector."""
+        return Regressor(self.code, p, self.parameter_names)
+
+    def base(self, t: Any, q: Any, qd: Any, qdd: Any) -> BaseParameters:
+        """The base parameters these samples identify, named in the parameters where their
+        coefficients are monomials of them (regressor_names.py)."""
+        def restack(p: np.ndarray) -> np.ndarray:
+            return self.at(p).matrix(t, q, qd, qdd)[0].reshape(-1, len(self.names))
+
+        base = base_parameters(restack(np.array(self.p)), self.names)
+        texts = coefficient_texts(base.combination, base.independent, restack,
+                                  np.array(self.p), self.parameter_names)
+        if not texts:
+            return base
+        names = tuple(combination_name(row, self.names, {k: text for (i, k), text
+                                                          in texts.items() if i == r})
+                      for r, row in enumerate(base.combination))
+        return dataclasses.replace(base, names=names)
 
     def values(self) -> np.ndarray:
         """phi at the parameters."""
@@ -199,14 +225,15 @@ def preferred_order(names: Sequence[str]) -> list[int]:
     return sorted(range(len(names)), key=lambda k: (rank(k), k))
 
 
-def combination_name(row: np.ndarray, names: Sequence[str]) -> str:
+def combination_name(row: np.ndarray, names: Sequence[str],
+                     texts: Mapping[int, str] | None = None) -> str:
     """A base parameter's readable name: "link1.I + 0.25*link2.m", coefficients to 6 digits
-    (at the parameters' values)."""
+    (at the parameters' values), or as TEXTS gives their magnitudes by column ("L1**2")."""
     text = ""
-    for coefficient, name in zip(row, names):
+    for k, (coefficient, name) in enumerate(zip(row, names)):
         if coefficient == 0.0:
             continue
-        size = f"{abs(coefficient):.6g}"
+        size = (texts or {}).get(k, f"{abs(coefficient):.6g}")
         term = name if size == "1" else f"{size}*{name}"
         sign = "-" if coefficient < 0 else "+"
         text = f"{text} {sign} {term}" if text else (term if sign == "+" else f"-{term}")
@@ -229,7 +256,7 @@ def identify(regressor: Regressor, t: Any, q: Any, qd: Any, qdd: Any, tau: Any,
         raise ValueError("tau: not finite (NaN or inf)")
     stacked = y.reshape(count * rows, columns)
     target = (measured.T + loads).reshape(-1)
-    base = base_parameters(stacked, regressor.names)
+    base = regressor.base(t, q, qd, qdd)
     kept = stacked[:, list(base.independent)]
     values = np.linalg.lstsq(kept, target, rcond=None)[0]
     residual = target - kept @ values
