@@ -312,6 +312,8 @@ def test_bad_samples_are_one_clear_error_each(double_pendulum, fourbar) -> None:
     q = np.zeros((2, 3))
     with pytest.raises(ValueError, match=r"q: expected shape \(2,\) or \(2, n_t\)"):
         double_pendulum.regressor(0.0, np.zeros(3), q, q)
+    with pytest.raises(ValueError, match="t: 2 samples where q has 3"):
+        double_pendulum.regressor([0.0, 1.0], q, q, q)
     with pytest.raises(ValueError, match="qd: not finite"):
         double_pendulum.regressor(0.0, q, np.full((2, 3), np.nan), q)
     with pytest.raises(ValueError, match=r"tau: expected shape \(2, 3\)"):

@@ -155,7 +155,8 @@ def samples(t: Any, q: Any, qd: Any, qdd: Any, n: int
                              f"{np.shape(value)} (one row per coordinate, driven ones too)")
         arrays.append(array)
     count = arrays[0].shape[1]
-    times = np.broadcast_to(np.asarray(t, dtype=float).reshape(-1), (count,)).copy()
+    times = np.asarray(t, dtype=float).reshape(-1)
+    times = np.full(count, times[0]) if times.size == 1 else times
     for name, array in (("t", times), ("q", arrays[0]), ("qd", arrays[1]),
                         ("qdd", arrays[2])):
         if array.shape[-1] != count:
