@@ -387,7 +387,7 @@ def run_settings(model, args: argparse.Namespace) -> dict:
         raise ValueError(f"--t-end: must be after the start time {span[0]:g}, got {end:g}")
     y0 = None
     if args.initial:
-        y0 = model.initial_state(dict(args.params))
+        y0 = model.guess_state(dict(args.params))
         for name, value in args.initial:
             if name not in model.state_names:
                 import difflib  # here: only a mistyped name needs it
