@@ -15,6 +15,7 @@ import pytest
 import nemc
 from nemc.runtime.model import ModelError
 from nemc.tools.cli import main
+from nemc.tools.sweeps import INPUTS_REFUSED
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "fourbar.yaml"
 RUN = dict(t_span=(0.0, 0.5), t_eval=[0.0, 0.25, 0.5], method="nemc.DOP853", rtol=1e-9,
@@ -50,6 +51,19 @@ def assert_same_run(states: np.ndarray, reference: np.ndarray) -> None:
     np.testing.assert_allclose(states, reference, rtol=0, atol=1e-12)
 
 
+def test_a_swept_crank_angle_is_kept_and_the_rest_assembled(model):
+    runs = nemc.sweep(model, {"q1": CRANK}, **RUN)
+    assert np.all(runs.status == 0), runs.failures(5)
+    y0 = np.asarray(runs.dataset["y0"].values)
+    assert np.array_equal(y0[:, model.state_names.index("q1")], CRANK)  # exactly
+    assert np.all(y0[:, model.state_names.index("dot(q1)")] == SCENE_RATE)
+    assert max(loop_residual(model, state) for state in y0) < 1e-12
+    for i, angle in enumerate(CRANK):  # as one run given the scene's values and the sweep's
+        one = model.simulate(y0={"q1": angle, "dot(q1)": SCENE_RATE}, **RUN)
+        assert_same_run(np.asarray(runs.y[i]), one.y)
+        assert_same_run(y0[i], one.y[:, 0])
+
+
 def test_simulate_many_assembles_each_run_from_a_dict_as_simulate(model):
     ensemble = model.simulate_many({"q1": CRANK}, threads=1, **RUN)
     assert np.all(ensemble.success)
@@ -78,6 +92,24 @@ def test_simulate_many_refuses_a_run_the_loop_cannot_meet_by_its_number(model):
         model.simulate_many({"q9": [0.0, 1.0]}, **RUN)
 
 
+def test_a_sweep_fails_only_the_runs_the_loop_cannot_meet(model):
+    angles = np.array([0.0, 2.0, 0.0, 1.0])
+    grounds = np.array([LONG_GROUND, LONG_GROUND, 0.4, 0.4])
+    runs = nemc.sweep(model, {"q1": angles}, params={"L0": grounds}, **RUN)
+    assert runs.status.tolist() == [0, INPUTS_REFUSED, 0, 0]
+    (run, status, message), = runs.failures(5)
+    assert (run, status) == (1, INPUTS_REFUSED)
+    assert message.startswith("initial values refused: the mechanism cannot be assembled with "
+                              "q1=2, dot(q1)=8 given: constraint 'C'")
+    y0 = np.asarray(runs.dataset["y0"].values)
+    assert np.all(np.isnan(y0[1])) and np.all(np.isnan(np.asarray(runs.y[1])))
+    for i in (0, 2, 3):
+        params = {"L0": grounds[i]}
+        assert loop_residual(model, y0[i], params) < 1e-12
+        one = model.simulate(y0={"q1": angles[i], "dot(q1)": SCENE_RATE}, params=params, **RUN)
+        assert_same_run(np.asarray(runs.y[i]), one.y)
+
+
 def test_a_loop_the_scene_cannot_close_starts_from_the_values_given(model):
     """At L0 = 0.7 the scene's crank angle cannot close the loop, q1 = 0 can: the scene's
     values are then only the guess, and the values given decide."""
@@ -103,3 +135,19 @@ def test_cli_initial_keeps_the_value_and_refuses_one_the_loop_cannot_meet(
     assert main(["simulate", str(EXAMPLE), "--set", f"L0={LONG_GROUND}", "--initial", "q1=2",
                  "--t-end", "0.5"]) == 2
     assert "cannot be assembled with q1=2, dot(q1)=8 given" in capsys.readouterr().err
+
+
+def test_cli_sweep_over_the_crank_angle(model, tmp_path: Path, capsys):
+    pytest.importorskip("xarray")
+    store = tmp_path / "crank.nc"
+    assert main(["sweep", str(EXAMPLE), "--grid", "q1=0:6:4", "--t-end", "0.5", "--times", "3",
+                 "--method", "nemc.DOP853", "--rtol", "1e-9", "--atol", "1e-11",
+                 "--out", str(store)]) == 0, capsys.readouterr().err
+    import xarray as xr
+
+    data = xr.open_dataset(store, engine="h5netcdf").load()
+    y0 = data["y0"].values
+    assert np.array_equal(y0[:, 0], np.linspace(0, 6, 4))
+    assert max(loop_residual(model, state) for state in y0) < 1e-12
+    one = model.simulate(y0={"q1": 4.0, "dot(q1)": SCENE_RATE}, **RUN)
+    assert_same_run(data["y"].values[2], one.y)
