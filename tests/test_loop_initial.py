@@ -151,3 +151,15 @@ def test_cli_sweep_over_the_crank_angle(model, tmp_path: Path, capsys):
     assert max(loop_residual(model, state) for state in y0) < 1e-12
     one = model.simulate(y0={"q1": 4.0, "dot(q1)": SCENE_RATE}, **RUN)
     assert_same_run(data["y"].values[2], one.y)
+
+
+def test_a_sweep_of_full_states_fails_only_the_one_off_the_loop(model):
+    """A full state is given whole: nothing is solved, so one off the constraints fails."""
+    on = model.simulate(y0={"q1": 1.0}, **RUN).y[:, 0]
+    off = on.copy()
+    off[model.state_names.index("q3")] += 1e-3
+    runs = nemc.sweep(model, np.array([on, off, on]), **RUN)
+    assert runs.status.tolist() == [0, INPUTS_REFUSED, 0]
+    assert "initial values refused: the mechanism cannot be assembled" in runs.failures(5)[0][2]
+    assert np.array_equal(np.asarray(runs.dataset["y0"].values)[0], on)  # kept, not re-solved
+    assert_same_run(np.asarray(runs.y[0]), model.simulate(y0=on, **RUN).y)
