@@ -574,7 +574,10 @@ def sweep(
 
     y0s: (k, n_state) initial states (any array-like that slices, e.g. a zarr array), or a
     dict state name -> number or (k,) values (other states: the scene's initial state at each
-    run's parameters), or None (the scene's). params: name -> number (shared) or (k,) values.
+    run's parameters; a closed loop's each assembled keeping the scene's `initial` values and
+    the dict's, as `nemc simulate --initial`; a run the constraints cannot meet fails alone,
+    status INPUTS_REFUSED), or None (the scene's). params: name -> number (shared) or (k,)
+    values.
     t_span, t_eval, method, rtol, atol: as simulate_many (method: a native one).
     client: a dask.distributed Client, or None for this machine's cores (threads, default all).
     out: None (in memory), or a .zarr, .nc or .npz file, written chunk by chunk (.nc, .npz:
