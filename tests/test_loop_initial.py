@@ -163,3 +163,20 @@ def test_a_sweep_of_full_states_fails_only_the_one_off_the_loop(model):
     assert "initial values refused: the mechanism cannot be assembled" in runs.failures(5)[0][2]
     assert np.array_equal(np.asarray(runs.dataset["y0"].values)[0], on)  # kept, not re-solved
     assert_same_run(np.asarray(runs.y[0]), model.simulate(y0=on, **RUN).y)
+
+
+def test_cli_linearize_at_a_crank_angle_keeps_it(model, tmp_path: Path, capsys):
+    """`--at` set the value over the scene's state, which linearize then projected onto the
+    constraints, moving it (q1=1 became 1.037): now the value is kept, the others solved."""
+    import json
+
+    out = tmp_path / "lin.json"
+    assert main(["linearize", str(EXAMPLE), "--at", "q1=1", "--out", str(out)]) == 0
+    assert "linearization at t=0: q1=1, dot(q1)=8," in capsys.readouterr().out
+    point = np.array(json.loads(out.read_text())["y"])
+    assert point[0] == 1.0 and point[1] == SCENE_RATE and loop_residual(model, point) < 1e-12
+    one = model.simulate(y0={"q1": 1.0, "dot(q1)": SCENE_RATE}, **RUN)
+    assert_same_run(point, one.y[:, 0])
+    assert main(["linearize", str(EXAMPLE), "--at", "q2=3"]) == 2
+    assert "cannot be assembled with q1=1.57079633, dot(q1)=8, q2=3 given" in \
+        capsys.readouterr().err

@@ -46,6 +46,7 @@ from ..runtime.model import (
 from ..runtime.outcome import outputs_along
 from ..runtime.simulation import run_times
 from ..vocabulary import NEMC_VERSION as __version__
+from .start import kept_over_scene
 from .sweep_store import NOT_RUN, ChunkOutput, Layout, SweepStoreError, open_store, require
 
 MAX_CHUNK_RUNS = 10_000
@@ -334,8 +335,8 @@ def assembled_states(model: Model, settings: Settings, chunk: ChunkInputs, y0s: 
     `initial` and the sweep's columns; every entry of a full state), the others solved from
     the constraints from the scene's state. A run whose values the constraints cannot meet
     is refused (NaN, and why), not the sweep; runs whose parameters are refused are left."""
-    names = set(model.state_names) if chunk.y0s is not None else {
-        *model.metadata.get("initial_given", ()), *chunk.y0_columns}
+    names = set(model.state_names) if chunk.y0s is not None else \
+        kept_over_scene(model, chunk.y0_columns)
     given = np.array([name in names for name in model.state_names])
     states = np.array(y0s, dtype=float)
     refused: dict[int, str] = {}
