@@ -180,3 +180,14 @@ def test_cli_linearize_at_a_crank_angle_keeps_it(model, tmp_path: Path, capsys):
     assert main(["linearize", str(EXAMPLE), "--at", "q2=3"]) == 2
     assert "cannot be assembled with q1=1.57079633, dot(q1)=8, q2=3 given" in \
         capsys.readouterr().err
+
+
+def test_simulate_many_of_a_tree_takes_a_dict_as_simulate():
+    """A tree's dict: the values given, the others 0, as simulate's y0={...}."""
+    tree = nemc.compile(EXAMPLE.parent / "double_pendulum.yaml")
+    angles = np.array([0.1, -0.4])
+    ensemble = tree.simulate_many({"q1": angles, "dot(q2)": 0.5}, threads=1, **RUN)
+    for i, angle in enumerate(angles):
+        one = tree.simulate(y0={"q1": angle, "dot(q2)": 0.5}, **RUN)
+        assert one.y[2, 0] == 0.0  # q2: not given, 0
+        assert_same_run(ensemble.y[i], one.y)

@@ -275,8 +275,8 @@ def given_states(model: BuiltModel, values: Mapping[str, np.ndarray],
                  sets: Sequence[Mapping[str, float]], k: int) -> np.ndarray:
     """The K runs' states from a dict y0s, each as simulate's y0=dict makes it at the run's
     parameters SETS[i]: the values given, the others 0 (a tree) or, for a closed loop, the
-    scene's assembled state, the guess from which the others are solved (run_ensemble, with
-    the given mask of the dict's names)."""
+    model.guess_state's, from which the others are solved (run_ensemble, with the given mask
+    of the dict's names)."""
     bases = np.array([model.guess_state(s) if model.has_loops else np.zeros(model.n_state)
                       for s in sets])
     states = np.array(bases[np.arange(k) % len(bases)])
