@@ -132,7 +132,10 @@ class Model(BuiltModel):
     ) -> EnsembleResult:
         """Integrate an ensemble with a native method, the loop over runs in C.
 
-        y0s: (k, n_state) initial states, or None for the scene's initial state. params: a dict
+        y0s: (k, n_state) initial states, or None for the scene's initial state, or a dict of
+        state values (a number, or k of them), each run's state as simulate's y0=dict makes it
+        (a closed loop's assembled from the values given; a run whose values it cannot meet is
+        refused by its number, as is a full state off the constraints). params: a dict
         of overrides whose values are numbers (shared) or arrays of length k (one per run).
         t_eval: the times of the returned states, default the scene's, else (t0, t_end).
         method: a native method; default the scene's when native, nemc.Radau when the scene's

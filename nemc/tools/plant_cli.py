@@ -10,6 +10,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from .start import start_values
+
 OUT_SUFFIXES = (".npz", ".mat", ".json")
 
 
@@ -20,7 +22,8 @@ def add_linearize_parser(commands: argparse._SubParsersAction, assignment: Any,
     linearize.add_argument("mechanism")
     linearize.add_argument("--at", type=initial, action="append", default=[],
                            metavar="NAME=VALUE", help="a coordinate or rate of the state "
-                           "(repeatable; the others: the scene's initial state)")
+                           "(repeatable; the others: the scene's initial state; a closed "
+                           "loop's solved, the values given kept)")
     linearize.add_argument("--input", dest="inputs", type=assignment, action="append",
                            default=[], metavar="NAME=VALUE",
                            help="an input's value (repeatable; the others: the YAML's)")
@@ -47,12 +50,10 @@ def cmd_linearize(args: argparse.Namespace) -> int:
     model = compile_mechanism(args.mechanism).model
     params = dict(args.params)
     try:
-        y = model.initial_state(params)
-        for name, value in args.at:
-            if name not in model.state_names:
-                raise ModelError(f"--at: unknown coordinate or rate {name!r}; the state is "
-                                 f"{', '.join(model.state_names)}")
-            y[model.state_names.index(name)] = value
+        # a closed loop's: the values kept, the others solved (an array was projected,
+        # moving the values --at set)
+        y = start_values(model, params, args.at, "--at") if args.at else \
+            model.initial_state(params)
         u = dict(args.inputs) or None
         if args.trim:
             op = model.trim(y, u, t=args.time, params=params)
