@@ -139,3 +139,56 @@ def test_animate_refuses_what_it_cannot_write(tmp_path: Path, capsys) -> None:
     assert main(["animate", arm, "--out", str(tmp_path / "a.gif"), "--trace", "link.nose"]) == 2
     assert "no point link.nose to trace" in capsys.readouterr().err
     assert not (tmp_path / "a.gif").exists()
+
+
+def sprung_chain_yaml(n: int) -> str:
+    """An n-link chain of 1 m rods hanging from the origin, every third joint prismatic, a
+    joint spring on every joint (as benchmarks/common.py's mixed chain)."""
+    lines = [f"name: sprung{n}", "parameters: {g: 9.81}", "gravity: [0, -g]", "bodies:"]
+    lines += [f"  link{i}: {{mass: 1, inertia: 1/12, com: [0.5, 0], points: {{tip: [1, 0]}}}}"
+              for i in range(1, n + 1)]
+    lines.append("joints:")
+    loads, initial = [], []
+    for i in range(1, n + 1):
+        parent, at = ("ground", "[0, 0]") if i == 1 else (f"link{i - 1}", "tip")
+        kind, q = ("prismatic", f"s{i}") if i % 3 == 0 else ("revolute", f"q{i}")
+        lines.append(f"  J{i}: {{type: {kind}, parent: {parent}, child: link{i}, at: {at}, "
+                     f"coordinate: {q}}}")
+        loads.append(f"  - joint_spring: {{joint: J{i}, k: 20, damping: 0.05}}")
+        initial.append(f"{q}: {0.05 if kind == 'prismatic' else (-0.8 if i == 1 else 0.1)}")
+    return "\n".join([*lines, "loads:", *loads, "simulation:",
+                      f"  initial: {{{', '.join(initial)}}}"]) + "\n"
+
+
+def test_a_long_chains_springs_leave_its_links_visible(tmp_path: Path) -> None:
+    """A 20-link chain with a spring on every joint (issue 52: its springs hid the links):
+    each spring is drawn within a third of a link of its joint, lighter than the links and
+    under them, and between each link's ends and its mass centre its own colour shows (pins,
+    mass centres and springs no longer cover it)."""
+    from nemc.tools.animate import SPRING_INK, Artist, new_axes, scene_of
+
+    path = tmp_path / "sprung20.yaml"
+    path.write_text(sprung_chain_yaml(20))
+    model = nemc.compile(path)
+    y0 = model.state_vector(None)
+    scene = scene_of(model, np.array([0.0]), y0.reshape(-1, 1))
+    fig, ax = new_axes(scene)
+    artist = Artist(ax, scene)
+    artist.update(0)
+    names = scene.drawing["points"]
+    xy = scene.xy[0]
+    assert len(artist.joint_springs) == 20
+    for line, joint in zip(artist.joint_springs,
+                           [j for j in scene.drawing["joints"] if j["sprung"]]):
+        assert line.get_color() == SPRING_INK and line.get_zorder() < 4
+        drawn = np.column_stack(line.get_data())
+        assert np.max(np.hypot(*(drawn - xy[joint["origin"]]).T)) < 1.0 / 3
+    starts = [xy[joint["origin"]] for joint in scene.drawing["joints"]]  # each link's origin
+    tips = [xy[names.index(f"link{i}.tip")] for i in range(1, 21)]
+    fractions = (0.25, 0.3, 0.7, 0.75)  # between its ends' pins and its mass centre
+    along = [tuple(starts[i] + f * (tips[i] - starts[i])) for i in range(20) for f in fractions]
+    got = pixels(fig, ax, along)  # one drawing
+    for i in range(20):
+        colour = np.array(to_rgb(BODY_COLOURS[i % len(BODY_COLOURS)])) * 255
+        shown = [close(c, colour) for c in got[4 * i:4 * i + 4]]
+        assert all(shown), (f"link{i + 1}", got[4 * i:4 * i + 4], colour)
