@@ -192,3 +192,31 @@ def test_a_long_chains_springs_leave_its_links_visible(tmp_path: Path) -> None:
         colour = np.array(to_rgb(BODY_COLOURS[i % len(BODY_COLOURS)])) * 255
         shown = [close(c, colour) for c in got[4 * i:4 * i + 4]]
         assert all(shown), (f"link{i + 1}", got[4 * i:4 * i + 4], colour)
+
+
+def test_a_failed_runs_animation_follows_its_dense_output_to_where_it_stopped(
+        tmp_path: Path) -> None:
+    """The double pendulum stopped by a step budget at t = 1.66 (its table's rows 0.5 s apart):
+    frames every 40 ms up to the stop, the mechanism where an independent tight run puts it
+    at each (not the rows joined by straight lines: tens of centimetres off), and the drawing
+    says in red where the run failed."""
+    from nemc.tools.animate import laid_out, scene_of_result
+    from nemc.tools.figures import FAILED_INK
+
+    text = (EXAMPLES / "double_pendulum.yaml").read_text()
+    path = tmp_path / "dp_budget.yaml"
+    path.write_text(text.replace("name: double_pendulum", "name: dp_budget")
+                    .replace("  atol: 1.0e-9\n", "  atol: 1.0e-9\n  max_steps: 60\n"))
+    res = nemc.compile(path).simulate()
+    assert not res.success and res.t[-1] == 1.5
+    stop = float(res.message.split("stopped at t = ")[1].split()[0])
+    scene = scene_of_result(res)
+    assert len(scene.t) == math.floor(stop / 0.04) + 1 and scene.trace_t[-1] == pytest.approx(
+        stop, abs=1e-8)
+    assert scene.note == f"run failed at t = {stop:.6g}"
+    model = model_of("double_pendulum")
+    tight = model.simulate(t_span=(0, 5), t_eval=scene.t, method="nemc.DOP853", rtol=1e-11,
+                           atol=1e-12)
+    np.testing.assert_allclose(scene.xy, model.positions_array(scene.t, tight.y), atol=2e-3)
+    _, ax, _ = laid_out(scene)
+    assert [t.get_text() for t in ax.texts if t.get_color() == FAILED_INK] == [scene.note]

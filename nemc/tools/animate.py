@@ -34,7 +34,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..runtime.model import SimulationResult
-from .figures import ShownFigure, dense, pretty_unit
+from .figures import FAILED_INK, ShownFigure, dense, pretty_unit
 
 FPS = 25  # a GIF stores frame delays in 1/100 s: 25 frames/s is exactly real time
 BODY_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
@@ -63,6 +63,7 @@ class Scene:
     length_unit: str = ""
     scale: float = 1.0  # a typical length of the picture
     symbol: float = 1.0  # the length symbols (springs, supports) are sized by
+    note: str = ""  # written in red in the drawing's corner: a failed run's stop
     hulls: dict[str, list[int]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -173,22 +174,26 @@ def frame_times(t0: float, t1: float, fps: float, speed: float) -> np.ndarray:
 
 def scene_of_result(res: SimulationResult, fps: float = FPS, speed: float = 1.0,
                     traces: list[str] | None = None) -> Scene:
-    """Frames at real-time spacing through the run's dense output; traces densely sampled."""
+    """Frames at real-time spacing through the run's dense output (a failed run's up to where
+    it stopped); traces densely sampled."""
     model = res.model
     if model is None:
         raise ValueError("this result does not know its model: animate a result of simulate()")
     if res.t.size == 0:
         raise ValueError("the run has no states to draw")
-    times = frame_times(float(res.t[0]), float(res.t[-1]), fps, speed)
     if res.rerun is not None and res.success:
-        frames = res.rerun(times)
+        frames = res.rerun(frame_times(float(res.t[0]), float(res.t[-1]), fps, speed))
         fine = dense(res)
         t, y, fine_t, fine_y = frames.t, frames.y, fine.t, fine.y
-    else:  # a run that stopped early: its own states, interpolated to the frames
-        t = times
-        y = np.array([np.interp(times, res.t, row) for row in res.y])
-        fine_t, fine_y = res.t, res.y
-    return scene_of(model, t, y, res.params, fine_t, fine_y, traces)
+    else:  # a run that failed: its dense output to where it stopped, interpolated to frames
+        fine = dense(res)  # (a run interrupted by Ctrl-C, or not simulate()'s: its own states)
+        fine_t, fine_y = fine.t, fine.y
+        t = frame_times(float(fine_t[0]), float(fine_t[-1]), fps, speed)
+        y = np.array([np.interp(t, fine_t, row) for row in fine_y])
+    scene = scene_of(model, t, y, res.params, fine_t, fine_y, traces)
+    if not res.success:
+        scene.note = f"run failed at t = {fine_t[-1]:.6g}"
+    return scene
 
 
 # ---- drawing --------------------------------------------------------------------------------
@@ -252,6 +257,9 @@ class Artist:
         self.anchors = anchors
         self.anchor_marks = ax.plot([], [], "s", ms=6 * marks, mfc="#cccccc", mec=INK,
                                     zorder=3)[0]
+        if scene.note:  # fixed, in the lower left corner
+            ax.text(0.01, 0.01, scene.note, transform=ax.transAxes, va="bottom", ha="left",
+                    color=FAILED_INK, fontsize=10)
         # above the axes, right: never on the drawing
         self.stamp = ax.text(1.0, 1.01, self.stamp_text(scene.t[0]), transform=ax.transAxes,
                              va="bottom", ha="right", family="monospace", fontsize=10)
