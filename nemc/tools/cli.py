@@ -497,10 +497,13 @@ def note_native_speed(result: Any, seconds: float, simulate: Callable[[Any], Any
 
 
 def print_error_estimate(model, result, params: dict) -> None:
+    """The run's estimated error, each state entry's with its unit (the table's)."""
+    from .report import unit_of
     from .stress import error_estimate
 
     errors, rtol, atol = error_estimate(model, result, params)
-    listed = ", ".join(f"{name} {value:.2g}" for name, value in errors.items())
+    listed = ", ".join(f"{name} {value:.2g} {unit_of(model, name)}".rstrip()
+                       for name, value in errors.items())
     print(f"# error estimate (max |y - y_ref| over the table's times; y_ref: DOP853 at rtol "
           f"{rtol:g}, atol {atol:g}): {listed}")
 
