@@ -72,6 +72,20 @@ def fit(model: Model, t: Any = None, data: Any = None, fit: Any = (), observed: 
     return run_fit(model, t, data, fit, observed, y0, weights, **options)
 
 
+def identify(model: Model, t: Any, q: Any, qd: Any, qdd: Any, tau: Any, *,
+             params: Any = None, linear: Any = (), sigma: float | None = None) -> Any:
+    """MODEL's base parameters (the combinations of its bodies' mass, first moments and
+    inertias, and of the load coefficients named in LINEAR, that the data identify) from
+    measured coordinates, rates, accelerations (every joint's, shape (coordinates, n_t)) and
+    generalized forces TAU (Model.regressor's rows, shape (rows, n_t)) at times T, by linear
+    least squares on tau = Y phi - Q. SIGMA: the noise's standard deviation on tau (default:
+    from the residual). Returns an Identification (names, values, stderr, covariance,
+    expected: the model's own values); nemc.runtime.regressor says how."""
+    from .runtime.regressor import identify as estimate
+
+    return estimate(model.regressor_at(params, tuple(linear)), t, q, qd, qdd, tau, sigma)
+
+
 def sweep(model: Model, y0s: Any = None, **options: Any) -> SweepResult:
     """Run MODEL over many initial states and parameter sets, on this machine's cores or a Dask
     cluster (client=...), into one xarray dataset (out=None, or a .zarr, .nc or .npz file).
@@ -105,4 +119,4 @@ def __getattr__(name: str) -> Any:
 
 
 __all__ = ["BuildNotice", "Experiment", "FitError", "FitResult", "compile", "feedback", "fit",
-           "open_sweep", "sweep", "__version__"]
+           "identify", "open_sweep", "sweep", "__version__"]

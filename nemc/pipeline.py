@@ -154,7 +154,18 @@ def compile_source(
                                chunk_steps=chunk_steps, linearization=True)
         return write_fmu(built.package, target, fmi, kind, fmu_facts(built.model))
 
+    def make_regressor(linear: tuple[str, ...]) -> Any:
+        """The regressor's code (Model.regressor): validated, derived (derive/regressor.py)
+        and made numpy functions (emit/regressor_code.py)."""
+        from .derive.regressor import regressor_equations
+        from .emit.regressor_code import regressor_code
+        from .front.validate import validate_text
+
+        return regressor_code(regressor_equations(validate_text(source.data, source.path),
+                                                  linear))
+
     model.fresh_build_seconds = None if cached else sum(timings.values())
+    model.regressor_maker = make_regressor
     model.part_compiler = compile_parts
     model.fmu_exporter = export_fmu
     model.system_drivers = system_drivers

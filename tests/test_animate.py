@@ -139,3 +139,84 @@ def test_animate_refuses_what_it_cannot_write(tmp_path: Path, capsys) -> None:
     assert main(["animate", arm, "--out", str(tmp_path / "a.gif"), "--trace", "link.nose"]) == 2
     assert "no point link.nose to trace" in capsys.readouterr().err
     assert not (tmp_path / "a.gif").exists()
+
+
+def sprung_chain_yaml(n: int) -> str:
+    """An n-link chain of 1 m rods hanging from the origin, every third joint prismatic, a
+    joint spring on every joint (as benchmarks/common.py's mixed chain)."""
+    lines = [f"name: sprung{n}", "parameters: {g: 9.81}", "gravity: [0, -g]", "bodies:"]
+    lines += [f"  link{i}: {{mass: 1, inertia: 1/12, com: [0.5, 0], points: {{tip: [1, 0]}}}}"
+              for i in range(1, n + 1)]
+    lines.append("joints:")
+    loads, initial = [], []
+    for i in range(1, n + 1):
+        parent, at = ("ground", "[0, 0]") if i == 1 else (f"link{i - 1}", "tip")
+        kind, q = ("prismatic", f"s{i}") if i % 3 == 0 else ("revolute", f"q{i}")
+        lines.append(f"  J{i}: {{type: {kind}, parent: {parent}, child: link{i}, at: {at}, "
+                     f"coordinate: {q}}}")
+        loads.append(f"  - joint_spring: {{joint: J{i}, k: 20, damping: 0.05}}")
+        initial.append(f"{q}: {0.05 if kind == 'prismatic' else (-0.8 if i == 1 else 0.1)}")
+    return "\n".join([*lines, "loads:", *loads, "simulation:",
+                      f"  initial: {{{', '.join(initial)}}}"]) + "\n"
+
+
+def test_a_long_chains_springs_leave_its_links_visible(tmp_path: Path) -> None:
+    """A 20-link chain with a spring on every joint (issue 52: its springs hid the links):
+    each spring is drawn within a third of a link of its joint, lighter than the links and
+    under them, and between each link's ends and its mass centre its own colour shows (pins,
+    mass centres and springs no longer cover it)."""
+    from nemc.tools.animate import SPRING_INK, Artist, new_axes, scene_of
+
+    path = tmp_path / "sprung20.yaml"
+    path.write_text(sprung_chain_yaml(20))
+    model = nemc.compile(path)
+    y0 = model.state_vector(None)
+    scene = scene_of(model, np.array([0.0]), y0.reshape(-1, 1))
+    fig, ax = new_axes(scene)
+    artist = Artist(ax, scene)
+    artist.update(0)
+    names = scene.drawing["points"]
+    xy = scene.xy[0]
+    assert len(artist.joint_springs) == 20
+    for line, joint in zip(artist.joint_springs,
+                           [j for j in scene.drawing["joints"] if j["sprung"]]):
+        assert line.get_color() == SPRING_INK and line.get_zorder() < 4
+        drawn = np.column_stack(line.get_data())
+        assert np.max(np.hypot(*(drawn - xy[joint["origin"]]).T)) < 1.0 / 3
+    starts = [xy[joint["origin"]] for joint in scene.drawing["joints"]]  # each link's origin
+    tips = [xy[names.index(f"link{i}.tip")] for i in range(1, 21)]
+    fractions = (0.25, 0.3, 0.7, 0.75)  # between its ends' pins and its mass centre
+    along = [tuple(starts[i] + f * (tips[i] - starts[i])) for i in range(20) for f in fractions]
+    got = pixels(fig, ax, along)  # one drawing
+    for i in range(20):
+        colour = np.array(to_rgb(BODY_COLOURS[i % len(BODY_COLOURS)])) * 255
+        shown = [close(c, colour) for c in got[4 * i:4 * i + 4]]
+        assert all(shown), (f"link{i + 1}", got[4 * i:4 * i + 4], colour)
+
+
+def test_a_failed_runs_animation_follows_its_dense_output_to_where_it_stopped(
+        tmp_path: Path) -> None:
+    """The double pendulum stopped by a step budget at t = 1.66 (its table's rows 0.5 s apart):
+    frames every 40 ms up to the stop, the mechanism where an independent tight run puts it
+    at each (not the rows joined by straight lines: tens of centimetres off), and the drawing
+    says in red where the run failed."""
+    from nemc.tools.animate import laid_out, scene_of_result
+    from nemc.tools.figures import FAILED_INK
+
+    text = (EXAMPLES / "double_pendulum.yaml").read_text()
+    path = tmp_path / "dp_budget.yaml"
+    path.write_text(text.replace("name: double_pendulum", "name: dp_budget")
+                    .replace("  atol: 1.0e-9\n", "  atol: 1.0e-9\n  max_steps: 60\n"))
+    res = nemc.compile(path).simulate()
+    assert not res.success and res.t[-1] == 1.5
+    stop = float(res.message.split("stopped at t = ")[1].split()[0])
+    scene = scene_of_result(res)
+    assert len(scene.t) == math.floor(stop / 0.04) + 1 and scene.trace_t[-1] == pytest.approx(
+        stop, abs=1e-8)
+    assert scene.note == f"run failed at t = {stop:.6g}"
+    model = model_of("double_pendulum")
+    tight = model.simulate(t_span=(0, 5), t_eval=scene.t, method="nemc.DOP853", rtol=1e-11,
+                           atol=1e-12)
+    np.testing.assert_allclose(scene.xy, model.positions_array(scene.t, tight.y), atol=2e-3)
+    _, ax, _ = laid_out(scene)
+    assert [t.get_text() for t in ax.texts if t.get_color() == FAILED_INK] == [scene.note]

@@ -25,7 +25,8 @@ DOUBLE = str(EXAMPLES / "double_pendulum.yaml")
 
 def table(out: str) -> tuple[list[str], np.ndarray]:
     lines = [line for line in out.splitlines() if line and not line.startswith("#")]
-    rows = [line.split() for line in lines[1:] if not line.startswith("figure written")]
+    rows = [line.split() for line in lines[1:]  # the header; its units' line, [s] [rad]
+            if not line.startswith("figure written") and not line.split()[0].startswith("[")]
     return lines[0].split(), np.array(rows, dtype=float)
 
 
@@ -190,3 +191,25 @@ def test_a_scene_naming_scipys_method_is_told_what_the_native_one_takes(tmp_path
     for method in ("DOP853", "auto"):
         assert main(["simulate", COMPOUND, "--method", method]) == 0
         assert "note" not in capsys.readouterr().err
+
+
+def test_the_printed_tables_give_each_columns_unit(capsys) -> None:
+    """Under each column's name its unit, right-aligned with it (issue 52): from the YAML's
+    `units:` (m, N, J; angles in rad, as the values are) and an output expression's `unit:`
+    (cart_pole's force N, power W); nemc linearize's matrices name their rows' and columns'
+    units; a mechanism without `units:` prints no units' line."""
+    assert main(["simulate", str(EXAMPLES / "cart_pole.yaml"), "--t-eval", "1"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    header, units = lines[0], lines[1]
+    expected = {"t": "[s]", "x": "[m]", "dot(x)": "[m/s]", "th": "[rad]", "dot(th)": "[rad/s]",
+                "energy.total": "[J]", "pole.tip.vx": "[m/s]", "force": "[N]", "power": "[W]"}
+    for name, unit in expected.items():
+        end = header.index(f" {name} " if name != "power" else " power") + len(name) + 1
+        assert units[end - len(unit):end] == unit, (name, units)
+    assert len(units.split()) == len(header.split())  # every column has one here
+    assert [float(v) for v in lines[2].split()[:2]] == [0.0, 0.0]  # then the rows
+    assert main(["linearize", str(EXAMPLES / "cart_pole.yaml"), "--trim"]) == 0
+    printed = capsys.readouterr().out
+    assert "  dot(th) [rad/s]           0           0     15.7756           0" in printed
+    assert "                          [m]       [m/s]       [rad]     [rad/s]" in printed
+    assert "     force [N]           0           0           0           0" in printed

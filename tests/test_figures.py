@@ -4,6 +4,7 @@ off the data, curves through the dense output (no aliasing of fast motion)."""
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -331,3 +332,77 @@ def test_a_load_name_must_be_new_and_an_identifier(name: str, message: str) -> N
     with pytest.raises(InputError) as error:
         nemc.compile(text=text, name="named_loads.yaml")
     assert "loads[3].name" in str(error.value) and message in str(error.value)
+
+
+def budgeted_double_pendulum(tmp_path: Path) -> Path:
+    """The book's double pendulum (RK45, 0 .. 5 s) with a step budget of 60: it stops early."""
+    text = (EXAMPLES / "double_pendulum.yaml").read_text()
+    old = "  atol: 1.0e-9\n"
+    assert old in text
+    path = tmp_path / "dp_budget.yaml"
+    path.write_text(text.replace("name: double_pendulum", "name: dp_budget")
+                    .replace(old, old + "  max_steps: 60\n"))
+    return path
+
+
+def test_a_failed_runs_figure_is_drawn_densely_to_where_it_stopped_and_marked(
+        tmp_path: Path, monkeypatch, capsys) -> None:
+    """nemc simulate --plot of a run that stops at its step budget (t = 1.66 of 5; the table
+    has rows 0.5 s apart): its curves come from the run's dense output up to the time it
+    stopped, and equal an independent tight run there (not the table's rows joined by straight
+    lines: those are degrees off); the title says, in red, that it failed, when and why; every
+    time panel marks the stop and spans the whole 0 .. 5 s asked for."""
+    from nemc.tools import figures
+    from nemc.tools.cli import main
+
+    drawn = []
+    monkeypatch.setattr(figures, "figure", lambda *a, **k: drawn.append(
+        figure(*a, **k)) or drawn[-1])
+    path = budgeted_double_pendulum(tmp_path)
+    png = tmp_path / "failed.png"
+    assert main(["simulate", str(path), "--plot", str(png)]) == 1
+    assert png.stat().st_size > 10_000
+    message = capsys.readouterr().err
+    stop = float(re.search(r"stopped at t = (\S+) after 60 steps", message).group(1))
+    assert 1.0 < stop < 5.0
+    fig = drawn[0]
+    title = fig.get_suptitle()
+    assert f"run failed at t = {stop:.6g} of 0 .. 5: stopped at t" in title
+    assert "(max_steps)" in title and fig._suptitle.get_color() == figures.FAILED_INK
+    q1 = fig.axes[0].lines[0]
+    t, degrees = q1.get_xdata(), q1.get_ydata()
+    assert len(t) >= 1500 and t[-1] == pytest.approx(stop, abs=1e-8)
+    tight = nemc.compile(EXAMPLES / "double_pendulum.yaml").simulate(
+        t_span=(0, 5), t_eval=t, method="nemc.DOP853", rtol=1e-11, atol=1e-12)
+    np.testing.assert_allclose(degrees, np.degrees(tight.y[0]), atol=0.01)
+    for ax in fig.axes:
+        assert ax.get_xlim() == (0.0, 5.0)
+        assert any(len(line.get_xdata()) == 2 and np.allclose(line.get_xdata(), stop, atol=1e-8)
+                   and line.get_color() == figures.FAILED_INK for line in ax.lines)
+
+
+def test_a_run_that_could_not_start_is_drawn_as_its_one_state_and_marked(
+        tmp_path: Path) -> None:
+    """A linkage at rest at its flat (singular) position stops at t = 0 with no outputs: the
+    figure shows the state it has as points and says it failed there and why (it raised a
+    KeyError for the missing outputs before)."""
+    text = (EXAMPLES / "double_fourbar.yaml").read_text()
+    for old, new in (("name: double_fourbar", "name: locked"),
+                     ("initial: {q1: pi/2, dot(q1): -1}", "initial: {q1: 1.0e-4, dot(q1): 0}"),
+                     ("guess: {q2: 0, q3: pi/2, q4: 0, q5: pi/2}",
+                      "guess: {q2: 0, q3: 0, q4: 0, q5: 0}")):
+        assert old in text
+        text = text.replace(old, new)
+    path = tmp_path / "locked.yaml"
+    path.write_text(text)
+    res = nemc.compile(path).simulate((0.0, 1.0))
+    assert not res.success and not res.outputs
+    fig = figure(res)
+    assert "run failed at t = 0 of 0 .. 1: constraint 'C" in fig.get_suptitle()
+    first = fig.axes[0].lines[0]
+    assert list(first.get_xdata()) == [0.0] and first.get_marker() == "o"
+
+
+def test_a_successful_runs_figure_is_not_marked() -> None:
+    fig = figure(model_of("double_pendulum").simulate(t_span=(0, 1)))
+    assert "failed" not in fig.get_suptitle() and fig._suptitle.get_color() == "black"

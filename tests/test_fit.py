@@ -194,3 +194,19 @@ def test_the_tutorials_numbers() -> None:
     assert fit.values["L"] == pytest.approx(2.9995333, abs=2e-6)
     assert fit.stderr["c"] == pytest.approx(0.00123, abs=1e-5)
     assert fit.correlation[0, 1] == pytest.approx(0.857, abs=1e-3)
+
+
+def test_the_command_lines_estimates_give_an_initial_values_unit(clean, tmp_path: Path,
+                                                                   capsys) -> None:
+    """With `units:`, a fitted initial value's row carries its unit (theta: rad); a parameter
+    has none to give (issue 52: the tables the CLI prints show units)."""
+    mech = tmp_path / "damped_pendulum.yaml"
+    mech.write_text(DAMPED_PENDULUM + "units: {length: ft, mass: slug, time: s, angle: rad}\n")
+    data = write_csv(tmp_path / "angles.csv", "t,theta",
+                     np.column_stack([TIMES, noisy(clean, 9)]))
+    assert main(["fit", str(mech), str(data), "--fit", "c", "theta"]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    assert rows[0].split() == ["name", "value", "stderr", "unit"]
+    assert rows[1].split()[0] == "c" and len(rows[1].split()) == 3
+    assert rows[2].split()[0] == "theta" and rows[2].split()[-1] == "[rad]"
+    assert float(rows[2].split()[1]) == pytest.approx(0.7, abs=0.01)  # the scene's theta0

@@ -154,7 +154,8 @@ def test_cli_simulate_prints_the_book_table(tmp_path: Path, capsys) -> None:
     csv_file = tmp_path / "table.csv"
     assert main(["simulate", str(COMPOUND), "--csv", str(csv_file)]) == 0
     lines = capsys.readouterr().out.splitlines()
-    rows = [line.split() for line in lines[1:] if not line.startswith("#")]
+    assert lines[1].split()[:3] == ["[s]", "[rad]", "[rad/s]"]  # the header's units
+    rows = [line.split() for line in lines[2:] if not line.startswith("#")]
     assert [float(r[0]) for r in rows] == [0.5 * k for k in range(21)]  # the book's 0:0.5:10
     assert float(rows[0][1]) == pytest.approx(np.pi / 4, rel=1e-5)
     assert len(csv_file.read_text().splitlines()) == 22

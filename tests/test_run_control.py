@@ -311,7 +311,7 @@ def test_ctrl_c_stops_the_cli_with_status_130(tmp_path: Path) -> None:
                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as child:
         out, err = interrupted(child)  # armed past t = 1 (DOP853's first work), past 0.5
         assert child.returncode == 130
-        rows = [line.split()[0] for line in out.splitlines()[1:] if not line.startswith("#")]
+        rows = [line.split()[0] for line in out.splitlines()[2:] if not line.startswith("#")]
         assert rows == ["0", "0.5"]  # what it had
         assert "nemc: interrupted (Ctrl-C) at t = " in err
 

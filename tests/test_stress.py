@@ -5,6 +5,7 @@ energy drift, stiffness, conditioning, error estimate) checked against independe
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -173,6 +174,7 @@ def test_error_estimate_is_close_to_the_true_error(double: Model,
     assert main(["simulate", str(EXAMPLES / "double_pendulum.yaml"), "--error-estimate"]) == 0
     line = capsys.readouterr().out.strip().splitlines()[-1]
     assert line.startswith("# error estimate") and "dot(q2)" in line
+    assert re.search(r"dot\(q2\) [0-9.e+-]+ rad/s(,|$)", line), line  # with its unit
 
 
 # -- hostile scenes that must integrate correctly ---------------------------------------------

@@ -156,6 +156,7 @@ def test_models_and_results_display_as_html() -> None:
     assert SimulationResult._repr_html_ is SimulationResult.to_html
     table = res.to_html()
     assert "RK45" in table and table.count("<tr>") == 1 + len(res.t)  # 11 rows: all shown
+    assert "<th>dot(q1)<br>[rad/s]</th>" in table and "<th>A.Fx<br>[N]</th>" in table
     long = model.simulate(t_eval=np.linspace(0, 5, 50)).to_html()
     assert long.count("<tr>") == 1 + 11 and "&hellip;" in long  # 5 first, ..., 5 last
 

@@ -37,7 +37,7 @@ from .friction import (
     friction_refusal,
 )
 from .inputs import InputLaw, input_law
-from .kinematics import Kinematics, applied_loads, motion_substitutions
+from .kinematics import Kinematics, applied_loads, generalized_forces, motion_substitutions
 from .linearization import Linearization, input_seeds, linearization, state_seeds
 from .loops import LoopEquations, loop_equations
 from .mass_form import (
@@ -175,19 +175,8 @@ def newton_euler(mech: m.Mechanism, kin: Kinematics) -> tuple[sympy.Matrix, symp
         jv, jw = kin.partials(v_c), kin.partials(omega)
         for k in range(n):
             residual[k] += jv[k].dot(body.mass * a_c) + jw[k] * body.inertia * alpha
-    applied = applied_loads(mech, kin)
-    for load in applied.forces:  # the material point's velocity: xy may move on the body
-        jv = kin.partials(kin.velocity(load.body, load.xy))
-        for k in range(n):
-            residual[k] -= jv[k].dot(load.force)
-    for body, torque in applied.couples:
-        if body != m.GROUND:
-            jw = kin.partials(kin.rate(kin.angle(body)))
-            for k in range(n):
-                residual[k] -= jw[k] * torque
-    for across in applied.tensions:
-        for k in range(n):
-            residual[k] -= sympy.diff(across.displacement, kin.q[k]) * across.tension
+    for k, force in enumerate(generalized_forces(kin, applied_loads(mech, kin))):
+        residual[k] -= force
     mass = residual.jacobian(kin.qdd)
     forcing = -residual.xreplace({a: sympy.S.Zero for a in kin.qdd})
     return mass, forcing

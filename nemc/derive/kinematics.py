@@ -243,6 +243,27 @@ class BalanceLoads:
             self.tensions.append(Tension(joint, m.symbol(name), force))
 
 
+def generalized_forces(kin: Kinematics, applied: BalanceLoads) -> list[sympy.Expr]:
+    """The generalized forces of APPLIED along kin's coordinates, by their virtual power: a
+    point force through its material point's velocity (xy may move on the body), a couple
+    through its body's rate, a tension through its displacement."""
+    n = len(kin.q)
+    forces = [sympy.S.Zero] * n
+    for load in applied.forces:
+        jv = kin.partials(kin.velocity(load.body, load.xy))
+        for k in range(n):
+            forces[k] += jv[k].dot(load.force)
+    for body, torque in applied.couples:
+        if body != m.GROUND:
+            jw = kin.partials(kin.rate(kin.angle(body)))
+            for k in range(n):
+                forces[k] += jw[k] * torque
+    for across in applied.tensions:
+        for k in range(n):
+            forces[k] += sympy.diff(across.displacement, kin.q[k]) * across.tension
+    return forces
+
+
 def applied_loads(mech: m.Mechanism, kin: Kinematics) -> BalanceLoads:
     """Gravity and the YAML's loads (each kind's Load.act) as point forces, body couples and
     tensions across joints."""

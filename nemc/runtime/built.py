@@ -64,6 +64,10 @@ class BuiltModel:
         # sensitivity system: sensitivities.py), their cffi module (set by nemc's pipeline, which
         # builds them once per size; None in a standalone package).
         self.system_drivers: Callable[[int], Any] | None = None
+        # The regressor's code for the linear coefficients named (set by nemc's pipeline,
+        # which derives it; None in a standalone package): Model.regressor, regressor.py.
+        self.regressor_maker: Callable[[tuple[str, ...]], Any] | None = None
+        self._regressor_code: dict[tuple[str, ...], Any] = {}  # regressor_maker's, by names
         self._variants: dict[str, BuiltModel] = {}  # compiled_with's, by the part asked for
         # the seconds its compile took when the pipeline built it now rather than loaded it
         # from the cache, until a BuildNotice reported them (None: nothing to report)
@@ -98,14 +102,33 @@ class BuiltModel:
         """The scene's initial state (unlisted values 0) at these parameters; a closed loop's
         assembled from its given values and its guess (at the scene's start time)."""
         p = self.parameter_vector(params)
-        y0 = np.empty(self.n_state)
-        buffer = self.compiled.buffer
-        self.compiled.functions["initial_state"](buffer(p), buffer(y0))
+        y0 = self.scene_values(p)
         if self.has_loops:
             t0 = (self.scene["t_span"] or DEFAULT_T_SPAN)[0]
             p = self.loops.started(t0, y0, p)
             y0 = self.loops.assembled(t0, y0, self.loops.given_mask(None), p)[0]
         return y0
+
+    def scene_values(self, p: np.ndarray) -> np.ndarray:
+        """The scene's `initial` values at the parameter vector p, the others 0 (a closed loop's:
+        its `guess`), not assembled."""
+        y0 = np.empty(self.n_state)
+        buffer = self.compiled.buffer
+        self.compiled.functions["initial_state"](buffer(p), buffer(y0))
+        return y0
+
+    def guess_state(self, params: Mapping[str, float] | None = None) -> np.ndarray:
+        """Where a closed loop's assembly from given values starts (simulate's y0=dict,
+        simulate_many's and a sweep's columns, `--initial`): the scene's initial state, or,
+        where the scene's values cannot close at these parameters, its values and guess as they
+        are (the values given then decide whether the loop closes)."""
+        if not self.has_loops:
+            return self.initial_state(params)
+        p = self.parameter_vector(params)  # refused parameters: their own error
+        try:
+            return self.initial_state(params)
+        except ModelError:
+            return self.scene_values(p)
 
     def state_vector(self, y0: Any, params: Mapping[str, float] | None = None) -> np.ndarray:
         """A state from an array, or from a dict of coordinate / dot(q) values (others 0)."""
@@ -113,7 +136,7 @@ class BuiltModel:
             return self.initial_state(params)
         # a dict of values (closed loops: the others start from the scene's guess)
         if type(y0) is not np.ndarray and isinstance(y0, Mapping):
-            state = self.initial_state(params) if self.has_loops else np.zeros(self.n_state)
+            state = self.guess_state(params) if self.has_loops else np.zeros(self.n_state)
             for name, value in y0.items():
                 if name not in self.state_names:
                     import difflib

@@ -240,18 +240,21 @@ def checked_max_events(value: Any) -> int:
     return int(value)
 
 
-def ensemble_columns(params: Any) -> dict[str, np.ndarray]:
-    """simulate_many's params: name -> 1-d float array (one value, or one per run)."""
+def ensemble_columns(params: Any, what: str = "parameter", argument: str = "params"
+                     ) -> dict[str, np.ndarray]:
+    """simulate_many's params (or a dict y0s: WHAT "state value"): name -> 1-d float array
+    (one value, or one per run)."""
     if params is None:
         return {}
     if not isinstance(params, Mapping):
-        raise ModelError(f"params must be a mapping name -> value(s), got {type(params).__name__}")
+        raise ModelError(f"{argument} must be a mapping name -> value(s), got "
+                         f"{type(params).__name__}")
     columns = {}
     for name, value in params.items():
-        array = real_array(value, f"parameter {name!r}")
+        array = real_array(value, f"{what} {name!r}")
         if array.ndim > 1:
-            raise ModelError(f"parameter {name!r}: expected a number or a 1-d array of one value"
+            raise ModelError(f"{what} {name!r}: expected a number or a 1-d array of one value"
                              f" per run, got shape {array.shape}")
-        within_budget(f"parameter {name!r} of {array.size} values", array.size)
+        within_budget(f"{what} {name!r} of {array.size} values", array.size)
         columns[name] = np.atleast_1d(array.astype(float))
     return columns

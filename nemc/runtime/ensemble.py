@@ -209,12 +209,10 @@ def ensemble_inputs(model: BuiltModel, y0s: Any, params: Mapping[str, Any] | Non
     sizes = {len(v) for v in columns.values() if len(v) != 1}
     if isinstance(inputs, Mapping):
         sizes |= {len(v) for v in inputs.values() if per_run(v) and len(v) != 1}
-    if y0s is not None:
-        y0s = real_array(y0s, "y0s")
-        within_budget(f"y0s of shape {y0s.shape}", y0s.size)
-        y0s = y0s.astype(float)
-        if y0s.ndim != 2 or y0s.shape[1] != model.n_state or not len(y0s):
-            raise ModelError(f"y0s must have shape (k, {model.n_state}), got {y0s.shape}")
+    y0s, values = checked_y0s(model, y0s)
+    if values is not None:
+        sizes |= {len(v) for v in values.values() if len(v) != 1}
+    elif y0s is not None:
         sizes.add(len(y0s))
     if len(sizes) > 1:
         raise ModelError(f"simulate_many: y0s and params disagree on the number of runs:"
@@ -229,12 +227,68 @@ def ensemble_inputs(model: BuiltModel, y0s: Any, params: Mapping[str, Any] | Non
     tables = None
     if inputs is not None:
         ps, tables = with_run_inputs(model, ps, inputs, k)
-    if y0s is None:
-        y0s = np.array([model.initial_state(s) for s in sets])
-        y0s = np.broadcast_to(y0s, (k, model.n_state))
+    if values is not None:
+        y0s = given_states(model, values, sets, k)
+    elif y0s is None:
+        y0s = np.broadcast_to(scene_starts(model, sets), (k, model.n_state))
     if not np.all(np.isfinite(y0s)):
         raise ModelError("y0s must be finite")
     return np.ascontiguousarray(ps), np.ascontiguousarray(y0s, dtype=float), tables
+
+
+def scene_starts(model: BuiltModel, sets: Sequence[Mapping[str, float]]) -> np.ndarray:
+    """The scene's initial state at each parameter set; one a closed loop cannot assemble
+    refused by its run's number (where the runs' parameters differ)."""
+    states = []
+    for run, params in enumerate(sets):
+        try:
+            states.append(model.initial_state(params))
+        except ModelError as error:
+            if len(sets) == 1:
+                raise
+            raise ModelError(f"simulate_many: run {run} of {len(sets)}: {error}") from None
+    return np.array(states)
+
+
+def checked_y0s(model: BuiltModel, y0s: Any
+                ) -> tuple[np.ndarray | None, dict[str, np.ndarray] | None]:
+    """simulate_many's y0s checked: (the states (k, n_state), None), or (None, a dict's
+    columns: state name -> one value or one per run), or (None, None) for the scene's."""
+    if isinstance(y0s, Mapping):
+        return None, state_columns(model, y0s)
+    if y0s is None:
+        return None, None
+    y0s = real_array(y0s, "y0s")
+    within_budget(f"y0s of shape {y0s.shape}", y0s.size)
+    y0s = y0s.astype(float)
+    if y0s.ndim != 2 or y0s.shape[1] != model.n_state or not len(y0s):
+        raise ModelError(f"y0s must have shape (k, {model.n_state}) or be a dict of state "
+                         f"values, got {y0s.shape}")
+    return y0s, None
+
+
+def state_columns(model: BuiltModel, y0s: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """A dict y0s checked: state name -> its value (1,) or one per run (k,)."""
+    columns = ensemble_columns(y0s, "state value", "y0s")
+    for name in columns:
+        if name not in model.state_names:
+            raise ModelError(f"y0s: unknown state name {name!r} (the state: "
+                             f"{', '.join(model.state_names)})")
+    return columns
+
+
+def given_states(model: BuiltModel, values: Mapping[str, np.ndarray],
+                 sets: Sequence[Mapping[str, float]], k: int) -> np.ndarray:
+    """The K runs' states from a dict y0s, each as simulate's y0=dict makes it at the run's
+    parameters SETS[i]: the values given, the others 0 (a tree) or, for a closed loop, the
+    model.guess_state's, from which the others are solved (run_ensemble, with the given mask
+    of the dict's names)."""
+    bases = np.array([model.guess_state(s) if model.has_loops else np.zeros(model.n_state)
+                      for s in sets])
+    states = np.array(bases[np.arange(k) % len(bases)])
+    for name, column in values.items():
+        states[:, model.state_names.index(name)] = column if len(column) > 1 else column[0]
+    return states
 
 
 def with_run_inputs(model: BuiltModel, ps: np.ndarray, inputs: Any, k: int

@@ -178,7 +178,7 @@ class Loops:
                                           buffer(p), buffer(info))
         if status:
             singular = self.singular_start(t0, state, p) if check_start else ""
-            raise ModelError(singular or self.assembly_failure(status, info, given))
+            raise ModelError(singular or self.assembly_failure(status, info, given, state))
         if check_start and (singular := self.singular_start(t0, state, p)):
             raise ModelError(singular)
         freedom = len(self.state_names) // 2 - int(info[4])
@@ -186,8 +186,12 @@ class Loops:
         # never a kinematic analysis, even where they leave no freedom of motion
         return state, max(freedom, 1) if self.on_velocities else freedom
 
-    def assembly_failure(self, status: int, info: np.ndarray, given: np.ndarray) -> str:
-        named = [name for name, kept in zip(self.state_names, given) if kept]
+    def assembly_failure(self, status: int, info: np.ndarray, given: np.ndarray,
+                         state: np.ndarray) -> str:
+        """Why an assembly failed, naming the constraint and the given values (kept in
+        STATE)."""
+        named = [f"{name}={value:.9g}" for name, kept, value
+                 in zip(self.state_names, given, state) if kept]
         constraint = loop_equation(self.constraint_equations, status)
         values = f" with {', '.join(named)} given" if named else ""
         if -2000 < status <= -1000:
@@ -201,10 +205,14 @@ class Loops:
     def assembled_runs(self, t0: float, y0s: np.ndarray, given: np.ndarray, ps: np.ndarray
                        ) -> np.ndarray:
         """An ensemble's initial states (k, n_state), each assembled at its parameters ps
-        (k or 1 rows); an ensemble needs a degree of freedom."""
+        (k or 1 rows); a run that cannot be is refused by its number; an ensemble needs a
+        degree of freedom."""
         states = np.empty_like(y0s)
         for run, y0 in enumerate(y0s):
-            states[run], freedom = self.assembled(t0, y0, given, ps[run % len(ps)])
+            try:
+                states[run], freedom = self.assembled(t0, y0, given, ps[run % len(ps)])
+            except ModelError as error:
+                raise ModelError(f"simulate_many: run {run} of {len(y0s)}: {error}") from None
             if freedom == 0:
                 raise ModelError(
                     "simulate_many: this mechanism has no degree of freedom left by its drives "

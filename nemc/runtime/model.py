@@ -13,6 +13,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..vocabulary import (  # noqa: F401 (re-exported: the runtime's public names)
     AUTO,
     AUTO_LANES_MIN_RUNS,
@@ -34,6 +36,7 @@ from ..vocabulary import (  # noqa: F401 (re-exported: the runtime's public name
     auto_takes_taylor,
 )
 from . import ensemble, fmu, plant, runs, simulation
+from . import regressor as regression
 from . import sensitivities as variational
 from .auto import checked_auto_choice
 from .built import DEFAULT_T_SPAN, BuiltModel  # noqa: F401 (re-exported)
@@ -129,7 +132,10 @@ class Model(BuiltModel):
     ) -> EnsembleResult:
         """Integrate an ensemble with a native method, the loop over runs in C.
 
-        y0s: (k, n_state) initial states, or None for the scene's initial state. params: a dict
+        y0s: (k, n_state) initial states, or None for the scene's initial state, or a dict of
+        state values (a number, or k of them), each run's state as simulate's y0=dict makes it
+        (a closed loop's assembled from the values given; a run whose values it cannot meet is
+        refused by its number, as is a full state off the constraints). params: a dict
         of overrides whose values are numbers (shared) or arrays of length k (one per run).
         t_eval: the times of the returned states, default the scene's, else (t0, t_end).
         method: a native method; default the scene's when native, nemc.Radau when the scene's
@@ -204,6 +210,49 @@ class Model(BuiltModel):
         the variational equations (the exact Jacobian), integrated with the motion."""
         return plant.floquet(self, period, y, t0=t0, params=params, u=u, rtol=rtol,
                              atol=atol)
+
+    # -- the inverse dynamics linear in the inertial parameters (regression.py) ----------------
+
+    def regressor(self, t: Any, q: Any, qd: Any, qdd: Any, *,
+                  params: Mapping[str, float] | None = None, linear: Sequence[str] = ()
+                  ) -> np.ndarray:
+        """Y of tau = Y(q, qd, qdd) phi - Q: (rows, len(phi)) at one sample, (n_t, rows,
+        len(phi)) for q, qd, qdd of shape (coordinates, n_t) (every joint's coordinate, a
+        driven one's too: regressor_at(...).coordinate_names). phi: per body its mass, first
+        moments and inertia about its origin, then the load coefficients named in LINEAR
+        (regressor_at(...).names); a tree's rows are its coordinates, a closed loop's its
+        drives. Exact: the derivation's expressions, evaluated with numpy (derived on first
+        use; needs nemc's compiler)."""
+        y, _ = self.regressor_at(params, linear).matrix(t, q, qd, qdd)
+        return y[0] if np.ndim(q) == 1 else y
+
+    def regressor_at(self, params: Mapping[str, float] | None = None,
+                     linear: Sequence[str] = ()) -> regression.Regressor:
+        """The regressor at these parameters: its names, phi's values, Y and the loads' Q over
+        samples (regression.py)."""
+        return regression.Regressor(self._regressor_source(tuple(linear)),
+                                   self.parameter_table.vector(params), self.parameter_names)
+
+    def base_parameters(self, params: Mapping[str, float] | None = None,
+                        linear: Sequence[str] = (), samples: int = regression.SAMPLES,
+                        seed: int = 0) -> regression.BaseParameters:
+        """The base parameters of a tree: the combinations of phi identifiable at all, from Y
+        stacked at SAMPLES seeded random states (QR: regression.py). A closed loop's depend
+        on the motion: nemc.identify gives those of its data."""
+        reg = self.regressor_at(params, linear)
+        if self.has_loops:
+            raise ValueError("a closed loop's states are not free: its base parameters come "
+                             "from data (nemc.identify)")
+        return reg.base(*regression.random_states(len(reg.coordinate_names), samples, seed))
+
+    def _regressor_source(self, linear: tuple[str, ...]) -> Any:
+        """The regressor's code for LINEAR, derived once (the pipeline's regressor_maker)."""
+        if linear not in self._regressor_code:
+            if self.regressor_maker is None:
+                raise ModelError("the regressor is derived by nemc's compiler: compile the "
+                                 "mechanism with nemc.compile (a standalone package has none)")
+            self._regressor_code[linear] = self.regressor_maker(linear)
+        return self._regressor_code[linear]
 
     def export_fmu(self, path: str | Path, fmi: int = 2, kind: str = "me") -> Path:
         """This mechanism as an FMU at PATH (a .fmu file): FMI 2 or 3, model exchange ("me")

@@ -145,7 +145,8 @@ class SimulationResult:
         head = (f"<p><b>{html.escape(name)}</b>: {html.escape(self.method)}, rtol {self.rtol:g},"
                 f" atol {self.atol:g}, {self.nfev} RHS calls, {len(self.t)} times, {status}: "
                 f"{html.escape(self.message)}</p>")
-        return head + html_table(self.columns(), rows=preview_rows(len(self.t)))
+        units = self.model.metadata.get("unit_labels", {}) if self.model is not None else {}
+        return head + html_table(self.columns(), rows=preview_rows(len(self.t)), units=units)
 
     _repr_html_ = to_html  # IPython's display protocol
 
@@ -194,12 +195,17 @@ def preview_rows(count: int, head: int = 5) -> list[int]:
         *range(head), -1, *range(count - head, count)]
 
 
-def html_table(columns: Mapping[str, np.ndarray], rows: list[int]) -> str:
-    """An HTML table of the columns at these rows (-1: an ellipsis row)."""
+def html_table(columns: Mapping[str, np.ndarray], rows: list[int],
+               units: Mapping[str, str] | None = None) -> str:
+    """An HTML table of the columns at these rows (-1: an ellipsis row), each column's unit
+    under its name where UNITS gives one (as the terminal's table and the CSV's headers)."""
     import html
 
     names = list(columns)
-    head = "".join(f"<th>{html.escape(n)}</th>" for n in names)
+    units = units or {}
+    head = "".join(f"<th>{html.escape(n)}" + (f"<br>[{html.escape(units[n])}]"
+                                                if units.get(n) else "") + "</th>"
+                   for n in names)
     body = []
     for row in rows:
         cells = ["&hellip;"] * len(names) if row < 0 else [

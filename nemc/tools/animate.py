@@ -3,10 +3,12 @@
 Each frame draws every body as the outline through its points (origin, mass centre, named
 points: a bar for two, a filled polygon for more), its mass centre, the joints (pins as open
 circles, sliders on their rails, welds as squares, ground supports hatched), springs as
-zigzags, the paths of the traced points so far and a time stamp. The positions come from the
-compiled model (`Model.positions_array`, the C function `<name>_positions`), never from Python
-geometry: a frame shows what the model computes. Frames are spaced for real time (`speed` 1)
-at `fps` frames per second.
+zigzags (grey, thin, under the bodies), the paths of the traced points so far and a time stamp.
+Symbols are sized by the picture but at most by a few typical bodies, and markers shrink with
+the bodies on the page: a 20-link chain's springs and pins do not hide its links. The
+positions come from the compiled model (`Model.positions_array`, the C function
+`<name>_positions`), never from Python geometry: a frame shows what the model computes.
+Frames are spaced for real time (`speed` 1) at `fps` frames per second.
 
 Writers: Pillow for .gif, ffmpeg for .mp4 (when it is installed), and for .html and a notebook
 nemc's own player (a canvas, a play button and a slider; the frames stored as the PNG rectangles
@@ -32,13 +34,16 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..runtime.model import SimulationResult
-from .figures import ShownFigure, dense, pretty_unit
+from .figures import FAILED_INK, ShownFigure, dense, pretty_unit
 
 FPS = 25  # a GIF stores frame delays in 1/100 s: 25 frames/s is exactly real time
 BODY_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
                 "#17becf")
 INK = "#222222"
 SPRING_COILS = 8
+SPRING_INK = "#777777"  # springs lighter and thinner than the bodies, and under them
+SYMBOL_LINKS = 6.0  # symbols are sized by the picture, at most this many typical bodies long
+SMALLEST_MARKS = 0.4  # markers shrink with the bodies on the page, to this fraction at least
 MAX_FRAMES = 3000
 PLAYER_DPI = 80  # the notebook's player: 400 px for the default 5 in, as small as reads well
 
@@ -56,12 +61,16 @@ class Scene:
     traces: list[int]
     time_unit: str = ""
     length_unit: str = ""
-    scale: float = 1.0  # a typical length of the picture, for the size of symbols
+    scale: float = 1.0  # a typical length of the picture
+    symbol: float = 1.0  # the length symbols (springs, supports) are sized by
+    note: str = ""  # written in red in the drawing's corner: a failed run's stop
     hulls: dict[str, list[int]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         lo, hi = self.extent()
         self.scale = max(float(np.max(hi - lo)), 1e-9)
+        body = typical_body(self.xy[0], self.drawing["bodies"].values())
+        self.symbol = self.scale if body is None else min(self.scale, SYMBOL_LINKS * body)
         self.hulls = {body: outline(self.xy[0], points)
                       for body, points in self.drawing["bodies"].items()}
 
@@ -75,6 +84,20 @@ class Scene:
         if not points.size:
             return np.zeros(2), np.ones(2)
         return points.min(axis=0), points.max(axis=0)
+
+
+def typical_body(xy: np.ndarray, bodies: Any) -> float | None:
+    """The median size of the bodies drawn (each its points' largest distance apart), None
+    when no body has two distinct points: a 20-link chain's springs are sized by a link, not
+    by the whole chain, so they do not hide the links."""
+    sizes = []
+    for points in bodies:
+        at = xy[list(points)].reshape(-1, 2)
+        at = at[np.all(np.isfinite(at), axis=1)]
+        if len(at) >= 2:
+            sizes.append(float(np.max(np.hypot(*(at[:, None, :] - at[None, :, :]).T))))
+    sizes = [size for size in sizes if size > 1e-12]
+    return float(np.median(sizes)) if sizes else None
 
 
 def outline(xy: np.ndarray, points: list[int]) -> list[int]:
@@ -151,22 +174,26 @@ def frame_times(t0: float, t1: float, fps: float, speed: float) -> np.ndarray:
 
 def scene_of_result(res: SimulationResult, fps: float = FPS, speed: float = 1.0,
                     traces: list[str] | None = None) -> Scene:
-    """Frames at real-time spacing through the run's dense output; traces densely sampled."""
+    """Frames at real-time spacing through the run's dense output (a failed run's up to where
+    it stopped); traces densely sampled."""
     model = res.model
     if model is None:
         raise ValueError("this result does not know its model: animate a result of simulate()")
     if res.t.size == 0:
         raise ValueError("the run has no states to draw")
-    times = frame_times(float(res.t[0]), float(res.t[-1]), fps, speed)
     if res.rerun is not None and res.success:
-        frames = res.rerun(times)
+        frames = res.rerun(frame_times(float(res.t[0]), float(res.t[-1]), fps, speed))
         fine = dense(res)
         t, y, fine_t, fine_y = frames.t, frames.y, fine.t, fine.y
-    else:  # a run that stopped early: its own states, interpolated to the frames
-        t = times
-        y = np.array([np.interp(times, res.t, row) for row in res.y])
-        fine_t, fine_y = res.t, res.y
-    return scene_of(model, t, y, res.params, fine_t, fine_y, traces)
+    else:  # a run that failed: its dense output to where it stopped, interpolated to frames
+        fine = dense(res)  # (a run interrupted by Ctrl-C, or not simulate()'s: its own states)
+        fine_t, fine_y = fine.t, fine.y
+        t = frame_times(float(fine_t[0]), float(fine_t[-1]), fps, speed)
+        y = np.array([np.interp(t, fine_t, row) for row in fine_y])
+    scene = scene_of(model, t, y, res.params, fine_t, fine_y, traces)
+    if not res.success:
+        scene.note = f"run failed at t = {fine_t[-1]:.6g}"
+    return scene
 
 
 # ---- drawing --------------------------------------------------------------------------------
@@ -197,17 +224,18 @@ class Artist:
 
     def __init__(self, ax: Any, scene: Scene):
         self.ax, self.scene = ax, scene
-        drawing, size = scene.drawing, scene.scale
-        self.marker = 0.022 * size
+        drawing = scene.drawing
+        # markers and bars shrink with the bodies on the page (a long chain's), not before
+        self.marks = marks = min(1.0, max(SMALLEST_MARKS, 1.5 * scene.symbol / scene.scale))
         self.body_colour = {body: BODY_COLOURS[k % len(BODY_COLOURS)]
                             for k, body in enumerate(drawing["bodies"])}
         self.rails = [ax.plot([], [], "-", color="#999999", lw=3, solid_capstyle="round",
                               zorder=1)[0] for j in drawing["joints"] if "axis" in j]
         self.traces = [ax.plot([], [], "-", lw=1.0, alpha=0.7, color=self.trace_colour(k),
                                zorder=2)[0] for k in scene.traces]
-        self.springs = [ax.plot([], [], "-", color=INK, lw=1.1, zorder=3)[0]
+        self.springs = [ax.plot([], [], "-", color=SPRING_INK, lw=0.9, zorder=3)[0]
                         for _ in drawing["springs"]]
-        self.joint_springs = [ax.plot([], [], "-", color=INK, lw=1.0, zorder=3)[0]
+        self.joint_springs = [ax.plot([], [], "-", color=SPRING_INK, lw=0.8, zorder=3)[0]
                               for j in drawing["joints"] if j["sprung"]]
         self.surfaces = [ax.plot([], [], "-", color="#999999", lw=3, solid_capstyle="round",
                                  zorder=1)[0] for _ in drawing.get("surfaces", ())]
@@ -215,15 +243,23 @@ class Artist:
         self.discs = [self.disc_artist(disc) for disc in drawing.get("discs", ())]
         self.blades = [ax.plot([], [], "-", color=INK, lw=4, solid_capstyle="butt",
                                zorder=6)[0] for _ in drawing.get("blades", ())]
-        self.coms = ax.plot([], [], "o", ms=5, mfc="white", mec=INK, mew=1.0, zorder=6)[0]
-        self.pins = ax.plot([], [], "o", ms=7, mfc="white", mec=INK, mew=1.4, zorder=7)[0]
-        self.welds = ax.plot([], [], "s", ms=5, color=INK, zorder=7)[0]
-        self.sliders = ax.plot([], [], "s", ms=9, mfc="white", mec=INK, mew=1.4, zorder=7)[0]
-        self.supports = ax.plot([], [], "^", ms=12, mfc="#cccccc", mec=INK, zorder=0)[0]
+        self.coms = ax.plot([], [], "o", ms=5 * marks, mfc="white", mec=INK, mew=1.0 * marks,
+                            zorder=6)[0]
+        self.pins = ax.plot([], [], "o", ms=7 * marks, mfc="white", mec=INK, mew=1.4 * marks,
+                            zorder=7)[0]
+        self.welds = ax.plot([], [], "s", ms=5 * marks, color=INK, zorder=7)[0]
+        self.sliders = ax.plot([], [], "s", ms=9 * marks, mfc="white", mec=INK,
+                               mew=1.4 * marks, zorder=7)[0]
+        self.supports = ax.plot([], [], "^", ms=12 * marks, mfc="#cccccc", mec=INK,
+                                zorder=0)[0]
         anchors = [spring[end] for spring in drawing["springs"] for end in ("a", "b")
                    if drawing["points"][spring[end]].startswith("loads[")]
         self.anchors = anchors
-        self.anchor_marks = ax.plot([], [], "s", ms=6, mfc="#cccccc", mec=INK, zorder=3)[0]
+        self.anchor_marks = ax.plot([], [], "s", ms=6 * marks, mfc="#cccccc", mec=INK,
+                                    zorder=3)[0]
+        if scene.note:  # fixed, in the lower left corner
+            ax.text(0.01, 0.01, scene.note, transform=ax.transAxes, va="bottom", ha="left",
+                    color=FAILED_INK, fontsize=10)
         # above the axes, right: never on the drawing
         self.stamp = ax.text(1.0, 1.01, self.stamp_text(scene.t[0]), transform=ax.transAxes,
                              va="bottom", ha="right", family="monospace", fontsize=10)
@@ -256,9 +292,9 @@ class Artist:
             self.ax.add_patch(patch)
             return patch
         if len(hull) == 2:
-            return self.ax.plot([], [], "-", color=colour, lw=6, solid_capstyle="round",
-                                zorder=4)[0]
-        return self.ax.plot([], [], "s", color=colour, ms=14, zorder=4)[0]
+            return self.ax.plot([], [], "-", color=colour, lw=6 * self.marks,
+                                solid_capstyle="round", zorder=4)[0]
+        return self.ax.plot([], [], "s", color=colour, ms=14 * self.marks, zorder=4)[0]
 
     def disc_artist(self, disc: dict) -> tuple[Any, Any]:
         """A rolling disc: its rim, and a spoke to its rim point that shows it turn."""
@@ -282,8 +318,8 @@ class Artist:
         for artist, blade in zip(self.blades, drawing.get("blades", ())):
             at, ahead = xy[blade["at"]], xy[blade["axis"]]
             unit = (ahead - at) / max(math.hypot(*(ahead - at)), 1e-12)
-            ends = np.array([at - 0.05 * self.scene.scale * unit,
-                             at + 0.05 * self.scene.scale * unit])
+            ends = np.array([at - 0.05 * self.scene.symbol * unit,
+                             at + 0.05 * self.scene.symbol * unit])
             artist.set_data(ends[:, 0], ends[:, 1])
 
     def update(self, k: int) -> list[Any]:
@@ -301,7 +337,7 @@ class Artist:
         self.update_joints(xy)
         self.update_discs(xy)
         for artist, spring in zip(self.springs, drawing["springs"]):
-            line = zigzag(xy[spring["a"]], xy[spring["b"]], 0.02 * scene.scale)
+            line = zigzag(xy[spring["a"]], xy[spring["b"]], 0.02 * scene.symbol)
             artist.set_data(line[:, 0], line[:, 1])
         anchors = xy[self.anchors].reshape(-1, 2)
         self.anchor_marks.set_data(anchors[:, 0], anchors[:, 1])
@@ -321,11 +357,11 @@ class Artist:
             origin = xy[joint["origin"]]
             symbols[joint["symbol"]].append(origin)
             if joint["parent"] == "ground" and joint["symbol"] == "pin":
-                supports.append(xy[joint["at"]] - [0, 0.035 * self.scene.scale])
+                supports.append(xy[joint["at"]] - [0, 0.035 * self.scene.symbol])
             if "axis" in joint:
                 self.draw_rail(next(rails), joint, xy)
             if joint["sprung"]:
-                size = self.scene.scale
+                size = self.scene.symbol
                 line = (zigzag(xy[joint["at"]], origin, 0.02 * size)
                         if "axis" in joint else spiral(origin, 0.05 * size))
                 next(sprung).set_data(line[:, 0], line[:, 1])
@@ -344,7 +380,7 @@ class Artist:
         travel = (self.scene.xy[:, joint["origin"]] - self.scene.xy[:, joint["at"]]) @ unit
         travel = travel[np.isfinite(travel)]
         low, high = (min(travel.min(), 0.0), max(travel.max(), 0.0)) if travel.size else (0, 0)
-        margin = 0.08 * self.scene.scale
+        margin = 0.08 * self.scene.symbol
         ends = np.array([at + (low - margin) * unit, at + (high + margin) * unit])
         artist.set_data(ends[:, 0], ends[:, 1])
 

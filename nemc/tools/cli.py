@@ -26,6 +26,7 @@ from .files import output_refusal
 from .fit_cli import add_fit_parser, cmd_fit
 from .fmu_cli import add_export_parser, cmd_export
 from .plant_cli import add_linearize_parser, cmd_linearize
+from .start import start_values
 from .sweep_cli import add_sweep_parser, cmd_sweep
 
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
@@ -386,21 +387,8 @@ def run_settings(model, args: argparse.Namespace) -> dict:
     if not end > span[0]:
         raise ValueError(f"--t-end: must be after the start time {span[0]:g}, got {end:g}")
     y0 = None
-    if args.initial:
-        y0 = model.initial_state(dict(args.params))
-        for name, value in args.initial:
-            if name not in model.state_names:
-                import difflib  # here: only a mistyped name needs it
-
-                close = difflib.get_close_matches(name, model.state_names, n=1)
-                hint = f" (did you mean {close[0]}?)" if close else ""
-                raise ValueError(f"--initial: unknown coordinate or rate {name!r}{hint}; the "
-                                 f"state is {', '.join(model.state_names)}")
-            y0[model.state_names.index(name)] = value
-        if model.has_loops:  # the given values kept, the others solved from the constraints
-            given = {*model.metadata.get("initial_given", ()), *(n for n, _ in args.initial)}
-            y0 = {name: float(y0[k]) for k, name in enumerate(model.state_names)
-                  if name in given}
+    if args.initial:  # a closed loop's: the values kept, the others solved by the run
+        y0 = start_values(model, dict(args.params), args.initial, "--initial")
     t_eval = None
     if getattr(args, "t_eval", None) is not None:
         kind, values = args.t_eval
@@ -509,10 +497,13 @@ def note_native_speed(result: Any, seconds: float, simulate: Callable[[Any], Any
 
 
 def print_error_estimate(model, result, params: dict) -> None:
+    """The run's estimated error, each state entry's with its unit (the table's)."""
+    from .report import unit_of
     from .stress import error_estimate
 
     errors, rtol, atol = error_estimate(model, result, params)
-    listed = ", ".join(f"{name} {value:.2g}" for name, value in errors.items())
+    listed = ", ".join(f"{name} {value:.2g} {unit_of(model, name)}".rstrip()
+                       for name, value in errors.items())
     print(f"# error estimate (max |y - y_ref| over the table's times; y_ref: DOP853 at rtol "
           f"{rtol:g}, atol {atol:g}): {listed}")
 

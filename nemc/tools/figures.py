@@ -8,6 +8,10 @@ YAML declares (`units:`), angles in degrees when it says `angle: deg`; legends s
 panel, never on the data; colours are distinct within a panel. Curves come from a dense
 sampling of the same run (several points per solver step), so fast motion does not alias.
 
+A failed run is drawn the same way, from its dense output up to where it stopped, and marked:
+its title says (in red) that it failed, at which time and why, and the time panels show where
+it stopped and shade the part of its span it did not reach.
+
 `nemc simulate --plot`, `res.plot()` and `make run` all draw through plot_result(). What it
 returns is a `ShownFigure`: a notebook shows it as its image with no `%matplotlib inline`.
 """
@@ -18,6 +22,8 @@ import fnmatch
 import io
 import math
 import os
+import re
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -25,7 +31,8 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..runtime.model import SOLVER_STEPS, SimulationResult
+from ..runtime.model import SOLVER_STEPS, ModelError, SimulationResult
+from ..runtime.runs import INTERRUPTED
 from .typeset import math_label
 
 PANEL_KINDS = ("state", "reactions", "drives", "loads", "energy", "points", "accelerations",
@@ -39,6 +46,8 @@ SEPARATE = 6  # past this many coordinates, several to a panel
 PER_PANEL = 5  # coordinates to a panel then
 DPI = 150
 NOTEBOOK_DPI = 100  # a notebook's image: matplotlib's inline backend's size
+FAILED_INK, UNREACHED = "#b00000", "#f2dede"  # a failed run's title and stop; its span not reached
+REASON_CHARACTERS = 110  # a failure's reason in the title, shortened to this
 COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
            "#17becf", "#7f7f7f", "#bcbd22")
 
@@ -89,13 +98,23 @@ def dense_times(steps: np.ndarray, per_step: int = POINTS_PER_STEP) -> np.ndarra
 
 def dense(result: SimulationResult) -> SimulationResult:
     """The same run sampled densely (through the integrator's dense output), when the result
-    can rerun; else the result itself."""
-    if result.rerun is None or result.t.size < 2 or not result.success:
+    can rerun; else the result itself. A failed run stops again where it stopped, so it is
+    sampled up to there (its solver's steps when the samples do not end there); a run
+    interrupted by Ctrl-C is not rerun."""
+    if result.rerun is None or result.status == INTERRUPTED:
+        return result
+    if result.success and result.t.size < 2:
         return result
     steps = result.rerun(SOLVER_STEPS)
-    if not steps.success:
+    if steps.success != result.success:
         return result
-    return result.rerun(before_events(dense_times(steps.t), steps))
+    if steps.t.size < 2:  # a run that failed at its start: the one state it has
+        return result if result.success else steps
+    sampled = result.rerun(before_events(dense_times(steps.t), steps))
+    if not result.success and (sampled.success or not sampled.t.size
+                               or sampled.t[-1] != steps.t[-1]):
+        return steps
+    return sampled
 
 
 def before_events(times: np.ndarray, steps: SimulationResult) -> np.ndarray:
@@ -109,9 +128,51 @@ def before_events(times: np.ndarray, steps: SimulationResult) -> np.ndarray:
     hair = 1e-9 * abs(times[-1] - times[0])
     moved = times.copy()
     hits = np.isin(moved, at)
-    hits[0] = False  # the run's start stays
+    hits[0] = hits[-1] = False  # the run's start and end stay
     moved[hits] -= np.sign(times[-1] - times[0]) * hair
     return np.unique(moved) if times[-1] > times[0] else np.unique(moved)[::-1]
+
+
+@dataclass(frozen=True)
+class Failure:
+    """Where a failed run stopped (the last time it reached), why (its message, shortened) and
+    the span it was asked to cover (None when unknown)."""
+
+    t: float
+    reason: str
+    span: tuple[float, float] | None
+
+    def line(self) -> str:
+        asked = f" of {self.span[0]:g} .. {self.span[1]:g}" if self.span is not None else ""
+        return f"run failed at t = {self.t:.6g}{asked}: {self.reason}"
+
+
+def failure_of(res: SimulationResult, run: SimulationResult) -> Failure | None:
+    """A failed result's Failure, its time the last one RUN (its dense sampling) reached."""
+    if res.success or not run.t.size:
+        return None
+    return Failure(float(run.t[-1]), failure_reason(res.message), asked_span(res))
+
+
+def failure_reason(message: str) -> str:
+    """A run's failure message shortened for a title: no "integration failed: " or "at t=T: "
+    prefix (the title says when), its first sentence, at most REASON_CHARACTERS long."""
+    text = re.sub(r"^at t ?= ?[^:]*: ", "", message.removeprefix("integration failed: "))
+    sentence = text.split(". ")[0].split("; ")[0]
+    return textwrap.shorten(sentence, REASON_CHARACTERS, placeholder=" ...")
+
+
+def asked_span(res: SimulationResult) -> tuple[float, float] | None:
+    """The span the run was asked to cover (its arguments, the scene's, the default)."""
+    if res.model is None or res.run_arguments is None:
+        return None
+    from ..runtime.simulation import run_spec
+
+    try:
+        start, end = run_spec(res.model, res.run_arguments, SOLVER_STEPS).span[:2]
+    except (ModelError, ValueError):
+        return None
+    return float(start), float(end)
 
 
 # ---- panels -----------------------------------------------------------------------------------
@@ -161,7 +222,7 @@ def state_panels(model: Any, res: SimulationResult, labels: Labels) -> list[Pane
     tlabel = labels.axis("t", "t")
     driven = [Panel(labels.axis(math_label(q), q), [Curve(q, res.t, np.asarray(
         res.outputs[q]) * labels.scale(q))], tlabel, legend=False)
-        for q in driven_outputs(model) if not q.startswith("dot(")]
+        for q in driven_outputs(model) if not q.startswith("dot(") and q in res.outputs]
     return free_state_panels(model, res, labels, tlabel) + driven
 
 
@@ -301,19 +362,43 @@ def capped(places: list[tuple[int, int]]) -> list[tuple[int, int]]:
 
 
 def draw(state: list[Panel], outputs: list[Panel], title: str,
-         size: tuple[float, float] | None = None) -> ShownFigure:
+         size: tuple[float, float] | None = None,
+         failure: Failure | None = None) -> ShownFigure:
     """The report figure: panels on the grid above (capped), SIZE (inches) when given, else
-    PANEL_SIZE a panel, the height at most MAX_HEIGHT."""
+    PANEL_SIZE a panel, the height at most MAX_HEIGHT; a failed run's marked (mark_failure)."""
     places = capped(grid(len(state), len(outputs)))
     rows = max(r for r, _ in places) + 1
     columns = max(c for _, c in places) + 1
     if size is None:
         size = (PANEL_SIZE[0] * columns, min(PANEL_SIZE[1] * rows + 0.4, MAX_HEIGHT))
     fig = ShownFigure(figsize=size, layout="constrained")
-    fig.suptitle(title)
+    if failure is None:
+        fig.suptitle(title)
+    else:  # the title's second line, wrapped to the figure's width
+        line = textwrap.fill(failure.line(), max(40, int(size[0] * 11)))
+        fig.suptitle(f"{title}\n{line}", color=FAILED_INK)
     for panel, (r, c) in zip(state + outputs, places):
-        draw_panel(fig.add_subplot(rows, columns, r * columns + c + 1), panel)
+        ax = fig.add_subplot(rows, columns, r * columns + c + 1)
+        draw_panel(ax, panel)
+        if failure is not None and against_time(panel):
+            mark_failure(ax, failure)
     return fig
+
+
+def against_time(panel: Panel) -> bool:
+    """Whether the panel's curves are drawn against t (the axis a failure is marked on)."""
+    return not panel.path and bool(panel.curves) and panel.xlabel.startswith("t")
+
+
+def mark_failure(ax: Any, failure: Failure) -> None:
+    """Where the run stopped (a red dashed line) and the part of its span it did not reach
+    (shaded), the axis spanning the whole of what was asked."""
+    ax.axvline(failure.t, color=FAILED_INK, ls="--", lw=1.2, zorder=3)
+    if failure.span is None or failure.span[1] == failure.t:
+        return
+    start, end = failure.span
+    ax.axvspan(failure.t, end, color=UNREACHED, zorder=0, lw=0)
+    ax.set_xlim(min(start, end), max(start, end))
 
 
 def draw_panel(ax: Any, panel: Panel) -> None:
@@ -321,7 +406,7 @@ def draw_panel(ax: Any, panel: Panel) -> None:
         style = "-" if k < len(COLOURS) else "--"
         y = curve.y if panel.within is None else np.zeros_like(curve.y)
         ax.plot(curve.x, y, style, color=COLOURS[k % len(COLOURS)], lw=1.4,
-                label=curve.label)
+                label=curve.label, marker="o" if curve.x.size == 1 else None)
     if panel.within is not None:  # rounding noise: a flat 0, not autoscaled noise
         ax.set_ylim(-1.0, 1.0)
         ax.text(0.5, 0.5, f"0 within tolerance (|values| < atol {panel.within:g})",
@@ -336,7 +421,7 @@ def draw_panel(ax: Any, panel: Panel) -> None:
     ax.set_xlabel(panel.xlabel)
     ax.set_ylabel(panel.ylabel)
     ax.grid(True, lw=0.5, alpha=0.6)
-    if not panel.path and panel.curves and panel.xlabel.startswith("t"):
+    if against_time(panel) and panel.curves[0].x.size > 1:
         ax.set_xlim(panel.curves[0].x[0], panel.curves[0].x[-1])
     if panel.legend:  # above the axes: never on the data
         ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=min(len(panel.curves), 5),
@@ -407,7 +492,8 @@ def figure(res: SimulationResult, *, panels: Sequence[str] | None = None,
     run = dense(res) if dense_curves else res
     labels = Labels(model)
     state = state_panels(model, run, labels) if "state" in kinds else []
-    drawn = output_panels(model, run, labels, selected_outputs(model, outputs), kinds)
+    named = [n for n in selected_outputs(model, outputs) if n in run.outputs]  # a run that
+    drawn = output_panels(model, run, labels, named, kinds)  # could not start has none
     if only is not None:
         state, drawn = only_curves(state, only), only_curves(drawn, only)
     if x is not None and x != "t":
@@ -418,7 +504,7 @@ def figure(res: SimulationResult, *, panels: Sequence[str] | None = None,
     mark_noise(state + drawn, run.atol)
     if title is None:
         title = f"{model.name} ({run.method}, rtol {run.rtol:g}, atol {run.atol:g})"
-    return draw(state, drawn, title, size)
+    return draw(state, drawn, title, size, failure_of(res, run))
 
 
 def plot_result(res: SimulationResult, path: str | os.PathLike | None = None,

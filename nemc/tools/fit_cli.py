@@ -13,6 +13,7 @@ import csv
 import json
 import math
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -134,15 +135,30 @@ def cmd_fit(args: argparse.Namespace) -> int:
     except OSError as error:
         print(f"{where}: cannot read the data: {error.strerror or error}", file=sys.stderr)
         return 2
-    print(report(result))
+    print(report(result, model.metadata.get("unit_labels", {})))
     if args.out:
         write(result, Path(args.out))
         print(f"written to {args.out}")
     return 0
 
 
-def report(result: Any) -> str:
-    lines = [repr(result), "correlation:"]
+def estimates(result: Any, units: Mapping[str, str]) -> str:
+    """The fit's table of estimates (its repr), with a unit column when any fitted value has a
+    unit (an initial value's, from the YAML's `units:`; parameters and inputs have none)."""
+    text = repr(result)
+    known = [units.get(name, "") for name in result.names]
+    if not any(known):
+        return text
+    lines = text.splitlines()
+    marked = [f"{lines[0]}  unit"]
+    marked += [f"{line}  [{unit}]" if unit else line
+               for line, unit in zip(lines[1:1 + len(known)], known)]
+    return "\n".join([*marked, *lines[1 + len(known):]])
+
+
+def report(result: Any, units: Mapping[str, str] | None = None) -> str:
+    """The estimates (with their units where known) and their correlation."""
+    lines = [estimates(result, units or {}), "correlation:"]
     width = max(10, *(len(name) + 2 for name in result.names))
     lines.append(" " * width + "".join(f"{name:>{width}}" for name in result.names))
     for name, row in zip(result.names, result.correlation):

@@ -56,10 +56,22 @@ def rows_with_events(model: Model, result: SimulationResult,
     return [*names, "event"], rows
 
 
+def units_row(model: Model, names: Sequence[str]) -> list[str]:
+    """Each column's unit in brackets (`[rad/s]`), as the CSV's headers give it; "" where
+    none is known."""
+    return [f"[{unit_of(model, name)}]" if unit_of(model, name) else "" for name in names]
+
+
 def table(model: Model, result: SimulationResult, outputs: Sequence[str] | None = None) -> str:
+    """The terminal table: the columns' names, beneath them their units where the YAML gives
+    any (`units:`, an output expression's `unit:`; values as computed, angles in rad), a row a
+    time (an event's row marked with its name) and a closing line on the run."""
     names, rows = rows_with_events(model, result, outputs)
-    widths = [max(12, len(n)) for n in names]
+    units = units_row(model, names)
+    widths = [max(12, len(n), len(u)) for n, u in zip(names, units)]
     lines = [" ".join(f"{n:>{w}}" for n, w in zip(names, widths))]
+    if any(units):
+        lines.append(" ".join(f"{u:>{w}}" for u, w in zip(units, widths)).rstrip())
     lines += [" ".join([*(f"{v:>{w}.6g}" for v, w in zip(row, widths)),
                         *([f"{'<- ' + label if label else '':<{widths[-1]}}"]
                           if len(names) > row.size else [])]).rstrip()

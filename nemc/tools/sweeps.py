@@ -46,6 +46,7 @@ from ..runtime.model import (
 from ..runtime.outcome import outputs_along
 from ..runtime.simulation import run_times
 from ..vocabulary import NEMC_VERSION as __version__
+from .start import kept_over_scene
 from .sweep_store import NOT_RUN, ChunkOutput, Layout, SweepStoreError, open_store, require
 
 MAX_CHUNK_RUNS = 10_000
@@ -224,20 +225,22 @@ def check_state(model: Model, name: str) -> str:
 def run_chunk(model_or_ref: Model | ModelRef, settings: Settings,
               chunk: ChunkInputs) -> ChunkOutput:
     """Integrate one chunk (one simulate_many on one thread); runs whose parameters the model
-    refuses get status INPUTS_REFUSED and the reason, the others run as usual."""
+    refuses, or whose initial values a closed loop cannot meet, get status INPUTS_REFUSED and
+    the reason, the others run as usual."""
     started = time.perf_counter()
     model, key = (model_or_ref, "") if isinstance(model_or_ref, Model) else \
         worker_model(model_or_ref)
     n = chunk.stop - chunk.start
-    reasons: dict[int, str] = {}
     try:
-        y0s = initial_states(model, chunk, n)
-        result = settings.run(model, y0s, chunk.params, chunk.controls)
-        status, y, nfev = result.status.astype(np.int32), result.y, result.nfev
+        y0s, reasons = initial_states(model, settings, chunk, n)
+        if not reasons:
+            result = settings.run(model, y0s, chunk.params, chunk.controls)
+            status, y, nfev = result.status.astype(np.int32), result.y, result.nfev
     except ModelError:
         reasons = refused_runs(model, chunk, n)
         if not reasons:  # not the parameters of some runs: an error of the whole sweep
             raise
+    if reasons:  # some runs' parameters or (a closed loop's) initial values refused
         y0s, status, y, nfev = run_valid(model, settings, chunk, n, reasons)
     messages = failure_messages(status, y, settings.t_eval)
     for i, reason in reasons.items():
@@ -300,18 +303,53 @@ def run_inputs(model: Model, settings: Settings, chunk: ChunkInputs, y0s: np.nda
     return inputs
 
 
-def initial_states(model: Model, chunk: ChunkInputs, n: int) -> np.ndarray:
-    """The chunk's initial states: given, or the scene's at each run's parameters with the
-    given coordinates and rates put in."""
-    if chunk.y0s is not None:
-        return chunk.y0s
+def initial_states(model: Model, settings: Settings, chunk: ChunkInputs, n: int
+                   ) -> tuple[np.ndarray, dict[int, str]]:
+    """The chunk's initial states (given, or the scene's at each run's parameters with the
+    given coordinates and rates put in), and the runs (in the chunk) whose initial values a
+    closed loop refuses, with why: a closed loop's states are each assembled from its given
+    values (assembled_states)."""
+    y0s = chunk.y0s if chunk.y0s is not None else scene_states(model, chunk, n)
+    if not model.has_loops:
+        return y0s, {}
+    return assembled_states(model, settings, chunk, y0s)
+
+
+def scene_states(model: Model, chunk: ChunkInputs, n: int) -> np.ndarray:
+    """The scene's initial state at each run's parameters with the chunk's initial-value
+    columns put in (a closed loop's: model.guess_state, assembled_states' start)."""
+    scene = model.guess_state if model.has_loops else model.initial_state
     if any(np.ndim(v) for v in chunk.params.values()):
-        y0s = np.array([model.initial_state(run_params(chunk.params, i)) for i in range(n)])
+        y0s = np.array([scene(run_params(chunk.params, i)) for i in range(n)])
     else:
-        y0s = np.tile(model.initial_state(chunk.params), (n, 1))
+        y0s = np.tile(scene(chunk.params), (n, 1))
     for name, values in chunk.y0_columns.items():
         y0s[:, model.state_names.index(name)] = values
     return y0s.reshape(n, model.n_state)
+
+
+def assembled_states(model: Model, settings: Settings, chunk: ChunkInputs, y0s: np.ndarray
+                     ) -> tuple[np.ndarray, dict[int, str]]:
+    """A closed loop's runs' initial states, each assembled at the start as `nemc simulate
+    --initial` (and simulate's y0=dict) assembles one: the values given kept (the scene's
+    `initial` and the sweep's columns; every entry of a full state), the others solved from
+    the constraints from the scene's state. A run whose values the constraints cannot meet
+    is refused (NaN, and why), not the sweep; runs whose parameters are refused are left."""
+    names = set(model.state_names) if chunk.y0s is not None else \
+        kept_over_scene(model, chunk.y0_columns)
+    given = np.array([name in names for name in model.state_names])
+    states = np.array(y0s, dtype=float)
+    refused: dict[int, str] = {}
+    for i in range(len(states)):
+        inputs = run_inputs(model, settings, chunk, states, i)
+        if inputs is None:  # its parameters refused: run_chunk says so
+            continue
+        try:
+            states[i] = model.loops.assembled(settings.t_span[0], states[i], given, inputs.p)[0]
+        except ModelError as error:
+            refused[i] = f"initial values refused: {error}"
+            states[i] = np.nan
+    return states, refused
 
 
 def run_params(params: Mapping[str, Any], i: int) -> dict[str, float]:
@@ -334,23 +372,32 @@ def subset(values: Mapping[str, Any], rows: np.ndarray) -> dict[str, Any]:
 
 
 def run_valid(model: Model, settings: Settings, chunk: ChunkInputs, n: int,
-              refused: Mapping[int, str]) -> tuple[np.ndarray, ...]:
-    """The chunk's runs but the REFUSED ones, which get status INPUTS_REFUSED and NaN."""
+              refused: dict[int, str]) -> tuple[np.ndarray, ...]:
+    """The chunk's runs but the REFUSED ones (run -> why; those whose initial values a closed
+    loop refuses are added), which get status INPUTS_REFUSED and NaN."""
     valid = np.array([i for i in range(n) if i not in refused], dtype=int)
-    y0s = np.full((n, model.n_state), np.nan) if chunk.y0s is None else chunk.y0s
+    y0s = np.full((n, model.n_state), np.nan) if chunk.y0s is None else chunk.y0s.copy()
     y = np.full((n, model.n_state, len(settings.t_eval)), np.nan)
     status = np.full(n, INPUTS_REFUSED, dtype=np.int32)
     nfev = np.zeros(n, dtype=np.int64)
+    rows = valid
     if len(valid):
-        controls = {n: v[valid] if isinstance(v, np.ndarray) else v
-                    for n, v in chunk.controls.items()}
-        sub = ChunkInputs(0, len(valid), None if chunk.y0s is None else chunk.y0s[valid],
-                          subset(chunk.y0_columns, valid), subset(chunk.params, valid),
-                          controls)
-        y0s[valid] = initial_states(model, sub, len(valid))
-        result = settings.run(model, y0s[valid], sub.params, sub.controls)
-        y[valid], status[valid], nfev[valid] = result.y, result.status, result.nfev
+        y0s[valid], more = initial_states(model, settings, rows_of(chunk, valid), len(valid))
+        refused.update({int(valid[j]): why for j, why in more.items()})
+        rows = np.array([i for i in valid if i not in refused], dtype=int)
+    if len(rows):
+        sub = rows_of(chunk, rows)
+        result = settings.run(model, y0s[rows], sub.params, sub.controls)
+        y[rows], status[rows], nfev[rows] = result.y, result.status, result.nfev
     return y0s, status, y, nfev
+
+
+def rows_of(chunk: ChunkInputs, rows: np.ndarray) -> ChunkInputs:
+    """The chunk's runs ROWS (indices in the chunk) as a chunk of their own."""
+    controls = {n: v[rows] if isinstance(v, np.ndarray) else v
+                for n, v in chunk.controls.items()}
+    return ChunkInputs(0, len(rows), None if chunk.y0s is None else chunk.y0s[rows],
+                       subset(chunk.y0_columns, rows), subset(chunk.params, rows), controls)
 
 
 def failure_messages(status: np.ndarray, y: np.ndarray, times: Sequence[float]) -> list[str]:
@@ -528,7 +575,10 @@ def sweep(
 
     y0s: (k, n_state) initial states (any array-like that slices, e.g. a zarr array), or a
     dict state name -> number or (k,) values (other states: the scene's initial state at each
-    run's parameters), or None (the scene's). params: name -> number (shared) or (k,) values.
+    run's parameters; a closed loop's each assembled keeping the scene's `initial` values and
+    the dict's, as `nemc simulate --initial`; a run the constraints cannot meet fails alone,
+    status INPUTS_REFUSED), or None (the scene's). params: name -> number (shared) or (k,)
+    values.
     t_span, t_eval, method, rtol, atol: as simulate_many (method: a native one).
     client: a dask.distributed Client, or None for this machine's cores (threads, default all).
     out: None (in memory), or a .zarr, .nc or .npz file, written chunk by chunk (.nc, .npz:
