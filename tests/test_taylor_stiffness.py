@@ -129,8 +129,8 @@ def test_the_stiffness_estimate_is_the_decay_rate(rod: nemc.Model) -> None:
                                      "free_body_on_spring", "kapitza"])
 @pytest.mark.parametrize("rtol", [1e-3, 1e-8])
 def test_a_smooth_motion_gets_no_stiffness_note(example: str, rtol: float) -> None:
-    """Hairer's counters never reach 15 on these (their highest estimates, 0.5-0.99 x the
-    boundary, come alone): the run ends as before, with scipy's message alone."""
+    """Hairer's counters never reach 15 on these (their estimates are 0 at the median, their
+    highest, 0.5-0.9 x the boundary, alone): the run ends as before, with scipy's message."""
     res = nemc.compile(EXAMPLES / f"{example}.yaml").simulate(method="nemc.Taylor", rtol=rtol)
     assert res.status == 0 and res.message == SUCCESS_MESSAGE
 
