@@ -44,6 +44,9 @@ AUTO_STIFF_STEPS = 200  # nemc.Radau from the start when the decaying modes at y
 #                        hold an explicit method to more steps than this; an explicit start goes
 #                        on with nemc.Radau once Hairer's stiffness test holds and the rest of the
 #                        interval would take more steps than this
+AUTO_SWITCHES_FROM = ("nemc.DOP853", "nemc.Vern9", "nemc.Taylor")  # the explicit starts, whose
+#   runs take Hairer's stiffness test (templates/run_control.c.tmpl; nemc.Taylor's estimate in
+#   templates/taylor.c.tmpl): auto goes on from them with nemc.Radau
 AUTO_TAYLOR_BUILD_RUNS = 1_000  # an ensemble this large builds nemc.Taylor's code when the
 #                                build lacks it (1-2 s once; 2,000 double pendulums: 1.1 s with
 #                                nemc.DOP853, 0.3 s with nemc.Taylor in lanes)

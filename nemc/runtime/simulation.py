@@ -14,6 +14,7 @@ import numpy as np
 from ..vocabulary import (
     AUTO,
     AUTO_STIFF_STEPS,
+    AUTO_SWITCHES_FROM,
     DEFAULT_ATOL,
     DEFAULT_METHOD,
     DEFAULT_RTOL,
@@ -136,7 +137,7 @@ def integrate_auto(model: BuiltModel, spec: RunSpec) -> SimulationResult:
         #                                                    LSODA switches by itself
     span, settings = spec.span, spec.settings
     method = auto_choice(model, span, spec.state0, spec.rtol, spec.p)
-    if method not in ("nemc.DOP853", "nemc.Vern9"):
+    if method not in AUTO_SWITCHES_FROM:
         return integrate(model, spec.but(method=method))
     switch = AUTO_SWITCH_SETTINGS if settings is runs.DEFAULT_SETTINGS else replace(
         settings, stiff_switch=AUTO_STIFF_STEPS)
