@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -36,7 +36,6 @@ from ..vocabulary import (  # noqa: F401 (re-exported: the runtime's public name
     auto_takes_taylor,
 )
 from . import ensemble, fmu, plant, runs, simulation
-from . import regressor as regression
 from . import sensitivities as variational
 from .auto import checked_auto_choice
 from .built import DEFAULT_T_SPAN, BuiltModel  # noqa: F401 (re-exported)
@@ -44,6 +43,9 @@ from .failures import IntegrationFailure, ModelError  # noqa: F401 (re-exported)
 from .linear import Linearization
 from .results import EnsembleResult, SimulationResult, model_html
 from .simulation import SOLVER_STEPS  # noqa: F401 (re-exported)
+
+if TYPE_CHECKING:
+    from . import regressor as regression
 
 
 def read_metadata(path: Path) -> dict:
@@ -230,20 +232,25 @@ class Model(BuiltModel):
                      linear: Sequence[str] = ()) -> regression.Regressor:
         """The regressor at these parameters: its names, phi's values, Y and the loads' Q over
         samples (regression.py)."""
+        from . import regressor as regression  # scipy's linear algebra: only when asked
+
         return regression.Regressor(self._regressor_source(tuple(linear)),
                                    self.parameter_table.vector(params), self.parameter_names)
 
     def base_parameters(self, params: Mapping[str, float] | None = None,
-                        linear: Sequence[str] = (), samples: int = regression.SAMPLES,
+                        linear: Sequence[str] = (), samples: int | None = None,
                         seed: int = 0) -> regression.BaseParameters:
         """The base parameters of a tree: the combinations of phi identifiable at all, from Y
-        stacked at SAMPLES seeded random states (QR: regression.py). A closed loop's depend
-        on the motion: nemc.identify gives those of its data."""
+        stacked at SAMPLES seeded random states (QR: regression.py; None: its default). A
+        closed loop's depend on the motion: nemc.identify gives those of its data."""
+        from . import regressor as regression
+
         reg = self.regressor_at(params, linear)
         if self.has_loops:
             raise ValueError("a closed loop's states are not free: its base parameters come "
                              "from data (nemc.identify)")
-        return reg.base(*regression.random_states(len(reg.coordinate_names), samples, seed))
+        count = regression.SAMPLES if samples is None else samples
+        return reg.base(*regression.random_states(len(reg.coordinate_names), count, seed))
 
     def _regressor_source(self, linear: tuple[str, ...]) -> Any:
         """The regressor's code for LINEAR, derived once (the pipeline's regressor_maker)."""
