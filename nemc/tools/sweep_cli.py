@@ -103,7 +103,7 @@ def dask_address(text: str) -> str:
 def cmd_sweep(args: argparse.Namespace) -> int:
     from ..pipeline import compile_mechanism
     from ..runtime.model import ModelError
-    from . import sweep_plan, sweeps
+    from . import sweep_cluster, sweep_plan, sweeps
 
     model = compile_mechanism(args.mechanism).model
     span = list(model.scene["t_span"] or [0.0, 10.0])
@@ -116,7 +116,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         y0, params, attrs = sweep_plan.plan_runs(model, args.grid, args.random, args.runs,
                                              args.seed, dict(args.params))
         times = None if args.times is None else sweep_plan.output_times(span, args.times)
-        with sweeps.dask_client(args.dask) as client:
+        with sweep_cluster.dask_client(args.dask) as client:
             result = sweeps.sweep(model, y0, params=params, t_span=span, t_eval=times,
                                   method=args.method, rtol=args.rtol, atol=args.atol,
                                   client=client, out=out, resume=args.resume,
@@ -128,7 +128,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     except KeyboardInterrupt as stop:  # SweepInterrupted, or Ctrl-C while setting up
         print(f"\n{interrupted_sweep(stop, out)}", file=sys.stderr)
         return 130
-    except (ImportError, sweeps.WorkersFailed) as error:
+    except (ImportError, sweep_cluster.WorkersFailed) as error:
         print(f"nemc: {error}", file=sys.stderr)
         return 1
     return report_sweep(result)
