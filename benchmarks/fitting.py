@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import importlib.util
 import json
-import statistics
 import subprocess
 import sys
 import time
@@ -55,14 +54,11 @@ MODES = {
     "smoke": Config("smoke", 1, 1, True),
 }
 
-FIRST_FIT = """
-import json, sys, time
+MEASURE = """
+import json, sys
 sys.path.insert(0, {folder!r})
-import fitting as setup  # this script, as a module
-model, fit = setup.prepared({swings}, {from_truth})
-began = time.perf_counter()
-found = fit()
-print(json.dumps({{"seconds": time.perf_counter() - began, "nfev": found.nfev}}))
+import fitting as bench  # this script, as a module
+print(json.dumps(bench.measured({swings}, {from_truth}, {rounds})))
 """
 
 
@@ -88,13 +84,34 @@ def prepared(swings: int, from_truth: bool) -> tuple[Any, Any]:
     return model, fit
 
 
-def first_fit(config: Config) -> dict[str, Any]:
-    """The first fit in a fresh process (the build cached): its seconds and runs."""
-    code = FIRST_FIT.format(folder=str(Path(__file__).resolve().parent), swings=config.swings,
-                            from_truth=config.from_truth)
+def in_fresh_process(config: Config) -> dict[str, Any]:
+    """measured() in a fresh process started on the one CPU: numpy's BLAS then starts one
+    thread (pinning a process that has started two made least_squares' small SVDs 100x
+    slower: the threads spun against each other on one CPU)."""
+    code = MEASURE.format(folder=str(Path(__file__).resolve().parent), swings=config.swings,
+                          from_truth=config.from_truth, rounds=config.rounds)
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          timeout=600, check=True)
+                          timeout=1800)
+    if done.returncode != 0:
+        raise RuntimeError(f"the measuring process failed: {done.stderr[-3000:]}")
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def measured(swings: int, from_truth: bool, rounds: int) -> dict[str, Any]:
+    """The first fit in this process (the build cached), ROUNDS fits more, one fit's share of
+    evaluations, one swing's runs with and without sensitivities."""
+    model, fit = prepared(swings, from_truth)
+    began = time.perf_counter()
+    fit()
+    first = time.perf_counter() - began
+    seconds, found = [], None
+    for _ in range(rounds):
+        began = time.perf_counter()
+        found = fit()
+        seconds.append(time.perf_counter() - began)
+    return {"first_fit": first, "fits": common.summary(seconds), "nfev": found.nfev,
+            "rank": found.rank, "share": evaluation_share(fit),
+            "runs": run_costs(model, found, rounds)}
 
 
 def evaluation_share(fit: Any) -> dict[str, Any]:
@@ -121,7 +138,7 @@ def evaluation_share(fit: Any) -> dict[str, Any]:
             "evaluation_seconds": sum(spent), "nfev": found.nfev}
 
 
-def run_costs(model: Any, found: Any, config: Config) -> dict[str, Any]:
+def run_costs(model: Any, found: Any, rounds: int) -> dict[str, Any]:
     """One swing's run at the estimate with the 12 sensitivity columns and without
     (common.interleaved)."""
     run = found.runs[0]
@@ -133,30 +150,20 @@ def run_costs(model: Any, found: Any, config: Config) -> dict[str, Any]:
                                       sensitivities=sensitivities, rtol=1e-10, atol=1e-12)
 
     return common.interleaved({"plain": (call(None), 1), "sensitivities": (call(names), 1)},
-                              rounds=max(3, config.rounds), target=0.05)
+                              rounds=max(3, rounds), target=0.05)
 
 
 def run(config: Config) -> dict[str, Any]:
     env = common.environment(config.mode)
     started = time.perf_counter()
-    model, fit = prepared(config.swings, config.from_truth)
+    prepared(config.swings, config.from_truth)  # the build cached before anything is timed
     with common.one_cpu(env):
-        cold = first_fit(config)
-        print(f"  first fit in a process: {cold['seconds']:.2f} s", flush=True)
-        fit()  # the part "sensitivities" and the drivers loaded
-        seconds, found = [], None
-        for _ in range(config.rounds):
-            began = time.perf_counter()
-            found = fit()
-            seconds.append(time.perf_counter() - began)
-        print(f"  repeated fits: {statistics.median(seconds):.2f} s", flush=True)
-        share = evaluation_share(fit)
-        costs = run_costs(model, found, config)
+        result = in_fresh_process(config)
+    print(f"  first fit in a process: {result['first_fit']:.2f} s, repeated fits: "
+          f"{result['fits']['median']:.2f} s", flush=True)
     common.finish_environment(env, started)
     return {"environment": env, "config": config.__dict__, "target": TARGET,
-            "first_fit": cold, "fits": common.summary(seconds), "nfev": found.nfev,
-            "rank": found.rank, "share": share, "runs": costs,
-            "experiments": config.swings}
+            "experiments": config.swings, **result}
 
 
 def markdown(result: dict[str, Any]) -> str:
@@ -172,7 +179,7 @@ def markdown(result: dict[str, Any]) -> str:
              f"{TARGET:g} s on one core.", "",
              "| what | time |", "| --- | --- |",
              f"| first fit in a fresh process (build cached) | "
-             f"{fmt_time(result['first_fit']['seconds'])} |",
+             f"{fmt_time(result['first_fit'])} |",
              f"| a fit, repeated in one process | {common.spread(result['fits'])} |",
              f"| of one fit: its {share['evaluations']} evaluations (runs with sensitivities, "
              f"residuals, Jacobian) | {fmt_time(share['evaluation_seconds'])} "

@@ -199,7 +199,7 @@ def test_fitting_smoke_mode_times_the_chains_fit(tmp_path: Path) -> None:
     out = run_script("fitting.py", tmp_path)
     result = json.loads((out / "fitting-latest.json").read_text())
     assert result["rank"] == 12 and result["nfev"] >= 1
-    assert result["first_fit"]["seconds"] > 0 and result["fits"]["median"] > 0
+    assert result["first_fit"] > 0 and result["fits"]["median"] > 0
     share = result["share"]
     assert 0 < share["evaluation_seconds"] <= share["fit_seconds"]
     assert result["runs"]["sensitivities"]["median"] > result["runs"]["plain"]["median"] > 0
