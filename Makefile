@@ -92,6 +92,7 @@ bench: $(PEERS_STAMP)
 	$(BIN)/python benchmarks/plant.py
 	$(BIN)/python benchmarks/sensitivities.py
 	$(BIN)/python benchmarks/friction.py
+	$(BIN)/python benchmarks/fitting.py
 
 bench-quick: $(STAMP)
 	$(BIN)/nemc bench --quick

@@ -203,3 +203,14 @@ def test_friction_smoke_mode_compares_exact_friction_with_the_tanh_law(tmp_path:
     exact = result["rows"][0]
     assert exact["stick_error"] == 0.0 and exact["switch_error"] < 1e-8
     assert "| nemc.Vern9 | exact |" in (out / "friction-latest.md").read_text()
+
+
+def test_fitting_smoke_mode_times_the_chains_fit(tmp_path: Path) -> None:
+    out = run_script("fitting.py", tmp_path)
+    result = json.loads((out / "fitting-latest.json").read_text())
+    assert result["rank"] == 12 and result["nfev"] >= 1
+    assert result["first_fit"] > 0 and result["fits"]["median"] > 0
+    share = result["share"]
+    assert 0 < share["evaluation_seconds"] <= share["fit_seconds"]
+    assert result["runs"]["sensitivities"]["median"] > result["runs"]["plain"]["median"] > 0
+    assert (out / "fitting-latest.md").read_text().startswith("# Fitting")

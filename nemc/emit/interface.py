@@ -5,11 +5,14 @@ shares (nemc_run.h, nemc_drivers.h), and the cffi cdef, their declarations cut o
 from __future__ import annotations
 
 import re
+from typing import TYPE_CHECKING
 
-from ..derive.equations import Equations
 from ..vocabulary import AUTO_SPECTRUM_MAX_STATES
 from ..vocabulary import NEMC_VERSION as __version__
-from .printing import comment_text, template
+from .resources import comment_text, template
+
+if TYPE_CHECKING:
+    from ..derive.equations import Equations
 
 
 def header(eqs: Equations, prefix: str) -> str:

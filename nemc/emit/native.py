@@ -1,18 +1,22 @@
 """The native integrators (issue 9): the model's entry points appended to <name>.c, the
 model-independent nemc_drivers.c, and <name>_spectrum.c, method auto's look at the start.
+What a sensitivity system's drivers need (system_code) imports no sympy: a cached model's first
+run with sensitivities finds them in the cache through it (the printer, jacobian_c, is imported
+by the functions that print a model).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from ..derive.equations import Equations
 from ..vocabulary import AUTO_SPECTRUM_MAX_STATES
 from ..vocabulary import NEMC_VERSION as __version__
 from .interface import cdef, shared_headers
-from .jacobian_c import has_jacobian, jacobian_function
-from .printing import template
-from .resources import read_template
+from .resources import read_template, template
+
+if TYPE_CHECKING:
+    from ..derive.equations import Equations
 
 
 def native_section(eqs: Equations, prefix: str, taylor: str, lanes: str = "") -> str:
@@ -20,6 +24,8 @@ def native_section(eqs: Equations, prefix: str, taylor: str, lanes: str = "") ->
     own coefficients) only in builds that ask for it, its ensembles in SIMD lanes (lanes:
     templates/batch.c.tmpl, else batch_absent.c.tmpl) only when asked, and the model's entry
     points, which hand its functions to the drivers (drivers_source)."""
+    from .jacobian_c import jacobian_function
+
     entry = template("integrators_entry.c.tmpl").substitute(
         name=eqs.mechanism.name, prefix=prefix, jacobian=jacobian_function(eqs, prefix)
     )
@@ -33,6 +39,8 @@ def drivers_source(eqs: Equations) -> str:
     Jacobian: it halves the compile time the integrators add elsewhere. The text names no
     model, so models of one size (and Jacobian or not) share one compiled object
     (build.builder.drivers_object)."""
+    from .jacobian_c import has_jacobian
+
     return drivers_text(2 * eqs.n, has_jacobian(eqs))
 
 
@@ -69,6 +77,8 @@ def system_code(n_state: int) -> SystemCode:
 def spectrum_source(eqs: Equations, prefix: str) -> str:
     """<name>_spectrum.c: method auto's look at the start (templates/spectrum.c.tmpl), in a
     file of its own that the build compiles in parallel with <name>.c."""
+    from .jacobian_c import jacobian_function
+
     return template("spectrum_unit.c.tmpl").substitute(
         name=eqs.mechanism.name, version=__version__, prefix=prefix,
         spectrum=read_template("spectrum.c.tmpl"), jacobian=jacobian_function(eqs, prefix),

@@ -12,10 +12,8 @@ names appear only inside comments, sanitized. A long program is printed in parts
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
-from string import Template
 
 import sympy
 
@@ -24,17 +22,7 @@ from ..derive.program import Guard, Program
 from ..front import mechanism as m
 from .c_text import SymbolTablePrinter
 from .optimize import Block
-from .resources import read_template
-
-
-def template(name: str) -> Template:
-    return Template(read_template(name))
-
-
-def comment_text(text: str) -> str:
-    """Text safe inside a C block comment: printable ASCII, no comment terminator."""
-    text = re.sub(r"[^\x20-\x7e]", "?", text)
-    return text.replace("*/", "* /").replace("/*", "/ *")
+from .resources import comment_text, read_template, template  # noqa: F401 (theirs, here too)
 
 
 def symbol_table(eqs: Equations, block: Block) -> dict[sympy.Symbol, str]:

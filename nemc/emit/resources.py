@@ -4,13 +4,16 @@ Their source is the top-level templates/ folder; an installed nemc (a wheel, `pi
 `pip install -e .`) has them as the package data `nemc.templates` (pyproject.toml maps the
 folder into the package), found by its module spec (a folder on disk) or, for any other kind
 of install (a zip), read with importlib.resources, imported only then: it costs a cached
-compile a few milliseconds (its tempfile, shutil, bz2, lzma...).
+compile a few milliseconds (its tempfile, shutil, bz2, lzma...). Sympy-free, as what imports
+only it (the drivers of a sensitivity system, found in the cache: nemc/build/systems.py).
 """
 
 from __future__ import annotations
 
 import importlib.util
+import re
 from pathlib import Path
+from string import Template
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -47,6 +50,16 @@ def _packaged_templates() -> Traversable:
 
 def read_template(name: str) -> str:
     return templates().joinpath(name).read_text(encoding="utf-8")
+
+
+def template(name: str) -> Template:
+    return Template(read_template(name))
+
+
+def comment_text(text: str) -> str:
+    """Text safe inside a C block comment: printable ASCII, no comment terminator."""
+    text = re.sub(r"[^\x20-\x7e]", "?", text)
+    return text.replace("*/", "* /").replace("/*", "/ *")
 
 
 def template_files() -> list[Traversable]:

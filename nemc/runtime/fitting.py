@@ -344,7 +344,8 @@ def bound_arrays(names: tuple[str, ...], bounds: Mapping[str, Any] | None, x0: n
 class Evaluations:
     """The weighted residuals and their exact Jacobian at x, from one run per experiment with
     its sensitivities (kept for the latest x: least_squares asks for both there). A run that
-    fails gives residuals NaN (the trust region then shrinks), refused at the start."""
+    fails, or values the model refuses (a negative mass), give residuals NaN (the trust region
+    then shrinks), refused at the start."""
 
     def __init__(self, problem: Problem):
         self.problem = problem
@@ -375,8 +376,8 @@ class Evaluations:
                 res = problem.run_at(x, experiment)
                 failure = None if res.success and res.t.size == experiment.t.size else \
                     res.message
-            except IntegrationFailure as error:
-                failure = str(error)
+            except (IntegrationFailure, ModelError) as error:  # ModelError: values the
+                failure = str(error)  # model refuses (a negative inertia), a step too far
             if failure is not None:
                 if first:
                     raise FitError(f"fit: the run of experiment {k} at the start values "

@@ -19,6 +19,7 @@ nemc.Radau and nemc.Taylor are refused, each by name.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -310,12 +311,19 @@ class SystemDrivers:
         return self.ffi.cast("nemc_system_fn", int(address))
 
 
+@functools.lru_cache(maxsize=16)
+def system_drivers(maker: Callable[[int], Any], size: int) -> SystemDrivers:
+    """The drivers for systems of SIZE states, loaded once per process (finding them in the
+    cache prints and hashes their C: a few ms, a third of a small run, a fit's many runs)."""
+    return SystemDrivers(maker(size))
+
+
 def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Columns,
                z0: np.ndarray) -> SystemOutcome:
     """The system by nemc.DOP853 or nemc.Vern9 in C, the drivers compiled for its size."""
     assert model.system_drivers is not None
     size = z0.size
-    drivers = SystemDrivers(model.system_drivers(size))
+    drivers = system_drivers(model.system_drivers, size)
     rtol, atol = native_tolerances(spec.rtol, spec.atol)
     run, keep = native.new_run(drivers, spec.span, spec.times, rtol, atol, spec.settings)
     p = cols.parameters(spec.p)
