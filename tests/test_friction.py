@@ -418,3 +418,24 @@ def test_painleves_rod_normal_force_and_its_paradox(tmp_path: Path) -> None:
         assert result.outputs["slide.friction"][0] == pytest.approx(mu * normal, rel=1e-12)
     failed = model.simulate(params={"mu": 3.0})
     assert not failed.success and "Painleve's paradox" in failed.message
+
+
+def test_a_sweep_over_the_stretch_sticks_each_run_where_its_closed_form_says(tmp_path: Path
+                                                                            ) -> None:
+    """`nemc sweep` takes friction's method (nemc.Vern9) and each run its own mode; `nemc
+    stress`, whose measurements assume no mode switches, says it does not measure friction."""
+    from nemc.tools.cli import main
+
+    store = tmp_path / "block.zarr"
+    assert main(["sweep", str(EXAMPLES / "coulomb_block.yaml"), "--grid", "x=0.1:1.0:4",
+                 "--out", str(store)]) == 0
+    swept = nemc.open_sweep(store)
+    delta = 2 * MU * M * G / K
+    assert swept.attrs["method"] == "nemc.Vern9"
+    for x0, y in zip(swept.coords["x"].values, swept["y"].isel(time=-1).values):
+        x = float(x0)
+        while abs(x) * K > MU_S * M * G:
+            x = -(x - math.copysign(delta, x))
+        assert y[0] == pytest.approx(x, abs=1e-9) and y[1] == 0.0
+    assert main(["stress", str(EXAMPLES / "coulomb_block.yaml"), "--out",
+                 str(tmp_path / "stress")]) == 2

@@ -33,7 +33,7 @@ from .checks import (
     within_budget,
 )
 from .failures import BuildNotice, ModelError
-from .friction import FRICTION_METHOD
+from .friction import FRICTION_METHOD, FRICTION_METHODS
 from .inputs import RunInputs
 from .native import native_build, new_run, table_inputs
 from .results import EnsembleResult
@@ -176,6 +176,8 @@ def ensemble_method(model: BuiltModel, span: Sequence[float], y0: Any = None,
     """Model.ensemble_method: the scene's native method; nemc.Radau for an implicit scene;
     else "auto"'s choice for a run from y0 (default the scene's) for RUNS runs."""
     scene = model.scene["method"]
+    if model.friction.present:  # its explicit native methods only (runtime/friction.py)
+        return scene if scene in FRICTION_METHODS else FRICTION_METHOD
     if scene in NATIVE_METHODS:
         return scene
     if scene in IMPLICIT_METHODS:

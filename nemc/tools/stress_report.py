@@ -104,11 +104,24 @@ def check_horizon(model: Model, horizon: float) -> None:
                                    f"interval, {abs(t1 - t0):g} s, got {horizon:g} s")
 
 
+def refuse_friction(model: Model) -> None:
+    """The report's measurements assume a smooth, conservative-or-damped right-hand side that
+    every method can run (a DOP853 reference, energy drift, Lyapunov and stiffness estimates
+    from its derivative): a mechanism with Coulomb friction has none of these yet."""
+    if model.friction.present:
+        raise s.runtime.ModelError(
+            "nemc stress does not measure a mechanism with Coulomb friction yet (friction on "
+            f"{', '.join(model.friction.items)}): its reference runs scipy's DOP853 and its "
+            "drift, sensitivity and stiffness sections need a right-hand side without mode "
+            "switches; its accuracy is checked against closed forms in tests/test_friction.py")
+
+
 def measure(path: str | Path, horizon: float, lyapunov_time: float, params: dict,
             contrast: dict | None, finished: Finished, compile_mechanism, start: float) -> Study:
     """study()'s measurements, in order, each reported to `finished`."""
     finished.start("compiling")
     model = compile_mechanism(path, True, energy=True, mass_matrix=True).model
+    refuse_friction(model)
     check_horizon(model, horizon)
     finished.start("the scene's own run")
     own = model.simulate(params=params)
