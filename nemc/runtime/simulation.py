@@ -205,14 +205,21 @@ def kinematic_run(model: BuiltModel, spec: RunSpec) -> SimulationResult:
 
 
 def passages_note(t: np.ndarray, passages: list[Passage]) -> str:
-    """What a kinematic analysis's message says of the singular configurations it passed."""
+    """What a kinematic analysis's message says of the singular configurations it passed (a run
+    of consecutive times near one counted once, at its middle time)."""
     if not passages:
         return ""
-    at = ", ".join(f"{t[passage.index]:.6g}" for passage in passages[:5])
-    more = f" and {len(passages) - 5} more" if len(passages) > 5 else ""
-    return (f" It passed {len(passages)} singular configuration"
-            f"{'s' if len(passages) > 1 else ''} on its branch (near t = {at}{more}: the state "
-            "and outputs there interpolated from times on either side, decision 0036).")
+    runs: list[list[int]] = []
+    for passage in passages:
+        if runs and passage.index == runs[-1][-1] + 1:
+            runs[-1].append(passage.index)
+        else:
+            runs.append([passage.index])
+    at = ", ".join(f"{t[run[len(run) // 2]]:.6g}" for run in runs[:5])
+    more = f" and {len(runs) - 5} more" if len(runs) > 5 else ""
+    return (f" It passed {len(runs)} singular configuration{'s' if len(runs) > 1 else ''} on "
+            f"its branch (near t = {at}{more}; the state and outputs at the {len(passages)} "
+            "times near them interpolated from times on either side, decision 0036).")
 
 
 def passed_outputs(model: BuiltModel, t: np.ndarray, y: np.ndarray, p: np.ndarray,
