@@ -182,3 +182,18 @@ def test_the_previous_procedure_left_the_parallelogram() -> None:
     result = built.simulate(t_span=(0.0, 1.0), t_eval=np.linspace(0.0, 1.0, 101))
     previous = assembled_from_the_previous(built, result)
     assert np.max(np.abs(previous[0])) > 0.1
+
+
+def test_a_crank_driven_past_a_dead_point_stops_there() -> None:
+    """fourbar_driven with a crank of 0.3 (not a Grashof crank, it cannot turn round): the
+    analysis stops at the dead point the crank reaches before t = 0.13, saying so; the states
+    before it close the loop."""
+    text = (ROOT / "examples" / "fourbar_driven.yaml").read_text().replace("L1: 0.1\n",
+                                                                           "L1: 0.3\n")
+    path = folder() / "fourbar_dead_point.yaml"
+    path.write_text(text)
+    built = nemc.compile(path)
+    result = built.simulate()
+    assert not result.success and result.status == -1
+    assert "dead point" in result.message and result.t[-1] < 0.13
+    assert np.max(built.constraint_residual(result.y, result.t)) < 1e-9

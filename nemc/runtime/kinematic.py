@@ -138,10 +138,12 @@ class BranchFollower:
         prediction, base = hermite(known, t), known[0][1]
         motion = np.abs(prediction[0::2] - base[0::2]).max()
         allowed = BRANCH_FRACTION * motion + BRANCH_FLOOR * (1.0 + np.abs(prediction[0::2]).max())
+        unassembled = None
         for guess in (base, prediction) if motion <= LONGEST_STEP else ():
             try:
                 state = self.assemble(t, guess)
-            except ModelError:
+            except ModelError as error:
+                unassembled = error
                 continue
             if np.abs(state[0::2] - prediction[0::2]).max() <= allowed:
                 return state
@@ -154,8 +156,11 @@ class BranchFollower:
                 if self.trusted(middle, halfway):
                     self.remember(middle, halfway)
                     return self.solved(t, depth + 1)
-        raise BranchLost(f"at t={t:.9g} the assembly leaves the branch the analysis is on and "
-                         "no smaller step keeps it there")
+        if unassembled is not None:  # beyond the positions the branch reaches (a dead point)
+            raise BranchLost(f"at t={t:.9g}: {unassembled}")
+        raise BranchLost(f"at t={t:.9g}: the assembly leaves the branch the analysis is on and "
+                         "no smaller step keeps it there (a dead point: the drives carry the "
+                         "mechanism past the positions its branch reaches)")
 
     def trusted(self, t: float, y: np.ndarray) -> bool:
         """Whether y at t may predict the states after it: Phi_q of full rank there, its
