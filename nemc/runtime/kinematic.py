@@ -26,7 +26,6 @@ from .failures import ModelError
 # model's C extrapolates its dynamics (templates/loops.c.tmpl: two SINGULAR_WINDOWs): a state
 # there takes its values from times out of it
 KINEMATIC_WINDOW = 2e-2
-PIVOT_TOLERANCE = 1e-12  # a pivot below this x Phi_q's largest entry is redundant (as in the C)
 SHIFT = 0.02  # near a singular configuration, the interpolation's nodes' spacing: coordinate
 #               units over the rates' norm
 NODES = 4  # the nodes on each side of a singular configuration (degree 2 NODES - 1)
@@ -86,26 +85,16 @@ def hermite(known: list[tuple[float, np.ndarray]], t: float) -> np.ndarray:
     return out
 
 
-def conditioning(jacobian: np.ndarray) -> tuple[float, int]:
-    """Phi_q's conditioning as the model's C measures it: the smallest pivot of R (Phi_q^T = Q R)
-    kept (above PIVOT_TOLERANCE of the largest entry) over the largest (1 with none kept), and
-    how many are kept (Phi_q's rank)."""
-    if not jacobian.size or not np.all(np.isfinite(jacobian)):
-        return 0.0, 0
-    pivots = np.abs(np.diag(np.linalg.qr(jacobian.T, mode="r")))
-    kept = pivots[pivots > PIVOT_TOLERANCE * np.abs(jacobian).max()]
-    return (float(kept.min() / pivots.max()) if kept.size else 1.0), kept.size
-
-
 class BranchFollower:
     """The states of one kinematic analysis on its branch. ASSEMBLE(t, guess) is the state
-    assembled at t from guess (or raises ModelError); JACOBIAN(t, y) is Phi_q there, whose rank
-    is RANK away from singular configurations."""
+    assembled at t from guess (or raises ModelError); CONDITIONING(t, y) is Phi_q's there, as
+    the model's C measures it (R's smallest kept pivot over its largest, Phi_q^T = Q R), and its
+    rank, which is RANK away from singular configurations."""
 
     def __init__(self, assemble: Callable[[float, np.ndarray], np.ndarray],
-                 jacobian: Callable[[float, np.ndarray], np.ndarray], rank: int, t0: float,
-                 y0: np.ndarray):
-        self.assemble, self.jacobian, self.rank = assemble, jacobian, rank
+                 conditioning: Callable[[float, np.ndarray], tuple[float, int]], rank: int,
+                 t0: float, y0: np.ndarray):
+        self.assemble, self.conditioning, self.rank = assemble, conditioning, rank
         self.times: list[float] = [t0]  # the known states' times, sorted, out of singularities
         self.states: list[np.ndarray] = [y0]
 
@@ -127,7 +116,7 @@ class BranchFollower:
     def singular(self, t: float, y: np.ndarray) -> bool:
         """Whether y at t is at or near a singular configuration (its values then
         interpolated): Phi_q ill-conditioned there, or of a rank below its generic one."""
-        ratio, rank = conditioning(self.jacobian(t, y))
+        ratio, rank = self.conditioning(t, y)
         return ratio < KINEMATIC_WINDOW or rank < self.rank
 
     def solved(self, t: float, depth: int = 0) -> np.ndarray:
@@ -165,7 +154,7 @@ class BranchFollower:
     def trusted(self, t: float, y: np.ndarray) -> bool:
         """Whether y at t may predict the states after it: Phi_q of full rank there, its
         conditioning at least TRUSTED (the rates' rounding small)."""
-        ratio, rank = conditioning(self.jacobian(t, y))
+        ratio, rank = self.conditioning(t, y)
         return ratio >= TRUSTED and rank >= self.rank
 
     def passage(self, t: float) -> Passage | None:

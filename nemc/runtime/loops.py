@@ -108,6 +108,16 @@ class Loops:
         self._loop_c("constraint_jacobian")(float(t), buffer(state), buffer(p), buffer(jacobian))
         return jacobian
 
+    def conditioning_at(self, t: float, y: np.ndarray, p: np.ndarray) -> tuple[float, int]:
+        """Phi_q's conditioning at (t, y) as the right-hand side measures it (R's smallest kept
+        pivot over its largest, Phi_q^T = Q R: below 2e-2 it passes a singular configuration)
+        and its rank (the pivots kept)."""
+        out = np.empty(3)
+        buffer = self.compiled.buffer
+        state = np.ascontiguousarray(y, dtype=float)
+        self._loop_c("constraint_conditioning")(float(t), buffer(state), buffer(p), buffer(out))
+        return float(out[0]), len(self.constraint_equations) - int(out[1])
+
     def generic_rank(self, t: float, p: np.ndarray) -> int:
         """The rank Phi_q has away from singular configurations: its largest at a few seeded
         random positions (a singular one is a set of measure zero), kept per parameters."""
@@ -243,10 +253,11 @@ class Loops:
         def assemble(t: float, guess: np.ndarray) -> np.ndarray:
             return self.assembled(t, guess, nothing, p, check_start=False)[0]
 
-        def jacobian(t: float, y: np.ndarray) -> np.ndarray:
-            return self.jacobian_at(t, y, p)
+        def conditioning(t: float, y: np.ndarray) -> tuple[float, int]:
+            return self.conditioning_at(t, y, p)
 
-        follower = BranchFollower(assemble, jacobian, self.generic_rank(t0, p), float(t0), y0)
+        follower = BranchFollower(assemble, conditioning, self.generic_rank(t0, p), float(t0),
+                                  y0)
         return kinematic_states(follower, times, lambda t, y: self.lasting(t, y, p))
 
     def lasting(self, t: float, y: np.ndarray, p: np.ndarray) -> str:
