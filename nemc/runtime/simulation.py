@@ -193,7 +193,7 @@ def kinematic_run(model: BuiltModel, spec: RunSpec) -> SimulationResult:
     else:  # a tree whose every coordinate is driven: its state is empty
         t, y, failure = times.astype(float), np.empty((0, len(times))), None
     outputs = lazy_outputs(model, t, y, spec.p, spec.inputs)
-    if passages and outputs:
+    if passages and model.output_names:
         outputs = LazyOutputs(passed_outputs, model, t, y, spec.p, spec.inputs, passages)
     message = failure or KINEMATIC_MESSAGE + passages_note(t, passages)
     return SimulationResult(
