@@ -16,6 +16,7 @@ import numpy as np
 
 from .compiled import Compiled
 from .failures import ModelError, loop_equation
+from .kinematic import BranchFollower, KinematicStates, kinematic_states
 
 ASSEMBLY_TOLERANCE = 1e-10  # what an assembled or given state may leave of a constraint
 
@@ -106,6 +107,16 @@ class Loops:
         state = np.ascontiguousarray(y, dtype=float)
         self._loop_c("constraint_jacobian")(float(t), buffer(state), buffer(p), buffer(jacobian))
         return jacobian
+
+    def conditioning_at(self, t: float, y: np.ndarray, p: np.ndarray) -> tuple[float, int]:
+        """Phi_q's conditioning at (t, y) as the right-hand side measures it (R's smallest kept
+        pivot over its largest, Phi_q^T = Q R: below 2e-2 it passes a singular configuration)
+        and its rank (the pivots kept)."""
+        out = np.empty(3)
+        buffer = self.compiled.buffer
+        state = np.ascontiguousarray(y, dtype=float)
+        self._loop_c("constraint_conditioning")(float(t), buffer(state), buffer(p), buffer(out))
+        return float(out[0]), len(self.constraint_equations) - int(out[1])
 
     def generic_rank(self, t: float, p: np.ndarray) -> int:
         """The rank Phi_q has away from singular configurations: its largest at a few seeded
@@ -231,22 +242,32 @@ class Loops:
 
     # -- no degree of freedom: a kinematic analysis -----------------------------------------
 
-    def kinematic_states(self, times: np.ndarray, y0: np.ndarray, p: np.ndarray
-                         ) -> tuple[np.ndarray, np.ndarray, str | None]:
-        """The states of a mechanism its drives leave without a degree of freedom, at each time:
-        assembled from the previous one (the first from y0, assembled already), so the branch
-        carries over. Returns the times reached, their states (n_state, n_t), and why it
-        stopped early (or None)."""
+    def kinematic_states(self, t0: float, times: np.ndarray, y0: np.ndarray, p: np.ndarray
+                         ) -> KinematicStates:
+        """The states of a mechanism its drives leave without a degree of freedom at each time,
+        on the branch of y0 (assembled at t0 already), through isolated singular configurations
+        (runtime/kinematic.py): the times reached, their states, the passages, and why the
+        analysis stopped early (or None)."""
         nothing = np.zeros(self.n_state, dtype=bool)
-        states, state = [], y0
-        for t in times:
-            try:
-                state, _ = self.assembled(float(t), state, nothing, p, check_start=False)
-            except ValueError as error:
-                return (times[:len(states)], np.array(states).T.reshape(self.n_state, -1),
-                        f"at t={float(t):.9g}: {error}")
-            states.append(state)
-        return times, np.array(states).T.reshape(self.n_state, -1), None
+
+        def assemble(t: float, guess: np.ndarray) -> np.ndarray:
+            return self.assembled(t, guess, nothing, p, check_start=False)[0]
+
+        def conditioning(t: float, y: np.ndarray) -> tuple[float, int]:
+            return self.conditioning_at(t, y, p)
+
+        follower = BranchFollower(assemble, conditioning, self.generic_rank(t0, p), float(t0),
+                                  y0)
+        return kinematic_states(follower, times, lambda t, y: self.lasting(t, y, p))
+
+    def lasting(self, t: float, y: np.ndarray, p: np.ndarray) -> str:
+        """Why a kinematic analysis stops at a singular configuration whose loss of rank lasts
+        (the drives hold the mechanism in it, or move it within it)."""
+        left, values, _ = np.linalg.svd(self.jacobian_at(t, y, p))
+        weakest = self.constraint_equations[int(np.abs(left[:, values.size - 1]).argmax())]
+        return (f"at t={t:.9g}: constraint {weakest!r} loses rank there and the drives do not "
+                "carry the mechanism out of it on a determined branch: a singular (locked) "
+                "configuration that lasts (an isolated one is passed: decision 0036)")
 
     def given_mask(self, y0: Any) -> np.ndarray:
         """Which entries of the initial state the caller (or the scene) gives: the scene's

@@ -38,12 +38,15 @@ from .checks import (
 from .failures import ModelError
 from .friction import FRICTION_METHOD
 from .inputs import RunInputs
+from .kinematic import Passage
 from .native import native_build, simulate_native
 from .outcome import RunSpec, at_start, lazy_outputs
-from .results import SimulationResult
+from .results import LazyOutputs, SimulationResult
 from .scipy_run import simulate_scipy
 
 KINEMATIC_POINTS = 201  # the default times of a kinematic analysis over t_span
+KINEMATIC_MESSAGE = ("Kinematic analysis: no degree of freedom left by the drives; the states "
+                     "come from the constraints at each time.")
 SOLVER_STEPS = "steps"  # simulate(t_eval="steps"): the solver's own steps, whatever the scene says
 # method "auto"'s explicit start under the default settings: it ends once the run turns stiff
 AUTO_SWITCH_SETTINGS = replace(runs.DEFAULT_SETTINGS, stiff_switch=AUTO_STIFF_STEPS)
@@ -190,20 +193,57 @@ def times_after(times: Any, t_switch: float, span: tuple[float, ...]) -> Any:
 def kinematic_run(model: BuiltModel, spec: RunSpec) -> SimulationResult:
     """A mechanism its drives leave without a degree of freedom: no integration, its
     states computed from the constraints at each time of t_eval (default: 201 over
-    t_span), the outputs (drives, reactions) there."""
+    t_span) on the branch it starts on, the outputs (drives, reactions) there."""
     times = np.linspace(*spec.span, KINEMATIC_POINTS) if spec.times is None else np.asarray(
         spec.times)
+    passages: list[Passage] = []
     if model.has_loops:
-        t, y, failure = model.loops.kinematic_states(times.astype(float), spec.state0, spec.p)
+        found = model.loops.kinematic_states(spec.span[0], times.astype(float), spec.state0,
+                                             spec.p)
+        t, y, failure, passages = found.t, found.y, found.failure, found.passages
     else:  # a tree whose every coordinate is driven: its state is empty
         t, y, failure = times.astype(float), np.empty((0, len(times))), None
+    outputs = lazy_outputs(model, t, y, spec.p, spec.inputs)
+    if passages and model.output_names:
+        outputs = LazyOutputs(passed_outputs, model, t, y, spec.p, spec.inputs, passages)
+    message = failure or KINEMATIC_MESSAGE + passages_note(t, passages)
     return SimulationResult(
-        t=t, y=y, outputs=lazy_outputs(model, t, y, spec.p, spec.inputs), nfev=0, njev=0,
-        nlu=0,
+        t=t, y=y, outputs=outputs, nfev=0, njev=0, nlu=0,
         status=0 if failure is None else -1, success=failure is None,
-        message=failure or "Kinematic analysis: no degree of freedom left by the drives; "
-        "the states come from the constraints at each time.",
+        message=message if failure is None else f"Kinematic analysis stopped {message}"
+        + passages_note(t, passages),
         method="kinematic", rtol=spec.rtol, atol=spec.atol, params=model.parameters_at(spec.p))
+
+
+def passages_note(t: np.ndarray, passages: list[Passage]) -> str:
+    """What a kinematic analysis's message says of the singular configurations it passed (a run
+    of consecutive times near one counted once, at its middle time)."""
+    if not passages:
+        return ""
+    runs: list[list[int]] = []
+    for passage in passages:
+        if runs and passage.index == runs[-1][-1] + 1:
+            runs[-1].append(passage.index)
+        else:
+            runs.append([passage.index])
+    at = ", ".join(f"{t[run[len(run) // 2]]:.6g}" for run in runs[:5])
+    more = f" and {len(runs) - 5} more" if len(runs) > 5 else ""
+    return (f" It passed {len(runs)} singular configuration{'s' if len(runs) > 1 else ''} on "
+            f"its branch (near t = {at}{more}; the state and outputs at the {len(passages)} "
+            "times near them interpolated from times on either side, decision 0036).")
+
+
+def passed_outputs(model: BuiltModel, t: np.ndarray, y: np.ndarray, p: np.ndarray,
+                   inputs: RunInputs | None, passages: list[Passage]) -> dict[str, np.ndarray]:
+    """The outputs along a kinematic analysis, those at its passages of singular configurations
+    interpolated from the times on either side (kinematic.Passage) as their states were."""
+    outputs = {name: np.array(values, dtype=float)
+               for name, values in lazy_outputs(model, t, y, p, inputs).items()}
+    for passage in passages:
+        shifted = lazy_outputs(model, passage.times, passage.states.T, p, inputs)
+        for name, values in outputs.items():
+            values[passage.index] = passage.weights @ np.asarray(shifted[name], dtype=float)
+    return outputs
 
 
 # -- the arguments, resolved and checked -------------------------------------------------------
