@@ -95,7 +95,9 @@ def test_the_command_line_runs_the_repro_to_its_end(damped: Path,
     assert main(["simulate", str(damped), "--method", "auto", "--t-eval", "5,"]) == 0
     out = capsys.readouterr().out
     assert "nemc.Taylor then nemc.Radau" in out
-    q, rate = (float(v) for v in out.splitlines()[1].split()[1:3])
+    row = next(line.split() for line in out.splitlines()[1:]
+               if line.split() and line.split()[0][0].isdigit())  # past the units' line
+    q, rate = (float(v) for v in row[1:3])
     np.testing.assert_allclose([q, rate], reference(5.0), rtol=1e-5, atol=1e-9)
 
 
