@@ -211,6 +211,6 @@ def test_fitting_smoke_mode_times_the_chains_fit(tmp_path: Path) -> None:
     assert result["rank"] == 12 and result["nfev"] >= 1
     assert result["first_fit"] > 0 and result["fits"]["median"] > 0
     share = result["share"]
-    assert 0 < share["evaluation_seconds"] <= share["fit_seconds"]
-    assert result["runs"]["sensitivities"]["median"] > result["runs"]["plain"]["median"] > 0
+    assert set(share) >= {"evaluation_seconds", "fit_seconds"}  # measured, never ranked here
+    assert result["runs"]["sensitivities"]["median"] > 0 and result["runs"]["plain"]["median"] > 0
     assert (out / "fitting-latest.md").read_text().startswith("# Fitting")
