@@ -148,8 +148,8 @@ def markdown(result: dict[str, Any]) -> str:
         v0 = "exact" if row["v0"] == 0.0 else f"{row['v0']:g}"
         ok = "" if row.get("success", True) else " (failed)"
         lines.append(f"| {row['contender']}{ok} | {v0} | {row['nfev']} | "
-                     f"{row['stick_error']:.1e} | {switch} | {fmt_time(row['time']['median'])} "
-                     f"({common.spread(row['time'])}) | {ratio_to(rows, row)} |")
+                     f"{row['stick_error']:.1e} | {switch} | {common.spread(row['time'])} | "
+                     f"{ratio_to(rows, row)} |")
     if result["interrupted"]:
         lines += ["", "Interrupted (Ctrl-C): only the rows above were measured."]
     lines += ["", f"Issue 50's target: nemc at least {result['target']:.0f}x faster than the "
