@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import sympy
 
-from .loads.base import Load, LoadDrawing
+from .loads.base import Load
 from .terms import Loc, symbol
 
 if TYPE_CHECKING:
@@ -100,11 +100,6 @@ class Friction(Load):
                                                   ("torque", self.given)) if value is not None]
         return found
 
-    def map_expressions(self, f: Callable[[Expr], Expr]) -> Friction:
-        mapped = {key: None if getattr(self, key) is None else f(getattr(self, key))
-                  for key in ("mu", "mu_static", "radius", "given")}
-        return type(self)(joint=self.joint, loc=self.loc, **mapped)
-
     def act(self, view: LoadView, sink: LoadSink) -> None:
         """The friction force F across the joint: on the child, the opposite on the parent."""
         joint = view.joint(self.joint)
@@ -159,6 +154,3 @@ class Friction(Load):
     def reported_kinds(self, coordinate_kind: Callable[[str], str]) -> list[tuple[str, str]]:
         return [(".friction", "couple" if coordinate_kind(self.joint) == "angle"
                  else "joint force")]
-
-    def drawing(self) -> LoadDrawing:
-        return LoadDrawing()

@@ -160,7 +160,7 @@ def run_ensemble(model: BuiltModel, call: EnsembleCall, span: tuple[float, float
                     runs.Progress(f"{model.name}: runs", k) if call.progress is not False
                     else None, call.progress)
     if model.has_loops:
-        y = model.friction.held_runs(y, model.loops.projected_runs(keep[0], y, ps))
+        y = model.friction.held(y, model.loops.projected_runs(keep[0], y, ps))
     return EnsembleResult(
         t=keep[0], y=y.transpose(0, 2, 1), status=statuses.astype(int),
         success=statuses >= 0, nfev=counts[:, 0].copy(), njev=counts[:, 1].copy(),

@@ -95,18 +95,13 @@ class Friction:
                              "inputs as numbers")
 
     def held(self, raw: np.ndarray, projected: np.ndarray) -> np.ndarray:
-        """PROJECTED (a closed loop's states brought onto its constraints) with each stuck
+        """PROJECTED (a closed loop's states brought onto its constraints: one run's
+        (n_state, n_t), or an ensemble's (k, n_t, n_state) with the state last) with each stuck
         joint's rate exactly 0 where the run's RAW states have it so: the mode kept."""
         if not self.present or not projected.size:
             return projected
         for i in self.rates:
-            projected[i, raw[i] == 0.0] = 0.0
-        return projected
-
-    def held_runs(self, raw: np.ndarray, projected: np.ndarray) -> np.ndarray:
-        """`held` for an ensemble's states (k, n_t, n_state)."""
-        if not self.present or not projected.size:
-            return projected
-        for i in self.rates:
-            projected[..., i][raw[..., i] == 0.0] = 0.0
+            rate, was = (projected[i], raw[i]) if projected.ndim == 2 else \
+                (projected[..., i], raw[..., i])
+            rate[was == 0.0] = 0.0
         return projected
