@@ -51,7 +51,7 @@ from .mass_form import (
 from .outputs import derive_outputs
 from .products import fewer_products
 from .program import Program, split_deep
-from .sensitivities import Sensitivities, sensitivities
+from .sensitivities import Sensitivities, event_partials, sensitivities
 from .tangent import seed_symbols, tangent_program
 from .taylor import series_cost, unsupported_operation
 
@@ -354,7 +354,8 @@ def with_linearization(eqs: Equations) -> Equations:
 def with_sensitivities(eqs: Equations) -> Equations:
     """Add the variational equations' programs (nemc/derive/sensitivities.py): the tangent of
     a tree's dynamics and outputs along the state's and the parameters' seeds, and the initial
-    state's derivatives by the parameters. A closed loop's are refused, with its line."""
+    state's derivatives by the parameters, and each event's partial derivatives (the jump at
+    an event). A closed loop's are refused, with its line."""
     mech = eqs.mechanism
     if eqs.sensitivities_unavailable:
         return eqs
@@ -364,10 +365,32 @@ def with_sensitivities(eqs: Equations) -> Equations:
             f"{where.file}:{where.line}: {where.key}: sensitivities of a closed loop (projected "
             "onto its constraints, its assembly's own sensitivity) are not available yet; "
             "trees only"))
+    why = event_refusal(eqs)
+    if why:
+        return dataclasses.replace(eqs, sensitivities_unavailable=why)
     results = (*eqs.accelerations, *eqs.drives)
-    return dataclasses.replace(eqs, sensitivities=sensitivities(
-        eqs.dynamics, eqs.state, eqs.parameters, results,
-        tuple(expr for _, expr in eqs.outputs), eqs.initial_state))
+    found = sensitivities(eqs.dynamics, eqs.state, eqs.parameters, results,
+                          tuple(expr for _, expr in eqs.outputs), eqs.initial_state)
+    partials = tuple(event_partials(event.when, {m.symbol(name): value for name, value
+                                                 in event.law},
+                                    eqs.state, eqs.parameters, m.TIME) for event in eqs.events)
+    return dataclasses.replace(eqs, sensitivities=dataclasses.replace(found, events=partials))
+
+
+def event_refusal(eqs: Equations) -> str | None:
+    """Why an event's jump of the sensitivities cannot be derived (FILE:LINE: ...): its
+    function or law reads something other than the state, the parameters and the time."""
+    known = {*eqs.state, *eqs.parameters, m.TIME}
+    for event in eqs.events:
+        read = (event.when, *(value for _, value in event.law))
+        stray = set().union(*(sympy.sympify(e).free_symbols for e in read)) - known
+        if stray and event.loc is not None:
+            return (f"{event.loc.file}:{event.loc.line}: {event.loc.key}: the event reads "
+                    f"{sorted(map(str, stray))}, whose derivatives at the event are not "
+                    "derived")
+        if stray:
+            return f"event {event.name!r} reads {sorted(map(str, stray))}"
+    return None
 
 
 def with_mass_matrix(eqs: Equations) -> Equations:

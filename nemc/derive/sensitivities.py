@@ -14,6 +14,15 @@ outputs' sensitivities by the chain rule (through the accelerations' and drives'
 the initial state's partial derivatives by the parameters give the columns' start (a scene's
 initial values may be expressions of parameters).
 
+At a scene's event (g(t, y, p) = 0 at its time tau) the columns jump: the event's partial
+derivatives g_y, g_p, g_t and, for an impact law y+ = G(t, y-, p), G_y, G_p, G_t are derived
+here (`event_partials`), exactly, and templates/event_sensitivities.c.tmpl applies
+
+    d tau = -(g_y s + g_p e) / (g_t + g_y f-),
+    s+ = G_y s + G_p e + (G_t + G_y f- - f+) d tau
+
+(f-, f+ the right-hand side before and after the impact).
+
 A closed loop's sensitivities need the projection onto the constraints' tangent space and the
 assembly's sensitivity: not derived here (`unavailable`)."""
 
@@ -35,6 +44,7 @@ class Sensitivities:
     tangents: Linearization  # the accelerations', drives' and outputs' tangents along seeds
     parameter_seeds: Mapping[sympy.Symbol, sympy.Symbol]  # runtime parameter -> its seed
     initial: tuple[sympy.Expr, ...]  # d y0[i] / d p[k], row-major (state entry, parameter)
+    events: tuple[EventPartials, ...] = ()  # each scene event's partial derivatives, in order
 
     @property
     def dynamics(self) -> Program:
@@ -44,6 +54,33 @@ class Sensitivities:
     def state_seeds(self) -> Mapping[sympy.Symbol, sympy.Symbol]:
         return {symbol: seed for symbol, seed in self.tangents.seeds.items()
                 if symbol not in self.parameter_seeds}
+
+
+@dataclass(frozen=True)
+class EventPartials:
+    """One event's partial derivatives in runtime symbols: of its function g (``when``: g_y,
+    then g_p, then g_t) and, for an impact law, of the new state G (G_y row-major, then G_p
+    row-major, then G_t: an entry the law does not set keeps its value, G_i = y_i)."""
+
+    when: tuple[sympy.Expr, ...]
+    law: tuple[sympy.Expr, ...] = ()
+
+
+def event_partials(when: sympy.Expr, law: Mapping[sympy.Symbol, sympy.Expr],
+                   state: tuple[sympy.Symbol, ...], parameters: tuple[sympy.Symbol, ...],
+                   time: sympy.Symbol) -> EventPartials:
+    """The partial derivatives of an event's function WHEN and of its impact LAW (state entry
+    -> new value; empty for a located or stopping event) by the STATE, the PARAMETERS and
+    TIME."""
+    by = (*state, *parameters)
+    g = tuple(sympy.diff(when, x) for x in by) + (sympy.diff(when, time),)
+    if not law:
+        return EventPartials(g)
+    new = [law.get(x, x) for x in state]
+    rows = [sympy.diff(value, x) for value in new for x in state]
+    rows += [sympy.diff(value, x) for value in new for x in parameters]
+    rows += [sympy.diff(value, time) for value in new]
+    return EventPartials(g, tuple(rows))
 
 
 def parameter_seeds(parameters: tuple[sympy.Symbol, ...]) -> dict[sympy.Symbol, sympy.Symbol]:

@@ -99,6 +99,15 @@ def event_groups(eqs: Equations) -> dict[str, tuple[sympy.Expr, ...]]:
     return groups
 
 
+def event_partial_groups(eqs: Equations) -> dict[str, tuple[sympy.Expr, ...]]:
+    """Each event's partial derivatives ("event_partials.<k>": its function's, then its impact
+    law's), for the sensitivities' jump there (none without the part)."""
+    if eqs.sensitivities is None:
+        return {}
+    return {f"event_partials.{k}": (*partials.when, *partials.law)
+            for k, partials in enumerate(eqs.sensitivities.events)}
+
+
 def sensitivity_programs(eqs: Equations) -> dict[str, Program | None]:
     """The variational equations' programs, by name (none without the part)."""
     if eqs.sensitivities is None:
@@ -120,6 +129,7 @@ def optimize_equations(eqs: Equations) -> Block:
         **event_groups(eqs),
         **({"friction": eqs.friction.terms} if eqs.friction else {}),
         **({"sensitivity_initial": eqs.sensitivities.initial} if eqs.sensitivities else {}),
+        **event_partial_groups(eqs),
     }
     primal = eqs.accelerations_program if eqs.jacobian is not None else None
     lin = eqs.linearization
