@@ -2,7 +2,9 @@
 the sensitivity system's right-hand side (templates/sensitivities.c.tmpl), the initial state's
 derivatives by the parameters, and the outputs' sensitivities at a point of a run
 (templates/output_sensitivities.c.tmpl). Exact: the accelerations' program once, then its
-forward-mode derivative once per sensitivity column.
+forward-mode derivative once per sensitivity column. At the scene's events, the columns' jump
+and the event times' sensitivities (templates/event_sensitivities.c.tmpl), from each event's
+partial derivatives.
 """
 
 from __future__ import annotations
@@ -18,7 +20,15 @@ from .c_text import SymbolTablePrinter
 from .jacobian_c import jacobian_programs
 from .optimize import Block
 from .parts import Units
-from .printing import STATE_INPUTS, Caller, Printed, body, program_body, template
+from .printing import (
+    STATE_INPUTS,
+    Caller,
+    Printed,
+    body,
+    comment_text,
+    program_body,
+    template,
+)
 
 SEEDS = (("const double *", "seed"), ("const double *", "seed_p"))
 PRIMAL = Caller("sensitivity_primal", "The accelerations and drives, and what their "
@@ -36,7 +46,7 @@ def sensitivities_section(eqs: Equations, block: Block, printer: SymbolTablePrin
     absent = template("sensitivities_absent.c.tmpl").substitute(prefix=prefix)
     no_outputs = template("output_sensitivities_absent.c.tmpl").substitute(prefix=prefix)
     if eqs.sensitivities is None:
-        return absent + no_outputs
+        return absent + no_outputs + event_sensitivities(eqs, block, printer, prefix)
     primal, coefficients, tangent = system_programs(eqs, block, printer, chunk_steps, units)
     rows = [(f"out[{i * len(eqs.parameters) + k}]", expr) for i in range(len(eqs.state))
             for k, expr in enumerate(block.groups["sensitivity_initial"][
@@ -45,7 +55,45 @@ def sensitivities_section(eqs: Equations, block: Block, printer: SymbolTablePrin
         prefix=prefix, sensitivity_parts=primal.functions + tangent.functions,
         primal=primal.body, coefficients=coefficients, tangent=tangent.body,
         initial=body(printer, block, rows))
-    return system + output_sensitivities(eqs, block, printer, prefix, chunk_steps, units)
+    return (system + output_sensitivities(eqs, block, printer, prefix, chunk_steps, units)
+            + event_sensitivities(eqs, block, printer, prefix))
+
+
+def event_sensitivities(eqs: Equations, block: Block, printer: SymbolTablePrinter,
+                        prefix: str) -> str:
+    """The columns' jump at an impact and the event times' sensitivities, or the functions
+    saying the build has none."""
+    if eqs.sensitivities is None or not eqs.sensitivities.events:
+        return template("event_sensitivities_absent.c.tmpl").substitute(prefix=prefix)
+    cases = "\n".join(event_partials_case(eqs, block, printer, k)
+                      for k in range(len(eqs.sensitivities.events)))
+    return template("event_sensitivities.c.tmpl").substitute(prefix=prefix, cases=cases)
+
+
+def event_partials_case(eqs: Equations, block: Block, printer: SymbolTablePrinter, k: int
+                        ) -> str:
+    """Event k's partial derivatives as a case of event_partials: the arrays zeroed, then
+    their entries that are not 0."""
+    assert eqs.sensitivities is not None
+    partials = eqs.sensitivities.events[k]
+    n, n_param = len(eqs.state), len(eqs.parameters)
+    names = [f"g_y[{i}]" for i in range(n)] + [f"g_p[{m}]" for m in range(n_param)] + ["*g_t"]
+    zeroed = ["g_y", "g_p"]
+    if partials.law:
+        names += [f"G_y[{i}]" for i in range(n * n)] + [f"G_p[{i}]" for i in range(n * n_param)]
+        names += [f"G_t[{i}]" for i in range(n)]
+        zeroed += ["G_y", "G_p", "G_t"]
+    exprs = block.groups[f"event_partials.{k}"]
+    rows = [(name, expr) for name, expr in zip(names, exprs)
+            if not (expr == 0 and name != "*g_t")]
+    lines = [f"        memset({array}, 0, sizeof(double) * {size});" for array, size in
+             zip(zeroed, ("N_STATE", "N_PARAM", "N_STATE * N_STATE", "N_STATE * N_PARAM",
+                          "N_STATE"))]
+    lines += ["    " + line for line in body(printer, block, rows).splitlines()]
+    if partials.law:
+        lines.append("        *law = 1;")
+    name = comment_text(eqs.events[k].name)
+    return "\n".join([f"    case {k}: {{ /* {name} */", *lines, "        break;", "    }"])
 
 
 def system_programs(eqs: Equations, block: Block, printer: SymbolTablePrinter,
