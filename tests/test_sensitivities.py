@@ -271,8 +271,6 @@ def test_what_has_no_sensitivities_yet_is_refused_by_name(damped) -> None:
             damped.simulate(sensitivities=["c"], method=method)
     with pytest.raises(ModelError, match="closed loop"):
         nemc.compile(EXAMPLES / "fourbar.yaml").simulate(sensitivities=["y0"])
-    with pytest.raises(ModelError, match=r"impact events \['bounce'\]"):
-        nemc.compile(EXAMPLES / "bouncing_ball.yaml").simulate(sensitivities=["e"])
 
 
 def test_long_programs_in_parts_give_the_same_sensitivities(double_pendulum) -> None:

@@ -76,6 +76,9 @@ class SimulationResult:
     # (n_state, n_state, n_t)); and the outputs': name -> output -> (n_t,) ("y0": (n_state, n_t))
     sensitivities: Mapping[str, np.ndarray] = field(default_factory=dict)
     output_sensitivities: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
+    # and the scene's events' times': event -> name -> d t_event / d name, (k,) for the k times
+    # the event fired ("y0": (n_state, k))
+    event_sensitivities: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
 
     @property
     def t_events(self) -> list[np.ndarray]:

@@ -12,13 +12,17 @@ when the scene's initial state is used (its values may be expressions of paramet
 The system runs with nemc.DOP853 and nemc.Vern9 (the drivers compiled for the system's size
 once, kept in the cache: nemc/build/systems.py; the model's events located on the state's
 entries) or with scipy's methods (the implicit ones with the block-diagonal Jacobian diag(J_y,
-..., J_y): the Newton iteration's, the second derivatives left out). A closed loop's
-sensitivities, impacts (a jump in the sensitivities), inputs given as Python functions,
+..., J_y): the Newton iteration's, the second derivatives left out). At the scene's impact
+events the columns jump (the build's `sensitivity_impact`, applied where the run applies the
+law: by the native drivers in C, by scipy's runs through the same C), and every event's time has
+its own sensitivities (`event_time_sensitivities` at the states recorded before each event:
+res.event_sensitivities). A closed loop's sensitivities, inputs given as Python functions,
 nemc.Radau and nemc.Taylor are refused, each by name.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -45,6 +49,7 @@ INITIAL_VALUES = "y0"  # the name asking for d y(t) / d y0, every initial value 
 SCIPY_DEFAULT = "DOP853"  # "auto" where the native drivers cannot run (a standalone package,
 #                           events= callables): scipy's DOP853
 SYSTEM_METHODS = ("nemc.DOP853", "nemc.Vern9")  # the native methods that take the system
+ACTIONS = {"record": 0, "stop": 1, "impact": 2}  # enum nemc_event_action
 
 
 @dataclass(frozen=True)
@@ -154,12 +159,6 @@ def checked_spec(model: BuiltModel, spec: RunSpec) -> RunSpec:
     if model.has_loops:
         raise ModelError("sensitivities: a closed loop's sensitivities (projected onto its "
                          "constraints, its assembly's own) are not available yet: trees only")
-    impacts = [event["name"] for event in model.compiled.event_table
-               if event["action"] == "impact"]
-    if impacts:
-        raise ModelError(f"sensitivities: the scene's impact events {impacts} jump the state, "
-                         "and the jump of the sensitivities there is not computed yet; run "
-                         "without them (a copy of the file without the impacts)")
     if spec.inputs is not None and spec.inputs.callables:
         raise ModelError("sensitivities: an input given as a Python function has no derivative "
                          "nemc can take; give it as a number, a table or nemc.feedback(...)")
@@ -190,6 +189,10 @@ def simulate_sensitivities(model: BuiltModel, spec: RunSpec, names: Any,
     names = requested(names)
     spec = checked_spec(model, spec)
     build = sensitivity_build(model)
+    if model.compiled.event_table and build.compiled.function("sensitivity_impact") is None:
+        raise ModelError("sensitivities: this standalone package was built by an nemc without "
+                         "the sensitivities at events: compile it again (nemc compile "
+                         "--sensitivities)")
     tangent = None if y0_given else initial_tangent(build, spec.p)
     cols = columns(model, names, spec.p, tangent)
     if spec.span[0] == spec.span[1]:
@@ -228,7 +231,33 @@ def run_system(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
         {name: (times, states[:, :n]) for name, (times, states) in outcome.events.items()})
     result.sensitivities = split_columns(z[n:], cols, n)
     result.output_sensitivities = output_sensitivities(model, build, spec, cols, t, z)
+    result.event_sensitivities = event_sensitivities(build, spec, cols, outcome.events)
     return result
+
+
+def event_sensitivities(build: BuiltModel, spec: RunSpec, cols: Columns,
+                        events: Mapping[str, tuple[np.ndarray, np.ndarray]]
+                        ) -> dict[str, dict[str, np.ndarray]]:
+    """Each scene event's times' sensitivities, from the system's states recorded just before
+    each (C event_time_sensitivities): event -> name -> (k,) ("y0": (n_state, k))."""
+    table = build.compiled.event_table
+    call, buffer = build.compiled.function("event_time_sensitivities"), build.compiled.buffer
+    found: dict[str, dict[str, np.ndarray]] = {}
+    for index, event in enumerate(table):
+        times, states = events.get(event["name"], (np.empty(0), np.empty((0, 0))))
+        dtau = np.empty((len(times), cols.count))
+        for r, (t, z) in enumerate(zip(times, states)):
+            z = np.ascontiguousarray(z, dtype=np.float64)
+            p = cols.parameters(spec.p if spec.inputs is None
+                                else spec.inputs.at(float(t), z[:build.n_state]))
+            status = call(index, float(t), buffer(z), buffer(p), buffer(dtau[r]))
+            if status:
+                raise IntegrationFailure(float(t), z[:build.n_state], status,
+                                         build.state_names)
+        found[event["name"]] = {name: (dtau[:, where].T.copy() if name == INITIAL_VALUES
+                                       else dtau[:, where.start].copy())
+                                for name, where in cols.slices.items()}
+    return found
 
 
 @dataclass
@@ -268,8 +297,7 @@ def scipy_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Columns
     system = SystemRhs(build, spec, cols)
     jac = system_jacobian(model, spec, cols) if spec.method in IMPLICIT_METHODS else None
     options = {"rtol": spec.rtol, "atol": spec.atol, **({"jac": jac} if jac else {})}
-    p_at = None if spec.inputs is None else spec.inputs.at
-    events = model.compiled.model_events(spec.p, p_at)  # their C reads the state's entries
+    events = system_events(model, build, spec, cols)
     user_events = [state_event(event, n) for event in spec.user_events]
     with runs.interrupt_flag() as flag:
         outcome, control = runs.simulate_scipy(
@@ -289,6 +317,31 @@ def scipy_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Columns
                          outcome.nlu, spec.rtol, spec.atol, outcome.events)
 
 
+def system_events(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Columns
+                  ) -> runs.ModelEvents | None:
+    """The scene's events for scipy's run of the system: their functions (their C reads the
+    state's entries of z) and, at an impact, the law with the columns' jump (C
+    sensitivity_impact)."""
+    p_at = None if spec.inputs is None else spec.inputs.at
+    events = model.compiled.model_events(spec.p, p_at)
+    if events is None:
+        return None
+    compiled, n = build.compiled, model.n_state
+    call, buffer = compiled.function("sensitivity_impact"), compiled.buffer
+    fixed = buffer(cols.parameters(spec.p))
+
+    def impact(k: int, t: float, z: np.ndarray) -> np.ndarray:
+        new = np.array(z, dtype=np.float64)
+        p = fixed if p_at is None else buffer(cols.parameters(p_at(t, new[:n])))
+        status = call(k, t, buffer(new), p)
+        if status:
+            raise IntegrationFailure(t, new[:n], status, model.state_names,
+                                     compiled.status_cause(status))
+        return new
+
+    return dataclasses.replace(events, impact=impact)
+
+
 class SystemDrivers:
     """The cffi module of the native integrators for the system's size, as native.py's
     helpers take a build's (ffi, buffer, the run's types, Ctrl-C's callback)."""
@@ -303,12 +356,12 @@ class SystemDrivers:
     def buffer(self, array: np.ndarray) -> Any:
         return self.ffi.from_buffer(self.double_array, array)
 
-    def function(self, build: BuiltModel, name: str) -> Any:
-        """The build's C function NAME as a pointer these drivers call."""
+    def function(self, build: BuiltModel, name: str, kind: str = "nemc_system_fn") -> Any:
+        """The build's C function NAME as a pointer (of type KIND) these drivers call."""
         compiled = build.compiled
         address = compiled.ffi.cast("uintptr_t", compiled.ffi.addressof(
             compiled.lib, compiled.prefix + name))
-        return self.ffi.cast("nemc_system_fn", int(address))
+        return self.ffi.cast(kind, int(address))
 
 
 @functools.lru_cache(maxsize=16)
@@ -336,16 +389,18 @@ def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
     table = model.compiled.event_table
     directions = np.array([runs.DIRECTIONS[e["direction"]] for e in table] or [0],
                           dtype=np.intc)
-    actions = np.array([{"record": 0, "stop": 1}[e["action"]] for e in table] or [0],
-                       dtype=np.intc)
+    actions = np.array([ACTIONS[e["action"]] for e in table] or [0], dtype=np.intc)
     ints = drivers.ffi.typeof("int[]")
-    rhs, events = (drivers.function(build, "sensitivity_rhs"),
-                   drivers.function(build, "events") if table else drivers.ffi.NULL)
+    rhs, events, impact = (drivers.function(build, "sensitivity_rhs"),
+                           drivers.function(build, "events") if table else drivers.ffi.NULL,
+                           drivers.function(build, "sensitivity_impact",
+                                            "nemc_system_impact_fn")
+                           if table else drivers.ffi.NULL)
 
     def integrate(method: int, run: Any, y0: Any, p: Any) -> int:
-        return drivers.lib.nemc_system_integrate(
+        return drivers.lib.nemc_system_integrate_impacts(
             method, rhs, len(table), drivers.ffi.from_buffer(ints, directions),
-            drivers.ffi.from_buffer(ints, actions), events, run, y0, p)
+            drivers.ffi.from_buffer(ints, actions), events, impact, run, y0, p)
 
     method_id = getattr(drivers.lib, "NEMC_" + spec.method.split(".")[1].upper())
     try:
