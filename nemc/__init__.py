@@ -63,7 +63,9 @@ def fit(model: Model, t: Any = None, data: Any = None, fit: Any = (), observed: 
     nemc.Experiment sharing the parameters, instead of t and data), bounds= (name -> (low,
     high)), start=, params= (the others' values), inputs=, method= ("auto": nemc.Vern9 or
     nemc.DOP853 in C; scipy's methods too), rtol= (1e-10), atol= (1e-12), absolute_sigma=
-    (False: the errors scaled by the residuals' variance), max_nfev= (100). Returns a
+    (False: the errors scaled by the residuals' variance), max_nfev= (100), shots= (1: one
+    run per experiment; K: multiple shooting, each experiment's time cut into K shots whose
+    starts are fitted too, tied by continuity defects: a chaotic mechanism). Returns a
     FitResult (values, stderr, covariance, correlation, residual, success, runs); a fit that
     cannot identify a name, or does not converge, raises
     nemc.FitError saying which."""

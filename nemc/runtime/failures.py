@@ -35,6 +35,10 @@ class ModelError(ValueError):
     """A call the model cannot honour: wrong shapes, unknown or invalid parameters."""
 
 
+class FitError(ModelError):
+    """A fit that cannot be made or did not converge (nemc.fit): what, and which names."""
+
+
 class BuildNotice(UserWarning):
     """A call compiled a build of its own now (sympy and the C compiler: seconds, once; later
     calls and sessions load it from the cache): what it built and how long that took."""

@@ -13,22 +13,20 @@ null space holds.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from . import shooting
 from .built import BuiltModel
-from .failures import IntegrationFailure, ModelError
+from .failures import FitError, IntegrationFailure, ModelError
 from .sensitivities import INITIAL_VALUES
 
 RANK_TOLERANCE = 1e-7  # singular values of the scaled sensitivity matrix below this x the
 #                        largest count as zero: sensitivities at rtol 1e-10 are good to ~1e-9
-
-
-class FitError(ModelError):
-    """A fit that cannot be made or did not converge: what, and which names."""
 
 
 @dataclass(frozen=True)
@@ -77,7 +75,9 @@ class FitResult:
     rank: int
     dof: int
     rms: float
-    runs: list = field(default_factory=list, repr=False)
+    runs: list = field(default_factory=list, repr=False)  # with shots: every shot's, in order
+    defects: np.ndarray = field(default_factory=lambda: np.empty(0), repr=False)  # shots'
+    # continuity defects at the estimate (state units; experiment by experiment, shot by shot)
 
     def __repr__(self) -> str:
         rows = [f"{'name':>16}  {'value':>14}  {'stderr':>11}"]
@@ -104,11 +104,20 @@ class Problem:
 
     def run_at(self, x: np.ndarray, experiment: Checked) -> Any:
         """The experiment's run with the fitted values X, and their sensitivities."""
+        params, inputs, y0 = self.settings_at(x, experiment)
+        return self.model.simulate((experiment.t0, experiment.t[-1]), y0, t_eval=experiment.t,
+                                   params=params, inputs=inputs or None,
+                                   sensitivities=list(self.names), **self.run)
+
+    def settings_at(self, x: np.ndarray, experiment: Checked
+                    ) -> tuple[dict[str, float], dict[str, Any], np.ndarray | None]:
+        """The experiment's parameters, inputs and initial state (None: the scene's) with the
+        fitted values X (the names' first len(names) entries)."""
         params = dict(self.params)
         inputs = dict(experiment.inputs or {})
         y0 = None if experiment.y0 is None else self.model.state_vector(
             experiment.y0, params).copy()
-        for name, kind, value in zip(self.names, self.kinds, x.tolist()):
+        for name, kind, value in zip(self.names, self.kinds, x[:len(self.names)].tolist()):
             if kind == "parameter":
                 params[name] = value
             elif kind == "input":
@@ -119,9 +128,7 @@ class Problem:
             y0 = self.model.state_vector(None, params).copy() if y0 is None else y0
             for name, value in initial:
                 y0[self.model.state_names.index(name)] = value
-        return self.model.simulate((experiment.t0, experiment.t[-1]), y0, t_eval=experiment.t,
-                                   params=params, inputs=inputs or None,
-                                   sensitivities=list(self.names), **self.run)
+        return params, inputs, y0
 
 
 def fit(model: BuiltModel, t: Any = None, data: Any = None, fit: Sequence[str] = (),
@@ -131,7 +138,7 @@ def fit(model: BuiltModel, t: Any = None, data: Any = None, fit: Sequence[str] =
         start: Mapping[str, float] | None = None, params: Mapping[str, float] | None = None,
         inputs: Mapping[str, Any] | None = None, method: str = "auto",
         rtol: float = 1e-10, atol: float = 1e-12, absolute_sigma: bool = False,
-        max_nfev: int = 100) -> FitResult:
+        max_nfev: int = 100, shots: int = 1) -> FitResult:
     """See nemc.fit."""
     from scipy.optimize import least_squares
 
@@ -139,20 +146,28 @@ def fit(model: BuiltModel, t: Any = None, data: Any = None, fit: Sequence[str] =
                               inputs, method, rtol, atol)
     x0 = start_values(problem, start)
     lower, upper = bound_arrays(problem.names, bounds, x0)
-    cache = Evaluations(problem)
+    cache = evaluations(problem, shooting.checked_shots(shots))
+    x0, lower, upper = cache.unknowns(x0, lower, upper)
     residual0, jacobian0 = cache.at(x0, first=True)
-    refuse_unidentifiable(problem, jacobian0, "at the start")
+    refuse_unidentifiable(problem, jacobian0, "at the start", cache.column_names())
     found = least_squares(cache.residual, x0, jac=cache.jacobian, bounds=(lower, upper),
                           method="trf", x_scale="jac", max_nfev=max_nfev, xtol=1e-12,
                           ftol=1e-12, gtol=1e-12)
+    if cache.tighten():  # shots: the defects weighed loosely first, then closed
+        nfev = found.nfev
+        found = least_squares(cache.residual, found.x, jac=cache.jacobian,
+                              bounds=(lower, upper), method="trf", x_scale="jac",
+                              max_nfev=max_nfev, xtol=1e-12, ftol=1e-12, gtol=1e-12)
+        found.nfev += nfev
     if found.status <= 0 or not np.all(np.isfinite(found.fun)):
+        last = dict(zip(problem.names, found.x.tolist()))
         raise FitError(f"the fit did not converge ({found.message}) after {found.nfev} runs; "
-                       f"last values {dict(zip(problem.names, found.x.tolist()))}: start "
-                       "closer, bound the parameters (bounds=) or fit fewer of them")
+                       f"last values {last}: start closer, bound the parameters (bounds=), "
+                       "fit fewer of them or cut the runs into shots (shots=)")
     residual, jacobian = cache.at(found.x)
-    rank = refuse_unidentifiable(problem, jacobian, "at the estimate")
+    rank = refuse_unidentifiable(problem, jacobian, "at the estimate", cache.column_names())
     return fit_result(problem, found, residual, jacobian, rank, absolute_sigma,
-                      cache.runs_at(found.x))
+                      cache.runs_at(found.x), cache.defects(residual))
 
 
 # ---- the problem, checked --------------------------------------------------------------------
@@ -368,6 +383,23 @@ class Evaluations:
         assert self.kept is not None
         return self.kept[3]
 
+    def unknowns(self, x0: np.ndarray, lower: np.ndarray, upper: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The fit's unknowns where it starts, and their bounds: the fitted names'."""
+        return x0, lower, upper
+
+    def column_names(self) -> tuple[str, ...]:
+        """What each unknown (a column of the Jacobian) is."""
+        return self.problem.names
+
+    def tighten(self) -> bool:
+        """Weigh the defects fully for the fit's second pass; False: there is none."""
+        return False
+
+    def defects(self, residual: np.ndarray) -> np.ndarray:
+        """The continuity defects in RESIDUAL, unweighted (none in one run per experiment)."""
+        return np.empty(0)
+
     def evaluate(self, x: np.ndarray, first: bool) -> tuple[np.ndarray, np.ndarray, list]:
         problem = self.problem
         rows, blocks, runs = [], [], []
@@ -392,6 +424,73 @@ class Evaluations:
         return np.concatenate(rows), np.vstack(blocks), runs
 
 
+def evaluations(problem: Problem, shots: int) -> Evaluations:
+    """The residuals' evaluations: one run per experiment, or its time cut into SHOTS."""
+    if shots == 1:
+        return Evaluations(problem)
+    return ShotEvaluations(problem, shots)
+
+
+class ShotEvaluations(Evaluations):
+    """Multiple shooting (shooting.py): x = [the fitted names | every experiment's later
+    shots' starts]; the residuals the data's (data order) then the continuity defects."""
+
+    def __init__(self, problem: Problem, shots: int):
+        super().__init__(problem)
+        self.cuts = tuple(shooting.cut(e.t, e.weights, shots, f"experiment {k}: " if k else "")
+                          for k, e in enumerate(problem.experiments))
+        self.n_data = sum(e.data.size for e in problem.experiments)
+
+    def unknowns(self, x0: np.ndarray, lower: np.ndarray, upper: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        nodes = shooting.starting_nodes(self.problem, self.cuts, x0)
+        free = np.full(nodes.size, np.inf)
+        return (np.concatenate([x0, nodes]), np.concatenate([lower, -free]),
+                np.concatenate([upper, free]))
+
+    def column_names(self) -> tuple[str, ...]:
+        names = list(self.problem.names)
+        for k, c in enumerate(self.cuts):
+            where = f"experiment {k} " if len(self.cuts) > 1 else ""
+            names += [f"{where}shot {shot}'s {state}" for shot in range(1, c.count)
+                      for state in self.problem.model.state_names]
+        return tuple(names)
+
+    def tighten(self) -> bool:
+        self.cuts = tuple(dataclasses.replace(c, scale=shooting.DEFECT_WEIGHT)
+                          for c in self.cuts)
+        self.kept = None
+        return True
+
+    def defects(self, residual: np.ndarray) -> np.ndarray:
+        n, tail, found, start = self.problem.model.n_state, residual[self.n_data:], [], 0
+        for c in self.cuts:
+            size = (c.count - 1) * n
+            found.append(tail[start:start + size] / c.weight)
+            start += size
+        return np.concatenate(found)
+
+    def evaluate(self, x: np.ndarray, first: bool) -> tuple[np.ndarray, np.ndarray, list]:
+        problem, n = self.problem, self.problem.model.n_state
+        data, defects, runs, first_node = [], [], [], len(problem.names)
+        for k, c in enumerate(self.cuts):
+            try:
+                rows = shooting.experiment_rows(problem, x, k, c, first_node)
+            except (IntegrationFailure, ModelError) as error:
+                if first:
+                    raise FitError(f"fit: a shot of experiment {k} at the start values "
+                                   f"{dict(zip(problem.names, x.tolist()))} failed: "
+                                   f"{error}") from None
+                size = self.n_data + sum((c.count - 1) * n for c in self.cuts)
+                return np.full(size, np.nan), np.full((size, x.size), np.nan), []
+            data.append((rows.data, rows.data_jacobian))
+            defects.append((rows.defects, rows.defect_jacobian))
+            runs.extend(rows.runs)
+            first_node += (c.count - 1) * n
+        parts = data + defects
+        return (np.concatenate([r for r, _ in parts]), np.vstack([j for _, j in parts]), runs)
+
+
 def predictions(problem: Problem, res: Any) -> tuple[np.ndarray, np.ndarray]:
     """The observed values along a run (n_t x observed) and their derivatives by the fitted
     names (n_t x observed x names)."""
@@ -412,10 +511,10 @@ def predictions(problem: Problem, res: Any) -> tuple[np.ndarray, np.ndarray]:
 # ---- identifiability and the estimate's errors -------------------------------------------------
 
 
-def refuse_unidentifiable(problem: Problem, jacobian: np.ndarray, where: str) -> int:
-    """The rank of the sensitivity matrix (columns scaled to unit length); a shortfall is a
-    FitError naming what the data do not determine."""
-    names = problem.names
+def refuse_unidentifiable(problem: Problem, jacobian: np.ndarray, where: str,
+                          names: tuple[str, ...]) -> int:
+    """The rank of the sensitivity matrix (columns scaled to unit length, NAMES theirs); a
+    shortfall is a FitError naming what the data do not determine."""
     norms = np.linalg.norm(jacobian, axis=0)
     silent = [name for name, norm in zip(names, norms) if not norm > 0]
     if silent:
@@ -434,17 +533,21 @@ def refuse_unidentifiable(problem: Problem, jacobian: np.ndarray, where: str) ->
 
 
 def fit_result(problem: Problem, found: Any, residual: np.ndarray, jacobian: np.ndarray,
-               rank: int, absolute_sigma: bool, runs: list) -> FitResult:
-    names = problem.names
-    dof = residual.size - len(names)
+               rank: int, absolute_sigma: bool, runs: list, defects: np.ndarray) -> FitResult:
+    """The estimates and their errors from the Jacobian of every unknown (with shots, the
+    shots' starts too: the names' block of the covariance is theirs); the residuals and their
+    rms are the data's, the shots' DEFECTS apart."""
+    names, unknowns = problem.names, found.x.size
+    dof = residual.size - unknowns
     if dof <= 0:
-        raise FitError(f"fit: {residual.size} data for {len(names)} unknowns: no degree of "
+        raise FitError(f"fit: {residual.size} data for {unknowns} unknowns: no degree of "
                        "freedom left for the errors (measure more)")
     variance = 1.0 if absolute_sigma else float(residual @ residual) / dof
-    covariance = np.linalg.inv(jacobian.T @ jacobian) * variance
+    covariance = (np.linalg.inv(jacobian.T @ jacobian) * variance)[:len(names), :len(names)]
     stderr = np.sqrt(np.diag(covariance))
     correlation = covariance / np.outer(stderr, stderr)
-    values = dict(zip(names, found.x.tolist()))
+    values = dict(zip(names, found.x[:len(names)].tolist()))
+    data = residual[:residual.size - defects.size]
     return FitResult(names, values, dict(zip(names, stderr.tolist())), covariance, correlation,
-                     residual, True, found.message, int(found.nfev), rank, dof,
-                     float(np.sqrt(residual @ residual / residual.size)), runs)
+                     data, True, found.message, int(found.nfev), rank, dof,
+                     float(np.sqrt(data @ data / data.size)), runs, defects)
