@@ -49,6 +49,10 @@ def add_fit_parser(commands: argparse._SubParsersAction, assignment: Any) -> Non
     fit.add_argument("--method", default="auto", help="the runs' method (default auto: "
                      "nemc.Vern9 or nemc.DOP853; scipy's methods too)")
     fit.add_argument("--rtol", type=float, default=1e-10, help="the runs' rtol (1e-10)")
+    fit.add_argument("--shots", type=int, default=1, metavar="K",
+                     help="multiple shooting: cut the run into K shots whose starts are "
+                     "fitted too, joined by continuity defects (a chaotic mechanism; "
+                     "default 1: one run)")
     fit.add_argument("--out", help="also write the estimates to this .json file")
 
 
@@ -128,7 +132,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
                      bounds=dict(args.bounds), start=dict(args.start),
                      params=dict(args.params), inputs=dict(args.inputs) or None,
                      method=args.method, rtol=args.rtol,
-                     absolute_sigma=args.sigma is not None)
+                     absolute_sigma=args.sigma is not None, shots=args.shots)
     except (DataError, ModelError) as error:
         print(f"{where}: {error}", file=sys.stderr)
         return 2
@@ -163,6 +167,8 @@ def report(result: Any, units: Mapping[str, str] | None = None) -> str:
     lines.append(" " * width + "".join(f"{name:>{width}}" for name in result.names))
     for name, row in zip(result.names, result.correlation):
         lines.append(f"{name:>{width}}" + "".join(f"{v:>{width}.4f}" for v in row))
+    if result.defects.size:
+        lines.append(f"shots joined: largest continuity defect {abs(result.defects).max():.2g}")
     return "\n".join(lines)
 
 
