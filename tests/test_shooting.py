@@ -84,6 +84,10 @@ def test_multiple_shooting_recovers_what_one_shot_cannot(flat, angles) -> None:
         assert abs(multiple.values[name] - value) < 2 * multiple.stderr[name], name
     assert np.abs(multiple.defects).max() < 1e-3 * SIGMA and multiple.defects.size == 11 * 4
     assert len(multiple.runs) == 12
+    # docs/tutorials/fitting.md quotes these (its data are these)
+    assert multiple.values["m2"] == pytest.approx(1.0001198, abs=2e-7)
+    assert multiple.values["L2"] == pytest.approx(0.50005704, abs=2e-8)
+    assert single.values["m2"] == pytest.approx(0.68531931, abs=1e-6)
     # the same optimum as one shot started at the truth: the shots joined into one run
     reference = fitted(model, angles, 1, TRUTH)
     for name in TRUTH:
