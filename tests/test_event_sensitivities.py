@@ -139,6 +139,27 @@ def test_a_stop_and_a_located_event_match_central_differences(tmp_path: Path, me
         assert abs(res.event_sensitivities["apex"][name][0] - apex) < 1e-7 * abs(apex), name
 
 
+INPUT_EVENT = STOPPING_PENDULUM.replace("name: stopping_pendulum", "name: input_event").replace(
+    "gravity:", "inputs: {u: 0.2}\ngravity:").replace(
+    "torque: -c*dot(theta)", "torque: -c*dot(theta) + u").replace(
+    "apex: {when: dot(theta), direction: falling}",
+    "cross: {when: theta + 1.2 + u, direction: falling}")
+
+
+def test_an_event_that_reads_an_input_moves_with_it(tmp_path: Path) -> None:
+    """An event's function reading an input: its times' sensitivities to the input's value
+    (g_p through the input's term) equal central differences."""
+    path = tmp_path / "input_event.yaml"
+    path.write_text(INPUT_EVENT)
+    model = nemc.compile(path)
+    res = model.simulate(sensitivities=["u"], method="nemc.Vern9", rtol=1e-12, atol=1e-14)
+    runs = [model.simulate(inputs={"u": 0.2 + sign * 1e-6}, **TIGHT) for sign in (1, -1)]
+    for event in ("cross", "down"):  # down: the stop, whose torque u changes
+        reference = (runs[0].events[event][0] - runs[1].events[event][0]) / 2e-6
+        assert reference.size == 1 and res.events[event][0].size == 1
+        assert relative_error(res.event_sensitivities[event]["u"], reference) < 1e-7, event
+
+
 def test_the_jump_compiles_warning_free(tmp_path: Path) -> None:
     """The bouncing ball's build with its sensitivities (the events' partials, the jump, the
     outputs' sensitivities) compiles under -Wall -Wextra -Werror."""
