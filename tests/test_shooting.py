@@ -14,7 +14,7 @@ from test_fit import write_csv
 
 import nemc
 from nemc.runtime import fitting
-from nemc.runtime.fitting import FitError
+from nemc.runtime.fitting import Experiment, FitError
 from nemc.tools.cli import main
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "double_pendulum.yaml"
@@ -48,17 +48,30 @@ def fitted(model, data: np.ndarray, shots: int, start: dict) -> fitting.FitResul
                     weights=1 / SIGMA, absolute_sigma=True, start=start, shots=shots)
 
 
-def test_the_shots_jacobian_is_exact(flat, angles) -> None:
+@pytest.mark.parametrize("layout", ["one experiment", "two experiments"])
+def test_the_shots_jacobian_is_exact(flat, angles, layout: str) -> None:
     """Every column (the parameters, an initial value of the first shot, the later shots'
-    starts) against central differences of the residuals, both passes' weights."""
+    starts, experiment by experiment) against central differences of the residuals, both
+    passes' weights."""
     model, _ = flat
-    problem = fitting.checked_problem(model, T[:41], angles[:41], ["m2", "L2", "dot(q1)"],
-                                      ["q1", "q2"], None, 1 / SIGMA, None, None, None,
-                                      "nemc.Vern9", 1e-12, 1e-14)
-    cache = fitting.evaluations(problem, 3)
-    x, _, _ = cache.unknowns(np.array([1.2, 0.55, 0.1]), np.full(3, -np.inf),
-                             np.full(3, np.inf))
-    assert x.size == 3 + 2 * 4 and len(cache.column_names()) == x.size
+    if layout == "one experiment":
+        problem = fitting.checked_problem(model, T[:41], angles[:41], ["m2", "L2", "dot(q1)"],
+                                          ["q1", "q2"], None, 1 / SIGMA, None, None, None,
+                                          "nemc.Vern9", 1e-12, 1e-14)
+        cache = fitting.evaluations(problem, 3)
+        start = np.array([1.2, 0.55, 0.1])
+    else:
+        second = Experiment(T[:31], angles[40:71] + 0.1, y0=[0.3, 0.0, -0.2, 1.0],
+                            weights=1 / SIGMA)
+        problem = fitting.checked_problem(
+            model, None, None, ["m2", "L2"], ["q1", "q2"], None, None,
+            [Experiment(T[:41], angles[:41], weights=1 / SIGMA), second], None, None,
+            "nemc.Vern9", 1e-12, 1e-14)
+        cache = fitting.evaluations(problem, 3)
+        start = np.array([1.2, 0.55])
+    x, _, _ = cache.unknowns(start, np.full(start.size, -np.inf), np.full(start.size, np.inf))
+    experiments = len(problem.experiments)
+    assert x.size == start.size + experiments * 2 * 4 == len(cache.column_names())
     for tightened in (False, True):
         if tightened:
             assert cache.tighten()
