@@ -144,28 +144,18 @@ def experiment_rows(problem: Any, x: np.ndarray, k: int, c: Cut, first_node: int
                     ) -> ShotRows:
     """Experiment K's shots at x (its starts at x[FIRST_NODE:], n_state each): the weighted
     data residuals and defects, and their exact Jacobian rows over all of x."""
-    model, experiment = problem.model, problem.experiments[k]
-    n = model.n_state
-    params, inputs, y0 = problem.settings_at(x, experiment)
-    varying = [name for name, kind in zip(problem.names, problem.kinds) if kind != "initial"]
+    experiment, n = problem.experiments[k], problem.model.n_state
+    settings = problem.settings_at(x, experiment)
     data, data_jac, defects, defect_jac, runs = [], [], [], [], []
     for shot in range(c.count):
         rows = c.rows(shot, experiment.t.size)
-        times = experiment.t[rows]
         column = first_node + (shot - 1) * n  # this shot's start in x (shot 0: none, the
         #                                        next one's then at first_node)
-        if shot == 0:
-            span, start, names = (experiment.t0, times[-1]), y0, list(problem.names)
-        else:
-            span, start = (times[0], times[-1]), x[column:column + n]
-            names = [*varying, INITIAL_VALUES]
-        res = model.simulate(span, start, t_eval=times, params=params, inputs=inputs or None,
-                             sensitivities=names, **problem.run)
-        if not res.success or res.t.size != times.size:
-            raise ModelError(f"shot {shot}: {res.message}")
+        res = shot_run(problem, x, experiment, settings, shot, experiment.t[rows], column)
         runs.append(res)
         last = shot + 1 == c.count
-        kept = times.size if last else times.size - 1  # the next shot's first row is its own
+        # the data rows this shot answers for: not the next shot's first (the defect's time)
+        kept = rows.stop - rows.start - (0 if last else 1)
         predicted, sensitivity = observed_along(problem, res, shot, column, x.size)
         weights = experiment.weights[rows][:kept]
         data.append((weights * (predicted[:kept] - experiment.data[rows][:kept])).ravel())
@@ -177,6 +167,25 @@ def experiment_rows(problem: Any, x: np.ndarray, k: int, c: Cut, first_node: int
     return ShotRows(np.concatenate(data), np.vstack(data_jac),
                     np.concatenate(defects) if defects else np.empty(0),
                     np.vstack(defect_jac) if defect_jac else np.empty((0, x.size)), runs)
+
+
+def shot_run(problem: Any, x: np.ndarray, experiment: Any, settings: tuple, shot: int,
+             times: np.ndarray, column: int) -> Any:
+    """One shot's run over TIMES with its sensitivities: the first from the experiment's
+    start (the fitted names'), a later one from its start x[COLUMN:] (the parameters' and
+    inputs', and "y0"). A run that fails or stops early is a ModelError."""
+    params, inputs, y0 = settings
+    if shot == 0:
+        span, start, names = (experiment.t0, times[-1]), y0, list(problem.names)
+    else:
+        span, start = (times[0], times[-1]), x[column:column + problem.model.n_state]
+        names = [name for name, kind in zip(problem.names, problem.kinds) if kind != "initial"]
+        names.append(INITIAL_VALUES)
+    res = problem.model.simulate(span, start, t_eval=times, params=params,
+                                 inputs=inputs or None, sensitivities=names, **problem.run)
+    if not res.success or res.t.size != times.size:
+        raise ModelError(f"shot {shot}: {res.message}")
+    return res
 
 
 def observed_along(problem: Any, res: Any, shot: int, column: int, size: int
