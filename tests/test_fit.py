@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.interpolate import CubicSpline
 from test_sensitivities import DAMPED_PENDULUM
 
 import nemc
@@ -210,3 +211,47 @@ def test_the_command_lines_estimates_give_an_initial_values_unit(clean, tmp_path
     assert rows[1].split()[0] == "c" and len(rows[1].split()) == 3
     assert rows[2].split()[0] == "theta" and rows[2].split()[-1] == "[rad]"
     assert float(rows[2].split()[1]) == pytest.approx(0.7, abs=0.01)  # the scene's theta0
+
+
+def test_the_fits_figure_draws_the_data_the_model_and_the_residuals(pendulum) -> None:
+    """Two weighted experiments: each residual panel's points are the fit's residuals (in
+    sigmas), the data panel's points the data, and the model's curve, a run of its own at the
+    estimate, passes through data + residual x sigma at the data's times."""
+    rng = np.random.default_rng(11)
+    experiments = []
+    for theta0 in (0.4, 1.2):
+        clean = pendulum.simulate((0, 8), [theta0, 0.0], t_eval=TIMES, rtol=1e-12,
+                                  atol=1e-13).y[0]
+        experiments.append(nemc.Experiment(TIMES, clean + rng.normal(0, SIGMA, TIMES.size),
+                                           y0=[theta0, 0.0], weights=1 / SIGMA))
+    result = nemc.fit(pendulum, fit=["c", "L"], observed=["theta"], experiments=experiments)
+    top, bottom = result.plot().axes
+    points = [line for line in bottom.lines if line.get_marker() == "o"]
+    assert np.array_equal(np.concatenate([p.get_ydata() for p in points]), result.residual)
+    assert bottom.get_ylabel() == "weighted residual (σ)"
+    data, curves = top.lines[0::2], top.lines[1::2]
+    for k, (experiment, residual) in enumerate(zip(experiments, result.residual.reshape(2, -1))):
+        assert np.array_equal(data[k].get_ydata(), experiment.data)
+        at = CubicSpline(curves[k].get_xdata(), curves[k].get_ydata())(TIMES)
+        assert np.abs(at - (experiment.data + SIGMA * residual)).max() < 1e-8
+
+
+def test_the_command_line_draws_the_fit_never_over_its_data(pendulum, clean, tmp_path: Path,
+                                                             capsys) -> None:
+    mech = tmp_path / "damped_pendulum.yaml"
+    mech.write_text(DAMPED_PENDULUM)
+    data = write_csv(tmp_path / "angles.csv", "t,theta", np.column_stack([TIMES, noisy(clean, 8)]))
+    figure = tmp_path / "fit.png"
+    assert main(["fit", str(mech), str(data), "--fit", "c", "--plot", str(figure)]) == 0
+    assert f"figure written to {figure}" in capsys.readouterr().out
+    assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")] == []
+    named_as_figure = tmp_path / "angles.svg"  # a data file a figure's name would destroy
+    named_as_figure.write_bytes(data.read_bytes())
+    assert main(["fit", str(mech), str(named_as_figure), "--fit", "c",
+                 "--plot", str(named_as_figure)]) == 2
+    assert "--plot" in capsys.readouterr().err
+    assert named_as_figure.read_bytes() == data.read_bytes()
+    never = tmp_path / "never.png"
+    assert main(["fit", str(mech), str(data), "--fit", "c", "W", "--plot", str(never)]) == 2
+    assert "cannot identify" in capsys.readouterr().err and not never.exists()

@@ -21,7 +21,7 @@ PAGES = {
     "events.md": ["events.png"],
     "sweep.md": ["fourbar_sweep.png"],
     "control.md": [],  # its figures: docs/tutorials/control_figures.py
-    "fitting.md": [],
+    "fitting.md": ["fitting.png"],
     "friction.md": ["friction.png"],
 }
 

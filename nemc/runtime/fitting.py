@@ -14,6 +14,7 @@ null space holds.
 from __future__ import annotations
 
 import dataclasses
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -23,6 +24,7 @@ import numpy as np
 from . import shooting
 from .built import BuiltModel
 from .failures import FitError, IntegrationFailure, ModelError
+from .results import user_view
 from .sensitivities import INITIAL_VALUES
 
 RANK_TOLERANCE = 1e-7  # singular values of the scaled sensitivity matrix below this x the
@@ -78,6 +80,15 @@ class FitResult:
     runs: list = field(default_factory=list, repr=False)  # with shots: every shot's, in order
     defects: np.ndarray = field(default_factory=lambda: np.empty(0), repr=False)  # shots'
     # continuity defects at the estimate (state units; experiment by experiment, shot by shot)
+    observed: tuple[str, ...] = ()  # the data's columns, in their order
+    experiments: tuple[Checked, ...] = field(default=(), repr=False)  # the data fitted
+
+    def plot(self, path: str | os.PathLike | None = None, **options: Any) -> Any:
+        """The fit's figure (nemc.tools.fit_figures): each observed signal's data with the
+        fitted model's curve, its residuals below; written to PATH when given (PNG, PDF,
+        SVG); TITLE and SIZE (inches) as a run's plot(). Returns the figure (a notebook
+        shows it)."""
+        return user_view("fit_figures", "plot()").plot_fit(self, path, **options)
 
     def __repr__(self) -> str:
         rows = [f"{'name':>16}  {'value':>14}  {'stderr':>11}"]
@@ -550,4 +561,5 @@ def fit_result(problem: Problem, found: Any, residual: np.ndarray, jacobian: np.
     data = residual[:residual.size - defects.size]
     return FitResult(names, values, dict(zip(names, stderr.tolist())), covariance, correlation,
                      data, True, found.message, int(found.nfev), rank, dof,
-                     float(np.sqrt(data @ data / data.size)), runs, defects)
+                     float(np.sqrt(data @ data / data.size)), runs, defects,
+                     problem.observed, problem.experiments)

@@ -101,11 +101,12 @@ class Model(BuiltModel):
                      max_steps, inputs)  # as simulation.RUN_ARGUMENTS names them
         if sensitivities is not None:
             spec = simulation.run_spec(self, arguments, t_eval)
-            return variational.simulate_sensitivities(self, spec, sensitivities,
-                                                      y0 is not None)
-        result = simulation.simulate(self, arguments, t_eval)
-        result.model = self  # the result knows its model, and runs again at other times
-        result.run_arguments = arguments
+            result = variational.simulate_sensitivities(self, spec, sensitivities,
+                                                        y0 is not None)
+        else:
+            result = simulation.simulate(self, arguments, t_eval)
+        result.model = self  # the result knows its model, and runs again at other times (a
+        result.run_arguments = arguments  # run with sensitivities: without them)
         return result
 
     def _rerun(self, arguments: tuple, t_eval: Any) -> SimulationResult:

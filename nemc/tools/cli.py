@@ -153,7 +153,7 @@ def make_parser() -> argparse.ArgumentParser:
     add_sweep_parser(commands, parse_assignment, finite_number, positive_number)
     add_linearize_parser(commands, parse_assignment, parse_initial)
     add_export_parser(commands)
-    add_fit_parser(commands, parse_assignment)
+    add_fit_parser(commands, parse_assignment, figure_path)
     return parser
 
 

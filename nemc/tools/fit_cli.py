@@ -1,7 +1,8 @@
 """`nemc fit MECH.yaml DATA.csv --fit NAME ... [--observed NAME ...]`: the mechanism fitted to
 measured data (nemc.fit): a CSV with a header row, a column `t` and a column per observed state
 entry or output; prints the estimates with their standard errors and correlation; `--out`
-writes them (.json) only once the fit succeeded (nothing written half). Every bad input (a
+writes them (.json) and `--plot` the fit's figure (the data, the fitted model, the residuals;
+fit_figures.py) only once the fit succeeded (nothing written half). Every bad input (a
 column that is not a state entry or output, a value that is not a number or not finite, an
 unknown name, a parameter the data cannot identify, a fit that does not converge) is one line
 on stderr and exit status 2."""
@@ -24,7 +25,8 @@ class DataError(ValueError):
     """A CSV that cannot be read as the measurements."""
 
 
-def add_fit_parser(commands: argparse._SubParsersAction, assignment: Any) -> None:
+def add_fit_parser(commands: argparse._SubParsersAction, assignment: Any,
+                   figure_path: Any) -> None:
     fit = commands.add_parser("fit", help="estimate parameters and initial values from "
                               "measured data, with standard errors (nemc.fit)")
     fit.add_argument("mechanism")
@@ -54,6 +56,9 @@ def add_fit_parser(commands: argparse._SubParsersAction, assignment: Any) -> Non
                      "fitted too, joined by continuity defects (a chaotic mechanism; "
                      "default 1: one run)")
     fit.add_argument("--out", help="also write the estimates to this .json file")
+    fit.add_argument("--plot", type=figure_path, metavar="FILE",
+                     help="also draw the fit to this figure (.png, .pdf, .svg, ...): each "
+                     "observed column's data with the fitted model, its residuals below")
 
 
 def bound(text: str) -> tuple[str, tuple[float, float]]:
@@ -143,6 +148,14 @@ def cmd_fit(args: argparse.Namespace) -> int:
     if args.out:
         write(result, Path(args.out))
         print(f"written to {args.out}")
+    if args.plot:
+        try:
+            draw(result, Path(args.plot))
+        except OSError as error:
+            print(f"{where}: --plot {args.plot}: cannot write: {error.strerror or error}",
+                  file=sys.stderr)
+            return 2
+        print(f"figure written to {args.plot}")
     return 0
 
 
@@ -180,3 +193,15 @@ def write(result: Any, path: Path) -> None:
     temporary = path.with_name(path.name + ".tmp")
     temporary.write_text(json.dumps(data, indent=1) + "\n")
     temporary.replace(path)
+
+
+def draw(result: Any, path: Path) -> None:
+    """The fit's figure written to PATH whole or not at all (a temporary file renamed)."""
+    from .fit_figures import DPI, fit_figure
+
+    temporary = path.with_name(path.name + ".tmp")
+    try:
+        fit_figure(result).savefig(temporary, format=path.suffix.lower().lstrip("."), dpi=DPI)
+        temporary.replace(path)
+    finally:
+        temporary.unlink(missing_ok=True)
