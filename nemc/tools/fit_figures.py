@@ -97,8 +97,9 @@ def draw_signal(top: Any, bottom: Any, result: Any, name: str, j: int, labels: L
     bottom.set_xlabel(labels.axis("t", "t"))
     for ax in (top, bottom):
         ax.grid(True, lw=0.5, alpha=0.6)
-    top.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=2 * len(result.experiments),
-               frameon=False, fontsize="small", borderaxespad=0.2)
+    if j == 0:  # one legend, above the first panel: an experiment a row
+        top.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=2, frameon=False,
+                   fontsize="small", borderaxespad=0.2)
 
 
 def plot_fit(result: Any, path: str | os.PathLike | None = None, **options: Any) -> ShownFigure:
