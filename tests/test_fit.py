@@ -255,3 +255,18 @@ def test_the_command_line_draws_the_fit_never_over_its_data(pendulum, clean, tmp
     never = tmp_path / "never.png"
     assert main(["fit", str(mech), str(data), "--fit", "c", "W", "--plot", str(never)]) == 2
     assert "cannot identify" in capsys.readouterr().err and not never.exists()
+
+
+def test_a_fit_in_shots_draws_each_shots_run_on_its_span(pendulum, clean) -> None:
+    """shots=3: three model curves, each over its own shot's data times, which together
+    cover the data; the residual panel's points are the fit's residuals (the defects apart)."""
+    result = nemc.fit(pendulum, TIMES, noisy(clean, 12), fit=["c", "L"], observed=["theta"],
+                      start={"c": 0.3, "L": 2.8}, shots=3)
+    top, bottom = result.plot().axes
+    curves = top.lines[1:]
+    assert len(curves) == 3
+    spans = [(c.get_xdata()[0], c.get_xdata()[-1]) for c in curves]
+    assert spans[0][0] == TIMES[0] and spans[-1][1] == TIMES[-1]
+    assert all(a[1] == b[0] for a, b in zip(spans, spans[1:]))  # a shot ends where the next starts
+    points = [line for line in bottom.lines if line.get_marker() == "o"]
+    assert np.array_equal(points[0].get_ydata(), result.residual)
