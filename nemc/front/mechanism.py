@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from ..kinds.constraints import Constraint
+from ..kinds.contact import Contact
 from ..kinds.joints import Joint
 from ..kinds.loads import Load
 from ..kinds.terms import (
@@ -141,6 +142,7 @@ class Mechanism:
     inputs: tuple[Param, ...] = ()  # values set from outside at run time, with their defaults
     load_names: tuple[tuple[str, int], ...] = ()  # a named load's name, its index in loads
     friction_count: int = 0  # the last loads are the `friction` items (nemc/kinds/friction.py)
+    contacts: tuple[Contact, ...] = ()  # format v3 `contacts` (nemc/kinds/contact.py)
 
     @property
     def frictions(self) -> tuple[Load, ...]:
