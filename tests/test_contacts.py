@@ -133,6 +133,14 @@ def test_the_spec_examples_read_and_a_build_is_refused_at_the_contact(method: st
         nemc.compile(path)
 
 
+def test_nemc_check_says_the_contacts_are_read_but_not_built(capsys) -> None:
+    from nemc.tools.cli import main
+
+    assert main(["check", str(DATA / "rocking_block.yaml")]) == 0
+    assert "3 coordinates, 2 contacts (read and checked; not built yet, issue 50), 3 degrees" \
+        in capsys.readouterr().out
+
+
 def _speeds(mech, contact) -> tuple[Kinematics, sympy.Expr, sympy.Expr, sympy.Expr]:
     kin = Kinematics(mech)
     normal, tangent = contact.speeds(kin)
