@@ -1,7 +1,8 @@
-"""Contacts (format v3 `contacts`; decision 0041) as the derivation sees them today: read and
-checked by the front end (nemc/front/contacts.py), their dynamics (the impacts, the lasting
-constraint and its release) not built yet, so a build of a mechanism with contacts is refused
-at the first contact's FILE:LINE rather than run as if the contacts were not there.
+"""What the build of contacts (format v3 `contacts`; decision 0041) does not take yet, refused
+at the contact's FILE:LINE rather than run wrong: Coulomb friction in a contact (`mu`), more
+than one contact (an impact at one may release another: a complementarity problem), contacts
+together with `friction` items, and the inverse-dynamics regressor of a mechanism with
+contacts (their forces are not known from a motion alone).
 """
 
 from __future__ import annotations
@@ -9,15 +10,25 @@ from __future__ import annotations
 from ..errors import InputError, Problem
 from ..front import mechanism as m
 
+NOT_YET = "not built yet (issue 50; decision 0041)"
 
-def refuse_contacts(mech: m.Mechanism, what: str) -> None:
-    """Raise InputError at the first contact's line when MECH has contacts: WHAT (its
-    equations of motion, its regressor) would leave them out."""
+
+def refuse_contacts(mech: m.Mechanism, what: str | None = None) -> None:
+    """Raise InputError at the contact's line where MECH's contacts need what is not built;
+    WHAT (the regressor) refuses any contact."""
     if not mech.contacts:
         return
-    where = mech.contacts[0].location
-    names = ", ".join(contact.name for contact in mech.contacts)
-    raise InputError([Problem(where.file, where.line, "contacts", (
-        f"contacts ({names}) are read and checked, but {what} with contacts are not built "
-        "yet (issue 50: the impacts, the lasting constraint and its release); model a "
-        "contact by an impact event (simulation.events) or a stiff one-sided spring"))])
+    first = mech.contacts[0]
+    why, where = None, first.location
+    if what is not None:
+        why = f"{what} of a mechanism with contacts is not available: their forces are not " \
+              "known from the motion alone"
+    elif len(mech.contacts) > 1:
+        where = mech.contacts[1].location
+        why = f"more than one contact is {NOT_YET}: an impact at one may release another"
+    elif mech.frictions:
+        why = f"contacts together with `friction` items are {NOT_YET}"
+    elif first.has_friction:
+        why = f"friction in a contact (`mu`) is {NOT_YET}: give no `mu` (frictionless)"
+    if why is not None:
+        raise InputError([Problem(where.file, where.line, where.key, why)])

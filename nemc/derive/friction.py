@@ -22,17 +22,25 @@ from ..kinds.friction import Friction
 from .kinematics import Kinematics, applied_loads
 from .outputs import constraint_loads, joint_reaction
 
-TERMS = 4  # per item: mu, mu_static, the normal force's x and y (magnitude: their norm)
+TERMS = 4  # per item: mu, mu_static, the normal force's x and y (magnitude: their norm); per
+#            contact: restitution, gap, normal speed, normal acceleration (nemc/kinds/contact.py)
+COULOMB, CONTACT = 0, 1  # an item's law: friction across a joint, a contact's normal force
 
 
 @dataclass(frozen=True)
 class FrictionEquations:
     """The friction items' unknowns and terms, in the `friction` list's order."""
 
-    names: tuple[str, ...]  # each item's joint
+    names: tuple[str, ...]  # each item's joint (a contact: its name)
     forces: tuple[sympy.Symbol, ...]  # its friction force's symbol (FRICTION(k) in C)
     coordinates: tuple[int, ...]  # the index of its joint's coordinate (its rate: the speed)
     terms: tuple[sympy.Expr, ...]  # TERMS per item, in runtime symbols
+    laws: tuple[int, ...] = ()  # each item's law (COULOMB, CONTACT): the friction items first
+
+    @property
+    def rates(self) -> tuple[int, ...]:
+        """The coordinates whose rates the friction items hold (not the contacts')."""
+        return tuple(c for c, law in zip(self.coordinates, self.laws) if law == COULOMB)
 
     @property
     def count(self) -> int:
@@ -45,7 +53,7 @@ def friction_equations(mech: m.Mechanism, kin: Kinematics,
     """The friction items' equations, or None without any. MULTIPLIERS: each loop
     constraint's (its reaction is a load on the bodies a joint's reaction balances)."""
     items = [item for item in mech.frictions if isinstance(item, Friction)]
-    if not items:
+    if not items and not mech.contacts:
         return None
     loads = applied_loads(mech, kin)
     constraint_loads(mech, kin, multipliers, loads)
@@ -59,9 +67,14 @@ def friction_equations(mech: m.Mechanism, kin: Kinematics,
         assert normal is not None  # the front end refused the others
         terms += [runtime(term) for term in item.terms(normal, joint.friction_lever)]
         coordinates.append(mech.coordinates.index(joint.coordinates[0]))
-    return FrictionEquations(names=tuple(names),
-                             forces=tuple(item.symbol for item in items),
-                             coordinates=tuple(coordinates), terms=tuple(terms))
+    for contact in mech.contacts:
+        terms += [runtime(term) for term in contact.terms(kin, kin.rate)]
+    return FrictionEquations(names=tuple(names) + tuple(c.name for c in mech.contacts),
+                             forces=tuple(item.symbol for item in items)
+                             + tuple(c.symbol for c in mech.contacts),
+                             coordinates=tuple(coordinates) + (0,) * len(mech.contacts),
+                             terms=tuple(terms),
+                             laws=(COULOMB,) * len(items) + (CONTACT,) * len(mech.contacts))
 
 
 def friction_parameters(mech: m.Mechanism) -> tuple[tuple[sympy.Symbol, ...], tuple[float, ...]]:
@@ -69,8 +82,9 @@ def friction_parameters(mech: m.Mechanism) -> tuple[tuple[sympy.Symbol, ...], tu
     where a call outside friction.c.tmpl's solver reads it), then each item's mode (NaN: read
     from the state; a run sets them at its start and each switch writes its item's)."""
     items = [item for item in mech.frictions if isinstance(item, Friction)]
-    forces = tuple(item.symbol for item in items)
-    modes = tuple(m.symbol(f"mode({item.on_joint})") for item in items)
+    forces = tuple(item.symbol for item in items) + tuple(c.symbol for c in mech.contacts)
+    modes = tuple(m.symbol(f"mode({item.on_joint})") for item in items) + tuple(
+        m.symbol(f"mode({contact.name})") for contact in mech.contacts)
     return forces + modes, (0.0,) * len(forces) + (math.nan,) * len(modes)
 
 
@@ -84,6 +98,10 @@ def friction_outputs(mech: m.Mechanism) -> list[tuple[str, sympy.Expr]]:
             rate = m.rate_symbol(mech.joint(name).coordinates[0])
             stuck = sympy.Piecewise((sympy.S.One, sympy.Eq(rate, 0)), (sympy.S.Zero, True))
             named += [(f"{name}.friction", item.symbol), (f"{name}.stuck", stuck)]
+    for contact in mech.contacts:  # NAME.active: 1 while it lasts (its normal force > 0)
+        active = sympy.Piecewise((sympy.S.One, contact.symbol > 0), (sympy.S.Zero, True))
+        named += [(f"{contact.name}.Fn", contact.symbol), (f"{contact.name}.Ft", sympy.S.Zero),
+                  (f"{contact.name}.active", active)]
     return named
 
 
@@ -92,7 +110,9 @@ def friction_events(mech: m.Mechanism) -> tuple[m.Event, ...]:
     (the speed while slipping, the holding margin while stuck), so `when` here is a stand-in."""
     return tuple(m.Event(name=f"{item.on_joint}.stick_slip", when=sympy.S.Zero,
                          direction="both", action="switch", loc=item.location)
-                 for item in mech.frictions if isinstance(item, Friction))
+                 for item in mech.frictions if isinstance(item, Friction)) + tuple(
+        m.Event(name=f"{contact.name}.contact", when=sympy.S.Zero, direction="falling",
+                action="switch", loc=contact.location) for contact in mech.contacts)
 
 
 def friction_checks(mech: m.Mechanism, runtime: Callable[[object], sympy.Expr]
@@ -103,15 +123,20 @@ def friction_checks(mech: m.Mechanism, runtime: Callable[[object], sympy.Expr]
         if isinstance(item, Friction):
             found += [(f"friction.{k}.{key}", runtime(expr), strict)
                       for key, expr, strict in item.checks()]
+    for contact in mech.contacts:
+        found += [(f"{bound.prefix}contacts.{contact.name}.{bound.key}", runtime(bound.expression),
+                   bound.strict) for bound in contact.bounds()]
     return found
 
 
 def friction_refusal(mech: m.Mechanism, what: str) -> str | None:
     """Why WHAT (a part of the build that differentiates or expands the right-hand side) is
     not available with Coulomb friction, at the first item's FILE:LINE; None without any."""
-    if not mech.frictions:
+    if not mech.frictions and not mech.contacts:
         return None
-    where = mech.frictions[0].location
-    return (f"{where.file}:{where.line}: {where.key}: {what} of a mechanism with Coulomb "
-            "friction are not available: its right-hand side switches between modes at "
-            "events (stuck, slipping either way) and is not differentiable across them")
+    where = (mech.frictions or mech.contacts)[0].location
+    which = "Coulomb friction" if mech.frictions else "contacts"
+    return (f"{where.file}:{where.line}: {where.key}: {what} of a mechanism with {which} "
+            "are not available: its right-hand side switches between modes at events (stuck, "
+            "slipping either way; a contact open or lasting) and is not differentiable across "
+            "them")

@@ -227,4 +227,5 @@ def friction_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
     return template("friction.c.tmpl").substitute(
         prefix=prefix, friction_names=comment_text(", ".join(friction.names)),
         coordinates=", ".join(str(i) for i in friction.coordinates), dynamics_call=dynamics_call,
+        laws=", ".join(str(law) for law in friction.laws),
         terms=body(printer, block, indexed("terms", block.groups["friction"])))

@@ -95,7 +95,8 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
         return None
     return Mechanism(name=name, description=description, source=ctx.file,
                      source_hash=source_hash, parameters=parameters, constants=constants,
-                     gravity=gravity, bodies=bodies, joints=joints, loads=loads + frictions,
+                     gravity=gravity, bodies=bodies, joints=joints,
+                     loads=loads + frictions + contacts,
                      outputs=outputs, simulation=simulation, constraints=constraints,
                      units=units, inputs=inputs, load_names=load_names,
                      friction_count=len(frictions), contacts=contacts)

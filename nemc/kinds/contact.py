@@ -29,11 +29,12 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import sympy
 
+from .loads.base import Load
 from .spatial import V2, unit
-from .terms import Loc, PointRef, Vec2, with_expressions_mapped
+from .terms import Loc, PointRef, Vec2, symbol
 
 if TYPE_CHECKING:
-    from .contract import Frame, LoadView, Reader
+    from .contract import Frame, LoadSink, LoadView, Reader
 
 Expr = sympy.Expr
 KEYS = ("point", "radius", "surface", "restitution", "mu")
@@ -44,17 +45,25 @@ GROUND = "ground"
 @dataclass(frozen=True)
 class Bound:
     """What one of a contact's expressions must keep at every run's parameters: EXPRESSION
-    >= 0 (> 0 where STRICT), told as RULE, at the contact's key KEY."""
+    >= 0 (> 0 where STRICT), told as RULE, at the contact's key KEY; a run's check names it
+    PREFIX + KEY (the contact's key path, or "1 - " before it)."""
 
     key: str
     expression: Expr
     strict: bool
     rule: str
+    prefix: str = ""
+
+
+def contact_symbol(name: str) -> sympy.Symbol:
+    """The normal force of contact NAME: solved in C at every state (0 while open)."""
+    return symbol(f"contact({name})")
 
 
 @dataclass(frozen=True)
-class Contact:
-    """One contact of the `contacts` mapping: a point or disc on a line of a body."""
+class Contact(Load):
+    """One contact of the `contacts` mapping: a point or disc on a line of a body; a load
+    whose normal force the generated C solves (nemc/kinds/loads/base.py's questions)."""
 
     kind: ClassVar[str] = "contact"
     keys: ClassVar[tuple[str, ...]] = KEYS
@@ -100,13 +109,14 @@ class Contact:
         return {**fields, "mu": mu}
 
     @property
-    def location(self) -> Loc:
-        return self.loc
-
-    @property
     def bodies(self) -> tuple[str, str]:
         """The point's body, then the surface's."""
         return (self.point.body, self.surface)
+
+    @property
+    def symbol(self) -> sympy.Symbol:
+        """Its normal force's symbol (CONTACT: a runtime unknown, like a friction force)."""
+        return contact_symbol(self.name)
 
     @property
     def has_friction(self) -> bool:
@@ -120,10 +130,6 @@ class Contact:
                  ("surface.axis.0", self.axis[0]), ("surface.axis.1", self.axis[1])]
         return found + ([("mu", self.mu)] if self.mu is not None else [])
 
-    def map_expressions(self, f: Callable[[Expr], Expr]) -> Contact:
-        """The contact with f applied to every expression it holds."""
-        return with_expressions_mapped(self, f)
-
     def bounds(self) -> list[Bound]:
         """What its parameters must keep (the front end checks them at the defaults, a run at
         its own): radius >= 0, 0 <= restitution <= 1, mu >= 0."""
@@ -132,7 +138,7 @@ class Contact:
                        "restitution must be >= 0 (0: a plastic impact)"),
                  Bound("restitution", 1 - self.restitution, False,
                        "restitution must be <= 1 (1: an elastic impact; more would create "
-                       "energy)")]
+                       "energy)", "1 - ")]
         if self.mu is not None:
             found.append(Bound("mu", self.mu, False, "mu must be >= 0 (Coulomb's coefficient)"))
         return found
@@ -178,6 +184,29 @@ class Contact:
         """The rows of d(normal speed, tangent speed)/d(RATES): the speeds are linear in the
         rates, and the rows are the generalized forces of a unit normal and tangent force."""
         return tuple([sympy.diff(speed, rate) for rate in rates] for speed in self.speeds(view))
+
+
+    def terms(self, view: LoadView, rate: Callable[[Expr], Expr]) -> tuple[Expr, ...]:
+        """What the solver needs of it (kinematics' view; RATE: d/dt, the accelerations as
+        symbols): restitution, gap, normal speed and normal acceleration (affine in the
+        contact forces through the accelerations)."""
+        normal, _ = self.speeds(view)
+        return (self.restitution, self.gap(view), normal, rate(normal))
+
+    def act(self, view: LoadView, sink: LoadSink) -> None:
+        """n Fn on the point's body through its point (a disc's center: the normal passes
+        through it), and the opposite on the surface body, at its line's point a with the
+        couple of the offset c - a (the ground takes nothing)."""
+        surface = view.frame(self.surface)
+        _, n = self.frame_vectors(surface)
+        force = (self.symbol * n[0], self.symbol * n[1])
+        body = view.frame(self.point.body)
+        sink.force(self.point.body, self.point.xy, force, at=body.point(self.point.xy))
+        if self.surface == GROUND:
+            return
+        a, c = surface.point(self.at), self.contact_point(view)
+        sink.force(self.surface, self.at, (-force[0], -force[1]), at=a)
+        sink.couple(self.surface, (c[1] - a[1]) * force[0] - (c[0] - a[0]) * force[1])
 
 
 def _material_velocity(frame: Frame, xy: Vec2, omega: Expr, known: V2, at: V2) -> V2:

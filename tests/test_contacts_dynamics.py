@@ -1,0 +1,102 @@
+"""Contacts that last, run (issue 50; decision 0041): one frictionless contact against closed
+forms. A ball bouncing on a floor (impact times, the accumulation and the rest that follows,
+the energy the impacts take, each from its pre-impact speed), and a ball released by a plate
+accelerating downward faster than gravity (the contact force while it lasts, the instant it
+reaches 0, the flight after)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import nemc
+from nemc.runtime.failures import ModelError
+
+DATA = Path(__file__).parent / "data" / "contacts"
+M, R, E, G, Y0 = 0.2, 0.05, 0.5, 9.81, 1.05
+T1 = math.sqrt(2 * (Y0 - R) / G)
+T_INF = T1 * (1 + E) / (1 - E)
+ZENO = 1e-7  # friction.c.tmpl's CONTACT_ZENO: the impacts accumulate below this flight x (1 + t)
+
+
+@pytest.fixture(scope="module")
+def ball():
+    return nemc.compile(DATA / "ball_on_floor.yaml")
+
+
+@pytest.fixture(scope="module")
+def plate():
+    return nemc.compile(DATA / "platform_release.yaml")
+
+
+@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853"])
+def test_the_ball_bounces_where_the_closed_form_says_then_rests(ball, method: str) -> None:
+    result = ball.simulate(method=method)
+    assert result.success
+    times, states = result.events["floor.contact"]
+    expected = T1 + 2 * T1 * np.concatenate(([0.0], np.cumsum(E ** np.arange(1, len(times)))))
+    np.testing.assert_allclose(times, expected, rtol=0, atol=1e-10)
+    # the last impact closes the contact: the flights left would have taken at most
+    # ZENO (1 + t) / (1 - e) (the Zeno rule), and at least half that
+    early = T_INF - times[-1]
+    assert ZENO * (1 + T_INF) / 2 <= early <= ZENO * (1 + T_INF) / (1 - E)
+    assert len(times) == 22
+    y, rate = result.y[2], result.y[3]
+    resting = result.t > times[-1]
+    np.testing.assert_allclose(y[resting], R, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(rate[resting], 0.0, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(result.outputs["floor.Fn"][resting], M * G, rtol=1e-13)
+    assert np.all(result.outputs["floor.active"][resting] == 1.0)
+    flying = result.t < times[-1] - 1e-3
+    assert np.all(result.outputs["floor.Fn"][flying] == 0.0)
+    assert np.all(result.outputs["floor.active"][flying] == 0.0)
+    np.testing.assert_allclose(result.y[1], 0.3, rtol=1e-13)
+
+
+def test_the_impacts_take_the_energy_their_restitution_says(ball) -> None:
+    """Each bounce takes (1 - e^2) m v^2 / 2 of its pre-impact speed v, the last (plastic)
+    m v^2 / 2: their sum is the energy drop, m g (y0 - r); between impacts none is lost."""
+    result = ball.simulate()
+    times, states = result.events["floor.contact"]
+    speeds = np.asarray(states)[:, 3]
+    taken = 0.5 * M * speeds ** 2 * np.r_[np.full(len(speeds) - 1, 1 - E ** 2), 1.0]
+    total = result.outputs["energy.total"]
+    assert total[0] - total[-1] == pytest.approx(taken.sum(), rel=1e-10)
+    assert taken.sum() == pytest.approx(M * G * (Y0 - R), rel=1e-9)
+    for start, end in zip(np.r_[0.0, times[:-1]], times):
+        flight = (result.t > start + 1e-9) & (result.t < end - 1e-9)
+        if flight.any():
+            assert np.ptp(total[flight]) <= 1e-10
+
+
+@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853"])
+def test_the_ball_leaves_the_plate_when_its_contact_force_would_turn_negative(
+        plate, method: str) -> None:
+    c = 2.0
+    released = G / (6 * c)
+    result = plate.simulate(method=method)
+    assert result.success
+    times, _ = result.events["seat.contact"]
+    np.testing.assert_allclose(times, [released], rtol=0, atol=1e-12)
+    t, y = result.t, result.y[2]
+    holding = t < released
+    np.testing.assert_allclose(result.outputs["seat.Fn"][holding],
+                               M * (G - 6 * c * t[holding]), rtol=0, atol=1e-12)
+    assert np.all(result.outputs["seat.active"][holding] == 1.0)
+    flight = t - released
+    expected = np.where(holding, R - c * t ** 3, R - c * released ** 3
+                        - 3 * c * released ** 2 * flight - G / 2 * flight ** 2)
+    np.testing.assert_allclose(y, expected, rtol=0, atol=1e-10)
+    gone = t > released
+    assert np.all(result.outputs["seat.Fn"][gone] == 0.0)
+    assert np.all(result.outputs["seat.active"][gone] == 0.0)
+
+
+@pytest.mark.parametrize("method", ["RK45", "Radau", "nemc.Radau", "nemc.Taylor"])
+def test_methods_that_cannot_run_contacts_are_refused_by_name(ball, method: str) -> None:
+    with pytest.raises(ModelError, match=f"{method} cannot run a mechanism with Coulomb "
+                                         r"friction or contacts \(on floor\)"):
+        ball.simulate(method=method)
