@@ -95,6 +95,11 @@ def test_the_ball_leaves_the_plate_when_its_contact_force_would_turn_negative(
     assert np.all(result.outputs["seat.active"][gone] == 0.0)
 
 
+def test_a_restitution_above_1_at_a_runs_parameters_is_refused(ball) -> None:
+    with pytest.raises(ModelError, match=r"1 - contacts.floor.restitution must be >= 0"):
+        ball.simulate(params={"e": 1.5})
+
+
 @pytest.mark.parametrize("method", ["RK45", "Radau", "nemc.Radau", "nemc.Taylor"])
 def test_methods_that_cannot_run_contacts_are_refused_by_name(ball, method: str) -> None:
     with pytest.raises(ModelError, match=f"{method} cannot run a mechanism with Coulomb "

@@ -7,6 +7,10 @@ sliding speed, and its terms mu, mu_static and the normal force's two components
 coordinates, rates, accelerations (the reaction's Newton-Euler balance) and parameters. The
 state holds the mode: a stuck joint's rate is exactly 0 (decision 0039), so the outputs
 NAME.stuck and NAME.friction and the switching events follow from the state alone.
+
+Contacts (format v3 `contacts`; nemc/kinds/contact.py, decision 0041) are items too, after the
+friction items: each one's normal force an unknown, its terms restitution, gap, normal speed
+and normal acceleration, its outputs NAME.Fn, NAME.Ft, NAME.active and its event NAME.contact.
 """
 
 from __future__ import annotations
