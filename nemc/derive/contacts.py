@@ -1,8 +1,8 @@
 """What the build of contacts (format v3 `contacts`; decision 0041) does not take yet, refused
-at the contact's FILE:LINE rather than run wrong: Coulomb friction in a contact (`mu`), more
-than one contact (an impact at one may release another: a complementarity problem), contacts
-together with `friction` items, and the inverse-dynamics regressor of a mechanism with
-contacts (their forces are not known from a motion alone).
+at the contact's FILE:LINE rather than run wrong: more than one contact (an impact at one may
+release another: a complementarity problem), contacts together with `friction` items, and the
+inverse-dynamics regressor of a mechanism with contacts (their forces are not known from a
+motion alone).
 """
 
 from __future__ import annotations
@@ -28,7 +28,5 @@ def refuse_contacts(mech: m.Mechanism, what: str | None = None) -> None:
         why = f"more than one contact is {NOT_YET}: an impact at one may release another"
     elif mech.frictions:
         why = f"contacts together with `friction` items are {NOT_YET}"
-    elif first.has_friction:
-        why = f"friction in a contact (`mu`) is {NOT_YET}: give no `mu` (frictionless)"
     if why is not None:
         raise InputError([Problem(where.file, where.line, where.key, why)])

@@ -28,7 +28,8 @@ from .outputs import constraint_loads, joint_reaction
 
 TERMS = 4  # per item: mu, mu_static, the normal force's x and y (magnitude: their norm); per
 #            contact: restitution, gap, normal speed, normal acceleration (nemc/kinds/contact.py)
-COULOMB, CONTACT = 0, 1  # an item's law: friction across a joint, a contact's normal force
+COULOMB, CONTACT, CONTACT_TANGENT = 0, 1, 2  # an item's law: friction across a joint, a
+#                                              contact's normal force, its friction (`mu`)
 
 
 @dataclass(frozen=True)
@@ -71,14 +72,16 @@ def friction_equations(mech: m.Mechanism, kin: Kinematics,
         assert normal is not None  # the front end refused the others
         terms += [runtime(term) for term in item.terms(normal, joint.friction_lever)]
         coordinates.append(mech.coordinates.index(joint.coordinates[0]))
+    laws = [COULOMB] * len(items)
+    forces = [item.symbol for item in items]
     for contact in mech.contacts:
         terms += [runtime(term) for term in contact.terms(kin, kin.rate)]
-    return FrictionEquations(names=tuple(names) + tuple(c.name for c in mech.contacts),
-                             forces=tuple(item.symbol for item in items)
-                             + tuple(c.symbol for c in mech.contacts),
-                             coordinates=tuple(coordinates) + (0,) * len(mech.contacts),
-                             terms=tuple(terms),
-                             laws=(COULOMB,) * len(items) + (CONTACT,) * len(mech.contacts))
+        forces += contact.symbols
+        laws += [CONTACT, CONTACT_TANGENT][:len(contact.symbols)]
+        names += [contact.name, f"{contact.name}.tangent"][:len(contact.symbols)]
+    return FrictionEquations(names=tuple(names), forces=tuple(forces),
+                             coordinates=tuple(coordinates) + (0,) * (len(laws) - len(items)),
+                             terms=tuple(terms), laws=tuple(laws))
 
 
 def friction_parameters(mech: m.Mechanism) -> tuple[tuple[sympy.Symbol, ...], tuple[float, ...]]:
@@ -86,9 +89,11 @@ def friction_parameters(mech: m.Mechanism) -> tuple[tuple[sympy.Symbol, ...], tu
     where a call outside friction.c.tmpl's solver reads it), then each item's mode (NaN: read
     from the state; a run sets them at its start and each switch writes its item's)."""
     items = [item for item in mech.frictions if isinstance(item, Friction)]
-    forces = tuple(item.symbol for item in items) + tuple(c.symbol for c in mech.contacts)
+    forces = tuple(item.symbol for item in items) + tuple(
+        force for contact in mech.contacts for force in contact.symbols)
     modes = tuple(m.symbol(f"mode({item.on_joint})") for item in items) + tuple(
-        m.symbol(f"mode({contact.name})") for contact in mech.contacts)
+        m.symbol(f"mode({force.name})") for contact in mech.contacts
+        for force in contact.symbols)
     return forces + modes, (0.0,) * len(forces) + (math.nan,) * len(modes)
 
 
@@ -104,7 +109,8 @@ def friction_outputs(mech: m.Mechanism) -> list[tuple[str, sympy.Expr]]:
             named += [(f"{name}.friction", item.symbol), (f"{name}.stuck", stuck)]
     for contact in mech.contacts:  # NAME.active: 1 while it lasts (its normal force > 0)
         active = sympy.Piecewise((sympy.S.One, contact.symbol > 0), (sympy.S.Zero, True))
-        named += [(f"{contact.name}.Fn", contact.symbol), (f"{contact.name}.Ft", sympy.S.Zero),
+        forces = (*contact.symbols, sympy.S.Zero)
+        named += [(f"{contact.name}.Fn", forces[0]), (f"{contact.name}.Ft", forces[1]),
                   (f"{contact.name}.active", active)]
     return named
 
@@ -115,8 +121,10 @@ def friction_events(mech: m.Mechanism) -> tuple[m.Event, ...]:
     return tuple(m.Event(name=f"{item.on_joint}.stick_slip", when=sympy.S.Zero,
                          direction="both", action="switch", loc=item.location)
                  for item in mech.frictions if isinstance(item, Friction)) + tuple(
-        m.Event(name=f"{contact.name}.contact", when=sympy.S.Zero, direction="falling",
-                action="switch", loc=contact.location) for contact in mech.contacts)
+        m.Event(name=f"{contact.name}.{which}", when=sympy.S.Zero, direction=direction,
+                action="switch", loc=contact.location) for contact in mech.contacts
+        for which, direction in (("contact", "falling"), ("stick_slip", "both"))[
+            :len(contact.symbols)])
 
 
 def friction_checks(mech: m.Mechanism, runtime: Callable[[object], sympy.Expr]

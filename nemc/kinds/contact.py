@@ -55,9 +55,10 @@ class Bound:
     prefix: str = ""
 
 
-def contact_symbol(name: str) -> sympy.Symbol:
-    """The normal force of contact NAME: solved in C at every state (0 while open)."""
-    return symbol(f"contact({name})")
+def contact_symbol(name: str, tangent: bool = False) -> sympy.Symbol:
+    """The normal force (TANGENT: the friction force) of contact NAME: solved in C at every
+    state (0 while open)."""
+    return symbol(f"contact_{'tangent' if tangent else 'normal'}({name})")
 
 
 @dataclass(frozen=True)
@@ -117,6 +118,12 @@ class Contact(Load):
     def symbol(self) -> sympy.Symbol:
         """Its normal force's symbol (CONTACT: a runtime unknown, like a friction force)."""
         return contact_symbol(self.name)
+
+    @property
+    def symbols(self) -> tuple[sympy.Symbol, ...]:
+        """Its unknown forces: the normal force, then with `mu` the friction force along u."""
+        return (self.symbol,) + ((contact_symbol(self.name, True),) if self.mu is not None
+                                 else ())
 
     @property
     def has_friction(self) -> bool:
@@ -187,24 +194,33 @@ class Contact(Load):
 
 
     def terms(self, view: LoadView, rate: Callable[[Expr], Expr]) -> tuple[Expr, ...]:
-        """What the solver needs of it (kinematics' view; RATE: d/dt, the accelerations as
-        symbols): restitution, gap, normal speed and normal acceleration (affine in the
-        contact forces through the accelerations)."""
-        normal, _ = self.speeds(view)
-        return (self.restitution, self.gap(view), normal, rate(normal))
+        """What the solver needs of it, 4 per unknown force (kinematics' view; RATE: d/dt, the
+        accelerations as symbols): restitution, gap, normal speed and normal acceleration;
+        with `mu`, then mu, 0, the tangent speed (the slip) and its rate (the accelerations
+        affine in the contact's forces)."""
+        normal, tangent = self.speeds(view)
+        found = (self.restitution, self.gap(view), normal, rate(normal))
+        if self.mu is not None:
+            found += (self.mu, sympy.S.Zero, tangent, rate(tangent))
+        return found
 
     def act(self, view: LoadView, sink: LoadSink) -> None:
-        """n Fn on the point's body through its point (a disc's center: the normal passes
-        through it), and the opposite on the surface body, at its line's point a with the
-        couple of the offset c - a (the ground takes nothing)."""
+        """n Fn + u Ft on the point's body at the contact point c (at its point, with the
+        couple of the offset c - p), and the opposite on the surface body (at its line's point
+        a, with the couple of c - a; the ground takes nothing)."""
         surface = view.frame(self.surface)
-        _, n = self.frame_vectors(surface)
-        force = (self.symbol * n[0], self.symbol * n[1])
+        u, n = self.frame_vectors(surface)
+        forces = self.symbols
+        along = forces[1] if len(forces) > 1 else sympy.S.Zero
+        force = (forces[0] * n[0] + along * u[0], forces[0] * n[1] + along * u[1])
         body = view.frame(self.point.body)
-        sink.force(self.point.body, self.point.xy, force, at=body.point(self.point.xy))
+        p, c = body.point(self.point.xy), self.contact_point(view)
+        sink.force(self.point.body, self.point.xy, force, at=p)
+        if self.mu is not None:
+            sink.couple(self.point.body, (c[0] - p[0]) * force[1] - (c[1] - p[1]) * force[0])
         if self.surface == GROUND:
             return
-        a, c = surface.point(self.at), self.contact_point(view)
+        a = surface.point(self.at)
         sink.force(self.surface, self.at, (-force[0], -force[1]), at=a)
         sink.couple(self.surface, (c[1] - a[1]) * force[0] - (c[0] - a[0]) * force[1])
 
