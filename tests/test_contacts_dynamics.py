@@ -105,3 +105,25 @@ def test_methods_that_cannot_run_contacts_are_refused_by_name(ball, method: str)
     with pytest.raises(ModelError, match=f"{method} cannot run a mechanism with Coulomb "
                                          r"friction or contacts \(on floor\)"):
         ball.simulate(method=method)
+
+
+@pytest.mark.parametrize("call", ["linearize", "sensitivities", "fmu"])
+def test_what_needs_a_derivative_is_refused_by_name(ball, call: str, tmp_path: Path) -> None:
+    with pytest.raises(ModelError, match="contacts"):
+        if call == "fmu":
+            ball.export_fmu(tmp_path / "ball.fmu")
+        elif call == "linearize":
+            ball.linearize()
+        else:
+            ball.simulate(sensitivities=["e"])
+
+
+def test_an_ensemble_runs_each_drop_with_its_own_contact_modes(ball) -> None:
+    """Two drops from different heights at once (each run's modes its own, set at its start,
+    written by its switches): both end at rest on the floor."""
+    heights = np.array([1.05, 0.3])
+    y0s = np.array([[0.0, 0.3, y, 0.0, 0.0, 0.0] for y in heights])
+    runs = ball.simulate_many(y0s, t_eval=[0.0, 3.0])
+    assert np.all(runs.success)
+    np.testing.assert_allclose(runs.y[:, 2, -1], R, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(runs.y[:, 3, -1], 0.0, rtol=0, atol=1e-12)
