@@ -18,7 +18,9 @@ body (Fn >= 0 while the contact lasts, |Ft| <= mu Fn; decision 0041), does the v
 Fn (n . v_rel) + Ft (u . v_rel): the rows of the Jacobian of the two speeds in the rates are
 the generalized forces of a unit Fn and a unit Ft. This module answers every question about one
 contact: its keys and how they are read, its expressions, the bounds its parameters must keep,
-its geometry and speeds in a derivation's view.
+its geometry and speeds in a derivation's view, its unknown forces (`symbols`), what the solver
+needs of it (`terms`) and the loads those forces are (`act`). It is not drawn (the base's
+default).
 """
 
 from __future__ import annotations
