@@ -13,7 +13,6 @@ from pathlib import Path
 import pytest
 import sympy
 
-import nemc
 from nemc.derive.kinematics import Kinematics
 from nemc.errors import InputError
 from nemc.front.validate import load_mechanism, validate_text
@@ -115,21 +114,6 @@ def test_contacts_that_are_not_a_mapping_are_refused(text: str, tmp_path: Path) 
     line = bad.splitlines().index(text) + 1
     assert f"bad.yaml:{line}: contacts: expected a mapping of contacts" in \
         str(_refusal(bad, tmp_path))
-
-
-@pytest.mark.parametrize("name, line, words", [
-    ("rocking_block", 38, "more than one contact is not built yet"),
-    ("rocking_block_pulse", 0, "more than one contact is not built yet")])
-def test_what_the_build_does_not_take_yet_is_refused_at_its_contact(name: str, line: int,
-                                                                    words: str) -> None:
-    """The spec's files read; several contacts are refused at the second contact's line (not
-    run without it)."""
-    path = DATA / f"{name}.yaml"
-    mech = load_mechanism(path)
-    line = line or mech.contacts[1].location.line
-    with pytest.raises(InputError) as caught:
-        nemc.compile(path)
-    assert f"{path}:{line}:" in str(caught.value) and words in str(caught.value)
 
 
 def test_nemc_check_says_the_contacts_are_read_but_not_built(capsys) -> None:

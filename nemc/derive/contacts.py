@@ -23,9 +23,6 @@ def refuse_contacts(mech: m.Mechanism, what: str | None = None) -> None:
     if what is not None:
         why = f"{what} of a mechanism with contacts is not available: their forces are not " \
               "known from the motion alone"
-    elif len(mech.contacts) > 1:
-        where = mech.contacts[1].location
-        why = f"more than one contact is {NOT_YET}: an impact at one may release another"
     elif mech.frictions:
         why = f"contacts together with `friction` items are {NOT_YET}"
     if why is not None:
