@@ -95,3 +95,14 @@ def test_the_pivot_carries_the_force_newton_says_and_the_other_corner_none(block
     # the friction it needs stays inside the cone (mu = 0.5): the corner does not slide
     assert np.all(np.abs(expected[:, 0]) <= 0.5 * expected[:, 1])
     assert result.events["left_corner.stick_slip"][0].size == 0
+
+
+def test_the_lifted_corner_carries_nothing_exactly(block) -> None:
+    """Between the first two impacts the block pivots on its right corner: the left one is
+    open, its forces exactly 0 and its `active` 0 (not the rounding of Newton's elimination)."""
+    result = block.simulate()
+    times = impacts(result)[0]
+    lifted = (result.t > times[0] + 1e-6) & (result.t < times[1] - 1e-6)
+    for output in ("Fn", "Ft", "active"):
+        assert np.all(result.outputs[f"left_corner.{output}"][lifted] == 0.0)
+    assert np.all(result.outputs["right_corner.active"][lifted] == 1.0)

@@ -1,8 +1,7 @@
 """What the build of contacts (format v3 `contacts`; decision 0041) does not take yet, refused
-at the contact's FILE:LINE rather than run wrong: more than one contact (an impact at one may
-release another: a complementarity problem), contacts together with `friction` items, and the
-inverse-dynamics regressor of a mechanism with contacts (their forces are not known from a
-motion alone).
+at the contact's FILE:LINE rather than run wrong: contacts together with `friction` items,
+and the inverse-dynamics regressor of a mechanism with contacts (their forces are not known
+from a motion alone).
 """
 
 from __future__ import annotations
