@@ -13,7 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from contact_reference import (
+    BasePulse,
     RockingBlock,
+    base_slide_closed_form,
     rocking_accumulation_time,
     rocking_impact_speeds,
     rocking_impact_times,
@@ -106,3 +108,39 @@ def test_the_lifted_corner_carries_nothing_exactly(block) -> None:
     for output in ("Fn", "Ft", "active"):
         assert np.all(result.outputs[f"left_corner.{output}"][lifted] == 0.0)
     assert np.all(result.outputs["right_corner.active"][lifted] == 1.0)
+
+
+@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853"])
+def test_on_a_shaken_table_the_block_lifts_rocks_and_rests_as_the_reference_says(
+        method: str) -> None:
+    """rocking_block_pulse.yaml (mu = 0.5): the contacts' surface is a driven table; the block
+    lifts onto its left corner when the table's acceleration reaches g tan(alpha), rocks, and
+    rests again (its header's numbers: tests/contact_reference.py, rocking_base_run)."""
+    model = nemc.compile(DATA / "rocking_block_pulse.yaml")
+    result = model.simulate(method=method)
+    assert result.success
+    (lifted,) = result.events["right_corner.stick_slip"][0]  # it stuck until it lifted
+    times = impacts(result)[0]  # the right corner's release, then the impacts
+    np.testing.assert_allclose(times[:5], [0.052521951990, 0.442335662650, 0.693868674237,
+                                           0.919565957500, 1.122732730433], rtol=0, atol=1e-9)
+    assert lifted == pytest.approx(0.052521951990, abs=1e-12)  # the right corner lets go
+    assert np.abs(result.y[4]).max() == pytest.approx(0.0374781, abs=5e-7)
+    assert 0 < 3.13895503 - times[-1] < 2e-5
+    resting = result.t > times[-1]
+    np.testing.assert_allclose(result.y[4, resting], 0.0, rtol=0, atol=1e-12)
+
+
+def test_on_a_shaken_table_with_less_friction_the_block_slides_then_sticks() -> None:
+    """rocking_block_pulse.yaml with mu = 0.2: no rocking; the block slides on the table from
+    t0 = (tp / pi) asin(mu g / A) until it sticks, both corners at once, having slid the closed
+    form's distance (tests/contact_reference.py, base_slide_closed_form)."""
+    start, stop, slid = base_slide_closed_form(BasePulse(), BLOCK.g, 0.2)
+    model = nemc.compile(DATA / "rocking_block_pulse.yaml")
+    result = model.simulate(params={"mu": 0.2})
+    assert result.success
+    assert all(result.events[f"{c}.contact"][0].size == 0 for c in ("left_corner", "right_corner"))
+    right = result.events["right_corner.stick_slip"][0]
+    np.testing.assert_allclose(right, [start, stop], rtol=0, atol=1e-10)
+    assert result.events["left_corner.stick_slip"][0][-1] == pytest.approx(stop, abs=1e-10)
+    assert result.outputs["slide"][-1] == pytest.approx(slid, abs=1e-10)
+    np.testing.assert_allclose(result.y[4], 0.0, rtol=0, atol=1e-12)  # it never tilts
