@@ -99,3 +99,12 @@ def test_a_ball_on_a_free_plate_keeps_the_momenta_through_impacts_and_lasting_co
     energy = (m * (dx ** 2 + dy ** 2) + big_m * (dX ** 2 + dY ** 2) + big_i * dA ** 2
               + i * dth ** 2 + k * ((x - eye[0]) ** 2 + (y - eye[1]) ** 2)) / 2
     assert np.diff(energy).max() <= 1e-8 and energy[-1] < energy[0] / 5
+
+
+def test_the_two_methods_agree_on_the_ball_on_a_free_plate() -> None:
+    """Its stick and slip decisions (some sticks last nanoseconds) are made alike by both
+    methods: their states agree to 1e-7 over the whole run."""
+    model = nemc.compile(Path(__file__).parent / "data" / "contacts" / "ball_on_free_plate.yaml")
+    vern, dop = (model.simulate(method=method) for method in ("nemc.Vern9", "nemc.DOP853"))
+    assert vern.success and dop.success
+    np.testing.assert_allclose(vern.y, dop.y, rtol=0, atol=1e-7)
