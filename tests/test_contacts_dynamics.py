@@ -127,3 +127,28 @@ def test_an_ensemble_runs_each_drop_with_its_own_contact_modes(ball) -> None:
     assert np.all(runs.success)
     np.testing.assert_allclose(runs.y[:, 2, -1], R, rtol=0, atol=1e-12)
     np.testing.assert_allclose(runs.y[:, 3, -1], 0.0, rtol=0, atol=1e-12)
+
+
+def test_a_closed_loop_strikes_as_the_same_tree_does() -> None:
+    """A rod pinned at the origin swings from horizontal onto a wall (restitution and friction):
+    as a tree (a revolute joint) and as a closed loop (a free joint and a revolute constraint:
+    projected dynamics, the impulses through the same passes) the runs agree; the first impact
+    is where the energy integral says, t = int dq / sqrt(-(3 g / L) sin q) from pi to
+    2 pi - acos(d / L), at q' = sqrt(-(3 g / L) sin q)."""
+    from scipy.integrate import quad
+
+    tree = nemc.compile(DATA / "pendulum_wall_tree.yaml").simulate()
+    loop = nemc.compile(DATA / "pendulum_wall_loop.yaml").simulate()
+    assert tree.success and loop.success
+    times, states = tree.events["wall.contact"]
+    np.testing.assert_allclose(loop.events["wall.contact"][0], times, rtol=0, atol=1e-9)
+    assert len(times) == 3
+    np.testing.assert_allclose(loop.y[4], tree.y[0], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(loop.y[5], tree.y[1], rtol=0, atol=1e-8)
+    np.testing.assert_allclose(loop.outputs["wall.Fn"], tree.outputs["wall.Fn"], atol=1e-9)
+    g, length, d = 9.81, 1.0, 0.3
+    hit = 2 * math.pi - math.acos(d / length)
+    expected, _ = quad(lambda q: 1 / math.sqrt(-3 * g / length * math.sin(q)), math.pi, hit,
+                       epsabs=1e-13, epsrel=1e-13)
+    assert times[0] == pytest.approx(expected, abs=1e-9)
+    assert states[0][1] == pytest.approx(math.sqrt(-3 * g / length * math.sin(hit)), rel=1e-10)
