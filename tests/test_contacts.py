@@ -202,3 +202,16 @@ def test_on_a_moving_surface_the_speeds_are_rates_of_the_geometry(seed: int) -> 
     assert _equal(normal, kin.rate(gap), at)
     assert _equal(tangent, rolled, at)
     assert abs(float(gap.xreplace(at))) > 1e-3  # away from touching: the identities are general
+
+
+@pytest.mark.parametrize("name, discs, surfaces", [("ball_to_rest", 1, 1),
+                                                    ("rocking_block", 0, 2)])
+def test_a_contact_is_drawn_as_its_line_and_disc(name: str, discs: int, surfaces: int) -> None:
+    """Figures and animations show each contact's line and, for a disc around a body's origin,
+    the disc (nemc/derive/geometry.py, as for a rolling constraint)."""
+    from nemc.derive.geometry import drawing
+
+    picture = drawing(load_mechanism(DATA / f"{name}.yaml"))
+    assert (len(picture.discs), len(picture.surfaces)) == (discs, surfaces)
+    names = [point[0] for point in picture.points]
+    assert any(n.endswith(".at") for n in names) and any(n.endswith(".axis") for n in names)

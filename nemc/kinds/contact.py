@@ -19,8 +19,8 @@ Fn (n . v_rel) + Ft (u . v_rel): the rows of the Jacobian of the two speeds in t
 the generalized forces of a unit Fn and a unit Ft. This module answers every question about one
 contact: its keys and how they are read, its expressions, the bounds its parameters must keep,
 its geometry and speeds in a derivation's view, its unknown forces (`symbols`), what the solver
-needs of it (`terms`) and the loads those forces are (`act`). It is not drawn (the base's
-default).
+needs of it (`terms`), the loads those forces are (`act`), and how a picture shows it
+(`shape`: its line, and a disc around a body's origin, as a rolling constraint's).
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import sympy
 
+from .constraints.base import ConstraintDrawing
 from .loads.base import Load
 from .spatial import V2, unit
 from .terms import Loc, PointRef, Vec2, symbol
@@ -151,6 +152,15 @@ class Contact(Load):
         if self.mu is not None:
             found.append(Bound("mu", self.mu, False, "mu must be >= 0 (Coulomb's coefficient)"))
         return found
+
+    def shape(self) -> ConstraintDrawing:
+        """How a picture shows it (nemc/derive/geometry.py, as a rolling constraint): its line,
+        drawn over the range the point's body's origin travels, and where the point is that
+        origin and has a radius, the disc."""
+        at_origin = all(sympy.sympify(v) == 0 for v in self.point.xy)
+        discs = ((self.point.body, self.radius),) if at_origin and self.radius != 0 else ()
+        return ConstraintDrawing(discs=discs,
+                                 surfaces=((self.surface, self.at, self.axis, self.point.body),))
 
     # -- the geometry, in any derivation's view (ground axes) ------------------------------------
 
