@@ -213,5 +213,6 @@ def test_a_contact_is_drawn_as_its_line_and_disc(name: str, discs: int, surfaces
 
     picture = drawing(load_mechanism(DATA / f"{name}.yaml"))
     assert (len(picture.discs), len(picture.surfaces)) == (discs, surfaces)
-    names = [point[0] for point in picture.points]
-    assert any(n.endswith(".at") for n in names) and any(n.endswith(".axis") for n in names)
+    for surface in picture.surfaces:  # the floor: through (0, 0), along (1, 0)
+        at, ahead = (picture.points[surface[key]][1:] for key in ("at", "axis"))
+        assert [sympy.sympify(v) for v in (*at, *ahead)] == [0, 0, 1, 0]
