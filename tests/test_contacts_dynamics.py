@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import nemc
+from nemc.errors import InputError
 from nemc.runtime.failures import ModelError
 
 DATA = Path(__file__).parent / "data" / "contacts"
@@ -152,3 +153,11 @@ def test_a_closed_loop_strikes_as_the_same_tree_does() -> None:
                        epsabs=1e-13, epsrel=1e-13)
     assert times[0] == pytest.approx(expected, abs=1e-9)
     assert states[0][1] == pytest.approx(math.sqrt(-3 * g / length * math.sin(hit)), rel=1e-10)
+
+
+def test_the_regressor_of_a_mechanism_with_contacts_is_refused_at_the_contact(ball) -> None:
+    zeros = np.zeros(3)
+    with pytest.raises(InputError, match=r"ball_on_floor.yaml:20: contacts.floor: the "
+                                         "inverse-dynamics regressor of a mechanism with "
+                                         "contacts is not available"):
+        ball.regressor(0.0, zeros, zeros, zeros)
