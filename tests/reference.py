@@ -286,12 +286,13 @@ def tree_example_names(folder: Path) -> list[str]:
     loops (`constraints`) and driven joints (`motion`) are tests/loop_reference.py's; a tree
     with `inputs:` (cart_pole) is checked through complex_step_linearization below
     (tests/test_examples_plant.py, tests/test_plant.py), which takes the inputs' values; a
-    mechanism with Coulomb friction (`friction`) is tests/test_friction.py's."""
+    mechanism with Coulomb friction (`friction`) is tests/test_friction.py's, one with contacts
+    (`contacts`) tests/test_contacts*.py's."""
     names = []
     for path in sorted(folder.glob("*.yaml")):
         data = yaml.safe_load(path.read_text())
         driven = any("motion" in joint for joint in data["joints"].values())
-        if not {"constraints", "inputs", "friction"} & set(data) and not driven:
+        if not {"constraints", "inputs", "friction", "contacts"} & set(data) and not driven:
             names.append(path.stem)
     return names
 

@@ -28,10 +28,10 @@ from fmpy.fmi3 import FMU3Model, FMU3Slave  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
-# every example but those with Coulomb friction, which an FMU export refuses (its modes switch
-# at events: tests/test_friction.py)
+# every example but those with Coulomb friction or contacts, which an FMU export refuses (their
+# modes switch at events: tests/test_friction.py, tests/test_contacts_dynamics.py)
 ALL = sorted(path.stem for path in EXAMPLES.glob("*.yaml")
-             if "\nfriction:" not in path.read_text())
+             if "\nfriction:" not in path.read_text() and "\ncontacts:" not in path.read_text())
 QUICK = ["double_pendulum", "cart_pole", "bouncing_ball", "fourbar"]
 METHODS = ("nemc.DOP853", "nemc.Radau", "nemc.Vern9", "nemc.Taylor")  # enum nemc_method
 # CVode's BDF at rtol 1e-10 is not within 1e-6 of nemc.Radau at 1e-12 on these: scipy's BDF on

@@ -27,6 +27,7 @@ from ..front.carried import carried
 from ..front.values import resolve_values
 from .articulated import dynamics_program, generalized_force_symbols, inverse_mass_program
 from .c_cost import estimated_ns
+from .contacts import refuse_contacts
 from .friction import (
     FrictionEquations,
     friction_checks,
@@ -202,6 +203,7 @@ def runtime_values(mech: m.Mechanism) -> Callable[[object], sympy.Expr]:
 
 def derive(mech: m.Mechanism) -> Equations:
     """The whole derivation stage: the accelerations' program, outputs, runtime symbols only."""
+    refuse_contacts(mech)
     mech = with_motions(mech)
     values = resolve_values(mech)
     kin = Kinematics(mech)
@@ -449,7 +451,7 @@ def taylor_refusal(eqs: Equations) -> str | None:
     """Where the equations use an operation with no Taylor recurrence here, with its place in
     the file, or None."""
     mech = eqs.mechanism
-    if mech.frictions:
+    if mech.frictions or mech.contacts:
         return friction_refusal(mech, "nemc.Taylor's series")
     if mech.constraints:
         where = mech.constraints[0].loc

@@ -7,6 +7,10 @@ sliding speed, and its terms mu, mu_static and the normal force's two components
 coordinates, rates, accelerations (the reaction's Newton-Euler balance) and parameters. The
 state holds the mode: a stuck joint's rate is exactly 0 (decision 0039), so the outputs
 NAME.stuck and NAME.friction and the switching events follow from the state alone.
+
+Contacts (format v3 `contacts`; nemc/kinds/contact.py, decision 0041) are items too, after the
+friction items: each one's normal force an unknown, its terms restitution, gap, normal speed
+and normal acceleration, its outputs NAME.Fn, NAME.Ft, NAME.active and its event NAME.contact.
 """
 
 from __future__ import annotations
@@ -22,17 +26,26 @@ from ..kinds.friction import Friction
 from .kinematics import Kinematics, applied_loads
 from .outputs import constraint_loads, joint_reaction
 
-TERMS = 4  # per item: mu, mu_static, the normal force's x and y (magnitude: their norm)
+TERMS = 4  # per item: mu, mu_static, the normal force's x and y (magnitude: their norm); per
+#            contact: restitution, gap, normal speed, normal acceleration (nemc/kinds/contact.py)
+COULOMB, CONTACT, CONTACT_TANGENT = 0, 1, 2  # an item's law: friction across a joint, a
+#                                              contact's normal force, its friction (`mu`)
 
 
 @dataclass(frozen=True)
 class FrictionEquations:
     """The friction items' unknowns and terms, in the `friction` list's order."""
 
-    names: tuple[str, ...]  # each item's joint
+    names: tuple[str, ...]  # each item's joint (a contact: its name)
     forces: tuple[sympy.Symbol, ...]  # its friction force's symbol (FRICTION(k) in C)
     coordinates: tuple[int, ...]  # the index of its joint's coordinate (its rate: the speed)
     terms: tuple[sympy.Expr, ...]  # TERMS per item, in runtime symbols
+    laws: tuple[int, ...] = ()  # each item's law (COULOMB, CONTACT): the friction items first
+
+    @property
+    def rates(self) -> tuple[int, ...]:
+        """The coordinates whose rates the friction items hold (not the contacts')."""
+        return tuple(c for c, law in zip(self.coordinates, self.laws) if law == COULOMB)
 
     @property
     def count(self) -> int:
@@ -45,7 +58,7 @@ def friction_equations(mech: m.Mechanism, kin: Kinematics,
     """The friction items' equations, or None without any. MULTIPLIERS: each loop
     constraint's (its reaction is a load on the bodies a joint's reaction balances)."""
     items = [item for item in mech.frictions if isinstance(item, Friction)]
-    if not items:
+    if not items and not mech.contacts:
         return None
     loads = applied_loads(mech, kin)
     constraint_loads(mech, kin, multipliers, loads)
@@ -59,9 +72,16 @@ def friction_equations(mech: m.Mechanism, kin: Kinematics,
         assert normal is not None  # the front end refused the others
         terms += [runtime(term) for term in item.terms(normal, joint.friction_lever)]
         coordinates.append(mech.coordinates.index(joint.coordinates[0]))
-    return FrictionEquations(names=tuple(names),
-                             forces=tuple(item.symbol for item in items),
-                             coordinates=tuple(coordinates), terms=tuple(terms))
+    laws = [COULOMB] * len(items)
+    forces = [item.symbol for item in items]
+    for contact in mech.contacts:
+        terms += [runtime(term) for term in contact.terms(kin, kin.rate)]
+        forces += contact.symbols
+        laws += [CONTACT, CONTACT_TANGENT][:len(contact.symbols)]
+        names += [contact.name, f"{contact.name}.tangent"][:len(contact.symbols)]
+    return FrictionEquations(names=tuple(names), forces=tuple(forces),
+                             coordinates=tuple(coordinates) + (0,) * (len(laws) - len(items)),
+                             terms=tuple(terms), laws=tuple(laws))
 
 
 def friction_parameters(mech: m.Mechanism) -> tuple[tuple[sympy.Symbol, ...], tuple[float, ...]]:
@@ -69,8 +89,11 @@ def friction_parameters(mech: m.Mechanism) -> tuple[tuple[sympy.Symbol, ...], tu
     where a call outside friction.c.tmpl's solver reads it), then each item's mode (NaN: read
     from the state; a run sets them at its start and each switch writes its item's)."""
     items = [item for item in mech.frictions if isinstance(item, Friction)]
-    forces = tuple(item.symbol for item in items)
-    modes = tuple(m.symbol(f"mode({item.on_joint})") for item in items)
+    forces = tuple(item.symbol for item in items) + tuple(
+        force for contact in mech.contacts for force in contact.symbols)
+    modes = tuple(m.symbol(f"mode({item.on_joint})") for item in items) + tuple(
+        m.symbol(f"mode({force.name})") for contact in mech.contacts
+        for force in contact.symbols)
     return forces + modes, (0.0,) * len(forces) + (math.nan,) * len(modes)
 
 
@@ -84,6 +107,11 @@ def friction_outputs(mech: m.Mechanism) -> list[tuple[str, sympy.Expr]]:
             rate = m.rate_symbol(mech.joint(name).coordinates[0])
             stuck = sympy.Piecewise((sympy.S.One, sympy.Eq(rate, 0)), (sympy.S.Zero, True))
             named += [(f"{name}.friction", item.symbol), (f"{name}.stuck", stuck)]
+    for contact in mech.contacts:  # NAME.active: 1 while it lasts (its normal force > 0)
+        active = sympy.Piecewise((sympy.S.One, contact.symbol > 0), (sympy.S.Zero, True))
+        forces = (*contact.symbols, sympy.S.Zero)
+        named += [(f"{contact.name}.Fn", forces[0]), (f"{contact.name}.Ft", forces[1]),
+                  (f"{contact.name}.active", active)]
     return named
 
 
@@ -92,7 +120,11 @@ def friction_events(mech: m.Mechanism) -> tuple[m.Event, ...]:
     (the speed while slipping, the holding margin while stuck), so `when` here is a stand-in."""
     return tuple(m.Event(name=f"{item.on_joint}.stick_slip", when=sympy.S.Zero,
                          direction="both", action="switch", loc=item.location)
-                 for item in mech.frictions if isinstance(item, Friction))
+                 for item in mech.frictions if isinstance(item, Friction)) + tuple(
+        m.Event(name=f"{contact.name}.{which}", when=sympy.S.Zero, direction=direction,
+                action="switch", loc=contact.location) for contact in mech.contacts
+        for which, direction in (("contact", "falling"), ("stick_slip", "both"))[
+            :len(contact.symbols)])
 
 
 def friction_checks(mech: m.Mechanism, runtime: Callable[[object], sympy.Expr]
@@ -103,15 +135,20 @@ def friction_checks(mech: m.Mechanism, runtime: Callable[[object], sympy.Expr]
         if isinstance(item, Friction):
             found += [(f"friction.{k}.{key}", runtime(expr), strict)
                       for key, expr, strict in item.checks()]
+    for contact in mech.contacts:
+        found += [(f"{bound.prefix}contacts.{contact.name}.{bound.key}", runtime(bound.expression),
+                   bound.strict) for bound in contact.bounds()]
     return found
 
 
 def friction_refusal(mech: m.Mechanism, what: str) -> str | None:
     """Why WHAT (a part of the build that differentiates or expands the right-hand side) is
     not available with Coulomb friction, at the first item's FILE:LINE; None without any."""
-    if not mech.frictions:
+    if not mech.frictions and not mech.contacts:
         return None
-    where = mech.frictions[0].location
-    return (f"{where.file}:{where.line}: {where.key}: {what} of a mechanism with Coulomb "
-            "friction are not available: its right-hand side switches between modes at "
-            "events (stuck, slipping either way) and is not differentiable across them")
+    where = (mech.frictions or mech.contacts)[0].location
+    which = "Coulomb friction" if mech.frictions else "contacts"
+    return (f"{where.file}:{where.line}: {where.key}: {what} of a mechanism with {which} "
+            "are not available: its right-hand side switches between modes at events (stuck, "
+            "slipping either way; a contact open or lasting) and is not differentiable across "
+            "them")

@@ -100,6 +100,8 @@ def drawing(mech: m.Mechanism, locate: Locate | None = None) -> Drawing:
             builder.drawing.springs.append({"a": found[0], "b": found[1], "load": k})
     for constraint in mech.constraints:
         constraint_drawing(builder, constraint.name, constraint.drawing())
+    for contact in mech.contacts:  # drawn as a rolling constraint is: its line, its disc
+        constraint_drawing(builder, contact.name, contact.shape())
     for ref in mech.outputs.points:
         builder.drawing.traces.append(builder.point(ref.label, ref.body, ref.xy))
     return builder.drawing

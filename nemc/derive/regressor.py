@@ -29,6 +29,7 @@ import sympy
 from ..front import mechanism as m
 from ..front.values import resolve_values
 from ..kinds.spatial import Vec, cross_z, rotation, vec
+from .contacts import refuse_contacts
 from .inputs import input_law
 from .kinematics import BalanceLoads, Kinematics, generalized_forces
 from .loops import loop_equations
@@ -68,6 +69,7 @@ class EveryCoordinate(Kinematics):
 def regressor_equations(mech: m.Mechanism, linear: Sequence[str] = ()) -> RegressorEquations:
     """The regressor of MECH (validated), with a column for each parameter named in LINEAR.
     ValueError: a name that is no runtime parameter, or one that does not enter linearly."""
+    refuse_contacts(mech, "the inverse-dynamics regressor")
     values = resolve_values(mech)
     fold = values.substitutions
     inputs = input_law(mech, lambda expr: sympy.sympify(expr).xreplace(fold))

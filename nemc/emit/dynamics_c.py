@@ -38,6 +38,7 @@ from .printing import (
     symbols_used,
     template,
 )
+from .resources import read_template
 
 DYNAMICS = Caller("accelerations", "The accelerations", STATE_INPUTS, ("QDD", "qdd"), "v")
 AUGMENTED = Caller("accelerations", "The accelerations, drives and unit passes",
@@ -227,4 +228,6 @@ def friction_section(eqs: Equations, block: Block, printer: SymbolTablePrinter, 
     return template("friction.c.tmpl").substitute(
         prefix=prefix, friction_names=comment_text(", ".join(friction.names)),
         coordinates=", ".join(str(i) for i in friction.coordinates), dynamics_call=dynamics_call,
+        laws=", ".join(str(law) for law in friction.laws),
+        contact_switches=read_template("contacts.c.tmpl"),
         terms=body(printer, block, indexed("terms", block.groups["friction"])))

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from ..kinds.constraints import Constraint
+from ..kinds.contact import Contact
 from ..kinds.joints import Joint
 from ..kinds.loads import Load
 from ..kinds.terms import (
@@ -140,13 +141,15 @@ class Mechanism:
     units: Units = field(default_factory=Units)
     inputs: tuple[Param, ...] = ()  # values set from outside at run time, with their defaults
     load_names: tuple[tuple[str, int], ...] = ()  # a named load's name, its index in loads
-    friction_count: int = 0  # the last loads are the `friction` items (nemc/kinds/friction.py)
+    friction_count: int = 0  # the `friction` items (nemc/kinds/friction.py), the last loads
+    contacts: tuple[Contact, ...] = ()  # but these: `contacts` (nemc/kinds/contact.py), loads too
 
     @property
     def frictions(self) -> tuple[Load, ...]:
-        """The friction items (format v3), in file order: Coulomb friction on joints."""
-        return self.loads[len(self.loads) - self.friction_count:] if self.friction_count \
-            else ()
+        """The friction items (format v3), in file order: Coulomb friction on joints (the
+        loads before the contacts, which are the last)."""
+        end = len(self.loads) - len(self.contacts)
+        return self.loads[end - self.friction_count:end] if self.friction_count else ()
 
     @property
     def coordinates(self) -> tuple[str, ...]:

@@ -53,7 +53,8 @@ def collect_names(ctx: Context, root: Mapping[str, Node]) -> None:
                                   ("inputs", "input", ctx.inputs),
                                   ("bodies", "body", ctx.body_names),
                                   ("joints", "joint", None),
-                                  ("constraints", "constraint", None)):
+                                  ("constraints", "constraint", None),
+                                  ("contacts", "contact", None)):
         node = root.get(section)
         for name in entries_of(node) if node is not None else {}:
             if section in ("bodies", "joints", "constraints"):

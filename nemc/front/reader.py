@@ -82,11 +82,12 @@ class Reader:
         found = self._at(key)
         return default if found is None else read_expr(self.ctx, *found, self.ctx.scope("load"))
 
-    def fixed(self, key: str, default: sympy.Expr, positive: bool = False
-              ) -> sympy.Expr | None:
-        """An expression of parameters and constants, finite (and > 0) at their defaults."""
+    def fixed(self, key: str, default: sympy.Expr, positive: bool = False,
+              nonnegative: bool = False) -> sympy.Expr | None:
+        """An expression of parameters and constants, finite (and > 0, or >= 0) at their
+        defaults."""
         found = self._at(key)
-        return default if found is None else read_fixed(self.ctx, *found, positive)
+        return default if found is None else read_fixed(self.ctx, *found, positive, nonnegative)
 
     def vec2(self, key: str) -> Vec2 | None:
         """[x, y], each as `expr` reads it."""

@@ -2,10 +2,11 @@
 
 Every rule of ``shared/spec/mechanism-format.md`` is checked, once: this module walks the file's
 top level and hands each section to the module that checks it (names.py, parameters.py,
-inputs.py, bodies.py, joints.py, constraints.py, loads.py, outputs.py, scene.py; the values
-themselves through fields.py and references.py, a kind's keys through reader.Reader). Problems
-are collected in a context.Context (not raised one by one) so a user can fix the whole file in
-one pass; each names the file, the line, the key path and what was expected.
+inputs.py, bodies.py, joints.py, constraints.py, loads.py, friction.py, contacts.py, outputs.py,
+scene.py; the values themselves through fields.py and references.py, a kind's keys through
+reader.Reader). Problems are collected in a context.Context (not raised one by one) so a user
+can fix the whole file in one pass; each names the file, the line, the key path and what was
+expected.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from ..errors import InputError, Problem
 from .bodies import read_bodies
 from .carried import check_carried
 from .constraints import read_constraints
+from .contacts import check_contact_method, read_contacts
 from .context import Context, check_keys, entries_of
 from .fields import ZERO2, read_string, read_vec2
 from .friction import read_friction
@@ -84,10 +86,8 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
     constraints = read_constraints(ctx, root["constraints"]) if "constraints" in root else ()
     loads, load_names = read_loads(ctx, root["loads"]) if "loads" in root else ((), ())
     frictions = read_friction(ctx, root["friction"]) if "friction" in root else ()
-    if "contacts" in root:
-        ctx.problem(root["contacts"].line, "contacts", "contacts (format v3: a point or disc "
-                    "against a line, lasting contact) are not implemented yet: model a contact "
-                    "by an impact event (simulation.events) or a stiff one-sided spring")
+    contacts = read_contacts(ctx, root["contacts"]) if "contacts" in root else ()
+    check_contact_method(ctx, contacts, root.get("simulation"))
     outputs = read_outputs(ctx, root["outputs"]) if "outputs" in root else Outputs()
     simulation = read_simulation(ctx, root["simulation"]) if "simulation" in root else Simulation()
     units = read_units(ctx, root["units"]) if "units" in root else Units()
@@ -95,10 +95,11 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
         return None
     return Mechanism(name=name, description=description, source=ctx.file,
                      source_hash=source_hash, parameters=parameters, constants=constants,
-                     gravity=gravity, bodies=bodies, joints=joints, loads=loads + frictions,
+                     gravity=gravity, bodies=bodies, joints=joints,
+                     loads=loads + frictions + contacts,
                      outputs=outputs, simulation=simulation, constraints=constraints,
                      units=units, inputs=inputs, load_names=load_names,
-                     friction_count=len(frictions))
+                     friction_count=len(frictions), contacts=contacts)
 
 
 def _check_size(ctx: Context, root: Mapping[str, Node]) -> None:

@@ -54,8 +54,10 @@ class Reader(Protocol):
     def expr(self, key: str, default: Expr | None = None) -> Expr | None:
         """An expression of t, coordinates, rates, parameters and constants (as loads take)."""
 
-    def fixed(self, key: str, default: Expr, positive: bool = False) -> Expr | None:
-        """An expression of parameters and constants, finite (and > 0) at their defaults."""
+    def fixed(self, key: str, default: Expr, positive: bool = False,
+              nonnegative: bool = False) -> Expr | None:
+        """An expression of parameters and constants, finite (and > 0, or >= 0) at their
+        defaults."""
 
     def vec2(self, key: str) -> Vec2 | None:
         """[x, y], each as `expr` reads it."""

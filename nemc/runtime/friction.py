@@ -1,4 +1,5 @@
-"""Coulomb friction at run time (format v3 `friction`; decision 0039): which methods can run a
+"""Coulomb friction at run time (format v3 `friction`; decision 0039), and contacts, whose
+forces and modes are friction's items too (`contacts`; decision 0041): which methods can run a
 mechanism with friction, each run's start (its own parameter vector, whose last entries are
 the items' modes, and the items at rest that cannot be held set slipping), and the modes read
 from the states for the outputs.
@@ -37,7 +38,7 @@ class Friction:
         """Refuse a method that cannot keep a stuck joint's rate exactly 0."""
         if self.present and method not in FRICTION_METHODS:
             raise ModelError(
-                f"{method} cannot run a mechanism with Coulomb friction (friction on "
+                f"{method} cannot run a mechanism with Coulomb friction or contacts (on "
                 f"{', '.join(self.items)}): a stuck joint's rate is held at exactly 0, which "
                 f"nemc's explicit methods keep ({', '.join(FRICTION_METHODS)}; method auto "
                 "takes nemc.Vern9), switching modes at the events they locate, also inside "
@@ -48,8 +49,9 @@ class Friction:
         """Refuse WHAT (the model as a plant, an FMU) with friction, which switches modes."""
         if self.present:
             raise ModelError(
-                f"{what}: a mechanism with Coulomb friction (on {', '.join(self.items)}) "
-                "switches between modes (stuck, slipping either way) at events, so its "
+                f"{what}: a mechanism with Coulomb friction or contacts (on "
+                f"{', '.join(self.items)}) switches between modes (stuck, slipping either way; "
+                "a contact open or lasting) at events, so its "
                 "right-hand side has no derivative there; refused rather than answered for "
                 "one mode")
 

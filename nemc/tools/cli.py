@@ -554,8 +554,9 @@ def cmd_check(args: argparse.Namespace) -> int:
     loops = (f", {counted(len(mech.constraints), 'loop constraint')} "
              f"({counted(assembly.equations, 'equation')})" if mech.constraints else "")
     driven = f", {counted(len(mech.driven), 'driven joint')}" if mech.driven else ""
+    contacts = f", {counted(len(mech.contacts), 'contact')}" if mech.contacts else ""
     print(f"{args.mechanism}: OK: {mech.name}, {counted(len(mech.bodies), 'body', 'bodies')}, "
-          f"{counted(len(mech.coordinates), 'coordinate')}{driven}{loops}, "
+          f"{counted(len(mech.coordinates), 'coordinate')}{driven}{loops}{contacts}, "
           f"{counted(assembly.freedom, 'degree', 'degrees')} of freedom"
           f"{'' if assembly.motion == assembly.freedom else ' of position, '}"
           f"{'' if assembly.motion == assembly.freedom else f'{assembly.motion} of motion'}, "
