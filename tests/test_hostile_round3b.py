@@ -328,3 +328,102 @@ def test_initial_values_of_a_closed_loop_are_kept_and_the_rest_solved(
     y0 = np.array([row[name] for name in model.state_names])
     position, velocity = model.constraint_residual(y0)
     assert position < 1e-9 and velocity < 1e-9, (position, velocity)
+
+
+# ---- 8. a free run that passes a singular configuration says so -----------------------------
+
+FREE_PARALLELOGRAM = """\
+name: free_parallelogram
+parameters: {L0: 0.7, L1: 0.25, m1: 0.4, m2: 1.1, m3: 0.8}
+bodies:
+  crank: {mass: m1, inertia: m1*L1**2/12, com: [L1/2, 0], points: {B: [L1, 0]}}
+  coupler: {mass: m2, inertia: m2*L0**2/12, com: [L0/2, 0], points: {C: [L0, 0]}}
+  rocker: {mass: m3, inertia: m3*L1**2/12, com: [L1/2, 0], points: {C: [L1, 0]}}
+joints:
+  A: {type: revolute, parent: ground, child: crank, at: [0, 0], coordinate: q1}
+  B: {type: revolute, parent: crank, child: coupler, at: B, coordinate: q2, angle: absolute}
+  D: {type: revolute, parent: ground, child: rocker, at: [L0, 0], coordinate: q3}
+constraints:
+  closure: {type: revolute, a: rocker.C, b: coupler.C}
+simulation:
+  t_span: [0, 4]
+  initial: {q1: 0.3, dot(q1): 3}
+  guess: {q2: 0.01, q3: 0.3}
+  rtol: 1.0e-10
+  atol: 1.0e-12
+"""
+
+
+@pytest.fixture(scope="module")
+def free_parallelogram(tmp_path_factory: pytest.TempPathFactory):
+    import nemc
+
+    file = tmp_path_factory.mktemp("free") / "free_parallelogram.yaml"
+    file.write_text(FREE_PARALLELOGRAM)
+    return nemc.compile(file)
+
+
+def passed_times(message: str) -> list[float]:
+    """The times a run's message says it passed singular configurations near."""
+    import re
+
+    found = re.search(r"It passed (\d+) singular configurations? of constraints? .*?\(near "
+                      r"t = ([^)]*)\)", message)
+    assert found, message
+    times = [float(x) for x in found.group(2).split(" and ")[0].split(", ")]
+    assert int(found.group(1)) >= len(times)
+    return times
+
+
+@pytest.mark.parametrize("method", ["auto", "nemc.DOP853", "nemc.Radau", "RK45", "DOP853"])
+@pytest.mark.parametrize("times", ["steps", "coarse", "fine"])
+def test_a_free_run_through_a_singular_configuration_says_so(method: str, times: str,
+                                                             free_parallelogram) -> None:
+    """A parallelogram four-bar without gravity turns at a constant rate (its kinetic energy
+    (I1 + I3 + m2 L1^2) q1'^2 / 2 is all it has), so it lies flat at q1 = k pi, t = (k pi -
+    0.3) / 3: three times in [0, 4]. The run passes them on its branch (q3 = q1) and its
+    message names the constraint and those times (to 1e-5), whatever times it returns: the
+    solver's steps (1.5 rad apart), 21 of them, or 401."""
+    t_eval = {"steps": "steps", "coarse": np.linspace(0, 4, 21),
+              "fine": np.linspace(0, 4, 401)}[times]
+    run = free_parallelogram.simulate(method=method, t_eval=t_eval)
+    assert run.success, run.message
+    names = free_parallelogram.state_names
+    np.testing.assert_allclose(run.y[names.index("q3")], run.y[names.index("q1")], atol=1e-6)
+    assert "It passed 3 singular configurations of constraint 'closure'" in run.message, \
+        run.message
+    flat = (np.arange(1, 4) * np.pi - 0.3) / 3
+    np.testing.assert_allclose(passed_times(run.message), flat, atol=1e-5)
+
+
+def test_a_run_away_from_singular_configurations_says_nothing_of_them() -> None:
+    """A Grashof four-bar (examples/fourbar.yaml) and a slider-crank never lose rank: no
+    passage in their messages; the free parallelogram stopped before its first flat
+    position (t < 0.947) neither."""
+    import nemc
+
+    for example in ("fourbar", "slider_crank"):
+        run = nemc.compile(ROOT / "examples" / f"{example}.yaml").simulate()
+        assert run.success and "singular" not in run.message, (example, run.message)
+
+
+def test_a_free_run_stopped_before_the_flat_position_says_nothing(free_parallelogram) -> None:
+    run = free_parallelogram.simulate((0, 0.9))
+    assert run.success and "singular" not in run.message, run.message
+
+
+def test_the_double_four_bar_names_its_ten_flat_positions() -> None:
+    """IFToMM A02 (examples/double_fourbar.yaml) lies flat where its cranks are level, sin(q1)
+    = 0: the times from its own states sampled every 1 ms (the zero crossings, interpolated),
+    10 in [0, 10]; its message gives them to 1e-4."""
+    import nemc
+
+    model = nemc.compile(ROOT / "examples" / "double_fourbar.yaml")
+    run = model.simulate()
+    assert run.success and "It passed 10 singular configurations" in run.message, run.message
+    fine = model.simulate(t_eval=np.linspace(0, 10, 10_001))
+    crank = np.sin(fine.y[model.state_names.index("q1")])
+    at = np.flatnonzero(np.sign(crank[1:]) != np.sign(crank[:-1]))
+    flat = fine.t[at] - crank[at] * (fine.t[at + 1] - fine.t[at]) / (crank[at + 1] - crank[at])
+    assert len(flat) == 10
+    np.testing.assert_allclose(passed_times(run.message), flat[:8], atol=1e-4)
