@@ -253,6 +253,44 @@ def test_large_consistent_rates_of_a_loop_are_assembled(rate: float, tmp_path: P
     assert y0[model.state_names.index("dot(q1)")] == rate
 
 
+@pytest.mark.parametrize("example, old, new, blamed, message", [
+    # the connecting rod of length 0: the crank pin is the slider's, driven across the guide
+    # at r w = 0.1 x 10 pi (found by the value fuzz, tests/test_fuzz.py)
+    ("slider_crank_driven", "  l: 0.35", "  l: 0", "guide:",
+     "constraints.guide: no rates satisfy this constraint at the start (its rate stays 3.14 "
+     "from 0): the mechanism cannot move as its drives prescribe there"),
+    # every rate given, the coupler's and the rocker's at rest while the crank turns
+    ("fourbar", "initial: {q1: pi/2, dot(q1): 8}",
+     "initial: {q1: pi/2, dot(q1): 8, dot(q2): 0, dot(q3): 0}", "initial:",
+     "simulation.initial: constraint 'C' (constraints.C, line 43) cannot hold with these "
+     "initial rates: its rate stays 0.8 from 0"),  # the crank pin's speed L1 q1' = 0.1 x 8
+])
+def test_check_refuses_a_start_no_rates_can_take(example: str, old: str, new: str, blamed: str,
+                                                 message: str, tmp_path: Path, capsys) -> None:
+    """Rates at the start that no solution of Phi_q q' = -Phi_t has (a mechanism locked
+    against its drive, or given rates that over-determine the loop): `check` (and so every
+    compile) names the constraint's or the initial values' line; a run was refused with "the
+    given rates cannot satisfy", no rate given, blamed on --set/options. The run that sets
+    such values (params=) says what the drives cannot do."""
+    import nemc
+    from nemc.runtime.model import ModelError
+    from nemc.tools.cli import main
+
+    text = (ROOT / "examples" / f"{example}.yaml").read_text()
+    assert old in text
+    file = tmp_path / f"{example}.yaml"
+    file.write_text(text.replace(old, new))
+    line = next(k for k, row in enumerate(file.read_text().splitlines(), 1) if blamed in row)
+    assert main(["check", str(file)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{file}:{line}: {message}"), err
+    if example == "slider_crank_driven":
+        model = nemc.compile(ROOT / "examples" / f"{example}.yaml")
+        with pytest.raises(ModelError, match="no rates satisfy constraint 'guide' at the start "
+                                             r"\(residual 3.14\)"):
+            model.simulate(params={"l": 0.0})
+
+
 # ---- 5. degrees of freedom counted at a singular start --------------------------------------
 
 def parallelogram(tmp_path: Path, start: str) -> Path:
