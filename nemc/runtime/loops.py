@@ -234,9 +234,9 @@ class Loops:
                     f"(more than {ASSEMBLY_TOLERANCE:g}); change the initial values, the guess "
                     "(which picks the assembly's branch) or the geometry")
         if not np.asarray(given)[1::2].any():  # no rate given: the drives' motion
-            return (f"no rates satisfy constraint {constraint!r} at the start (residual "
-                    f"{info[2]:.3g}){values}: the mechanism cannot move as its drives prescribe "
-                    "there (locked against them, or at a dead position)")
+            return (f"no rates satisfy constraint {constraint!r} (residual {info[2]:.3g})"
+                    f"{values}: the mechanism cannot move as its drives prescribe there (locked "
+                    "against them, or at a dead position)")
         return (f"the given rates cannot satisfy constraint {constraint!r} "
                 f"(residual {info[2]:.3g}){values}; give fewer rates, or consistent ones")
 
