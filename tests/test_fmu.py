@@ -398,9 +398,9 @@ simulation:
 """
 
 
-@pytest.mark.xfail(strict=True, reason="docs/fmu.md, Limits: a driven loop's co-simulation "
-                   "assembles each step's end from the state before, and can leave its branch "
-                   "at a singular configuration, where nemc's kinematic analysis keeps it")
+@pytest.mark.xfail(strict=True, reason="docs/fmu.md, What is not covered: a driven loop's "
+                   "co-simulation assembles each step's end from the state before, and can "
+                   "leave its branch at a singular configuration, where nemc's analysis keeps it")
 def test_a_driven_parallelogram_keeps_its_branch_in_cosimulation(tmp_path: Path) -> None:
     """A driven parallelogram lies flat at q1 = k pi (t = 0.914, 1.961): on its branch the
     coupler stays level (q2 = 0) and the rocker parallel to the crank (q3 = q1 = 0.4 + 3 t),
