@@ -13,8 +13,10 @@ API's sizes are one guard, a run's NaN event and its doubled "integration failed
     test: r3 `test_no_output_option_writes_over_the_mechanism`,
           `test_fit_never_writes_over_its_data`
  2. driven parallelogram jumps branch after flat
-    fix: runtime/kinematic.py `BranchFollower`; free runs' message runtime/passages.py
+    fix: runtime/kinematic.py `BranchFollower` (`nearest`: two states apart); free runs'
+         message runtime/passages.py
     test: test_kinematic_branch.py (all); r3b
+          `test_a_driven_parallelogram_keeps_its_branch_at_any_requested_times`,
           `test_a_free_run_through_a_singular_configuration_says_so`,
           `test_the_double_four_bar_names_its_ten_flat_positions`
  3. sweep store's lost status / `y` chunk reads as success

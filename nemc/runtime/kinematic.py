@@ -4,7 +4,7 @@ through isolated singular configurations too (decision 0036's continuation, in t
 
 Each state is assembled from its nearest known state (as before this module: a run away from
 singular configurations gives the same states bit for bit) and checked against the prediction
-along the motion (cubic Hermite through the two nearest known states); a solution on another
+along the motion (cubic Hermite through the two nearest known states, apart); a solution on another
 branch is refused, the assembly started from the prediction, then the step split. A time near
 a singular configuration (Phi_q's conditioning below KINEMATIC_WINDOW, or its rank lost) takes
 its state and outputs from NODES times on each side of it out of the configuration, by the
