@@ -240,6 +240,21 @@ def test_check_refuses_initial_values_no_run_can_take(example: str, key: str, va
     assert err.startswith(f"{file}:{line}: simulation.initial.{key}: ") and "too large" in err
 
 
+def test_a_warning_of_a_command_is_one_line(tmp_path: Path, capsys) -> None:
+    """rtol 1e-300 (check accepts it: below 100 eps it is raised to it, with a warning, as
+    scipy does): the run succeeds, and the warning is one line naming the tolerance (it was
+    Python's two, the second nemc's own `sys.exit(main())`)."""
+    from nemc.tools.cli import main
+
+    file = tmp_path / "fine.yaml"
+    file.write_text(TINY.read_text() + "simulation: {t_span: [0, 0.1], rtol: 1.0e-300}\n")
+    assert main(["check", str(file)]) == 0
+    assert main(["simulate", str(file), "--outputs", "none"]) == 0
+    err = capsys.readouterr().err
+    assert err.splitlines() == ["nemc: warning: At least one element of `rtol` is too small. "
+                                "Setting `rtol = np.maximum(rtol, 2.220446049250313e-14)`."], err
+
+
 @pytest.mark.parametrize("rate", [1e8, 1e12, 1e40])
 def test_large_consistent_rates_of_a_loop_are_assembled(rate: float, tmp_path: Path) -> None:
     """The rates' residual is relative to their terms' size: dot(q1) = 1e8 was refused ("the
