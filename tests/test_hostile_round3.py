@@ -94,11 +94,13 @@ API's sizes are one guard, a run's NaN event and its doubled "integration failed
           `test_stress_reports_a_mechanism_without_a_degree_of_freedom`
 24. scene values `check` accepts refused only by the run
     fix: front/scene.py (rtol, initial values over 1e150), templates/loops.c.tmpl (rates
-         relative), derive/assembly.py `rates_problem`
+         relative), derive/assembly.py `rates_problem`; an accepted rtol below 100 eps
+         warns in one line (tools/cli.py `one_line_warning`)
     test: r3 `test_an_rtol_no_run_takes_is_refused_by_check_at_its_line`; r3b
           `test_check_refuses_initial_values_no_run_can_take`,
           `test_large_consistent_rates_of_a_loop_are_assembled`,
-          `test_check_refuses_a_start_no_rates_can_take`
+          `test_check_refuses_a_start_no_rates_can_take`,
+          `test_a_warning_of_a_command_is_one_line`
 
 What `check` accepts is compiled and run by the fuzzer (test_fuzz.py, slow):
 `test_what_check_accepts_compiles_and_runs` (mutated examples) and
