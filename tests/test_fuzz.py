@@ -1,11 +1,14 @@
 """Fuzzing the loader: random YAML documents, random expressions and mutations of the valid
 example files. The only outcomes allowed are a valid Mechanism or an InputError whose every
 problem is located (the file, a line inside it, a message). Validation only, but for the last
-test (slow): what validation accepts is compiled and run."""
+two tests (slow): what validation accepts is compiled and run, mutated examples (each a
+compile) and values varied on each example's own build (one compile each, seeded)."""
 
 from __future__ import annotations
 
+import copy
 import os
+import random
 import re
 import tempfile
 from pathlib import Path
@@ -162,7 +165,9 @@ def test_every_example_is_valid() -> None:
 
 # ---- compiled and run (issue 51): what check accepts never ends in a traceback ---------------
 
-RUN_FUZZ = settings(FUZZ, max_examples=int(os.environ.get("NEMC_FUZZ_RUNS", "300")))
+# each accepted mutant is a compile (2 to 5 s): the value fuzz below varies values on shared
+# builds for the bulk of the files run
+RUN_FUZZ = settings(FUZZ, max_examples=int(os.environ.get("NEMC_FUZZ_RUNS", "60")))
 
 
 @pytest.mark.slow
@@ -194,3 +199,130 @@ def test_what_check_accepts_compiles_and_runs(text: str) -> None:
             return
     event("ran" if run.success else "failed with a message")
     assert run.success or run.message
+
+
+# ---- values fuzzed on each example's own build (issue 51): a few hundred accepted files -------
+
+VALUES_PER_EXAMPLE = int(os.environ.get("NEMC_FUZZ_VALUES", "10"))
+HOSTILE_NUMBERS = (0.0, -1.0, 1e-12, 1e-6, 0.5, 3.0, 1e3, 1e6, 1e12, -1e6, 1e150, -1e-300)
+FUZZ_METHODS = ("auto", "nemc.DOP853", "nemc.Vern9", "nemc.Radau", "nemc.Taylor", "RK45",
+                "LSODA", "BDF")
+# the format's version-3 items, each in the examples the value fuzz must have run (a friction
+# list, a coupling, a rolling disc, a knife edge, a particle (inertia 0), an input)
+V3_EXAMPLES = {"friction": "coulomb_block", "coupling": "gear_train", "rolling": "planetary",
+               "knife edge": "chaplygin_sleigh", "particle": "wheel_on_platform",
+               "inputs": "cart_pole"}
+
+
+class Yaml12Loader(yaml.SafeLoader):
+    """PyYAML's safe loader with YAML 1.2's booleans (true, false), as nemc reads: `on:` (a
+    rolling disc's) stays a key, not True."""
+
+
+Yaml12Loader.yaml_implicit_resolvers = {
+    first: [(tag, pattern) for tag, pattern in resolvers if tag != "tag:yaml.org,2002:bool"]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+Yaml12Loader.add_implicit_resolver("tag:yaml.org,2002:bool", re.compile(r"^(?:true|false)$"),
+                                   list("tf"))
+
+
+def numbers_in(section: object) -> list[str]:
+    """The keys of SECTION (a mapping) whose values are plain numbers: what a variant sets."""
+    if not isinstance(section, dict):
+        return []
+    return [key for key, value in section.items()
+            if isinstance(value, (int, float)) and not isinstance(value, bool)]
+
+
+def value_variant(document: dict, rng: random.Random) -> tuple[dict, dict]:
+    """A copy of an example's DOCUMENT with one to three of its values changed (a parameter, an
+    initial value, an input, the method, rtol) to hostile numbers, and simulate's arguments
+    that make the same changes on the example's own build."""
+    variant = copy.deepcopy(document)
+    scene = variant.setdefault("simulation", {}) or {}
+    variant["simulation"] = scene
+    change: dict = {"params": {}, "initial": {}, "inputs": {}}
+    places = [("params", variant.get("parameters"), key)
+              for key in numbers_in(variant.get("parameters"))]
+    places += [("initial", scene.get("initial"), key) for key in numbers_in(scene.get("initial"))]
+    places += [("inputs", variant.get("inputs"), key) for key in numbers_in(variant.get("inputs"))]
+    for _ in range(rng.randint(1, 3)):
+        kind = rng.choice(["value", "value", "method", "rtol"] if places else ["method", "rtol"])
+        if kind == "method":
+            scene["method"] = change["method"] = rng.choice(FUZZ_METHODS)
+        elif kind == "rtol":
+            scene["rtol"] = change["rtol"] = rng.choice([1e-3, 1e-8, 1e-13, 0.5, 1e-300])
+        else:
+            where, section, key = rng.choice(places)
+            value = rng.choice(HOSTILE_NUMBERS) * (1 if rng.random() < 0.7 else section[key])
+            section[key] = change[where][key] = value
+    return variant, change
+
+
+def run_variant(model, change: dict) -> str:
+    """The example's MODEL run as the variant says (its first 1% of t_span, at most 20,000
+    steps): 'ran', 'failed' (a result with a message) or 'refused' (nemc's ModelError)."""
+    from nemc.runtime.model import ModelError
+    from nemc.tools.start import start_values
+
+    t0, t1 = model.scene["t_span"] or (0.0, 10.0)
+    try:
+        y0 = start_values(model, change["params"], list(change["initial"].items()),
+                          "--initial") if change["initial"] else None
+        run = model.simulate((t0, t0 + (t1 - t0) / 100), y0=y0, params=change["params"] or None,
+                             inputs=change["inputs"] or None, method=change.get("method"),
+                             rtol=change.get("rtol"), max_steps=20_000)
+    except ModelError as error:
+        assert str(error) and "\n" not in str(error).strip(), error
+        return f"refused: {error}"
+    assert run.success or run.message, run
+    return "ran" if run.success else "failed"
+
+
+def assert_check_refuses(mechanism: Mechanism, refusal: str) -> None:
+    """What a run refuses of a file's values (the start a closed loop cannot take), `nemc
+    check` refuses at its line (a method the mechanism cannot run is the run's to refuse,
+    naming the item that forbids it)."""
+    from nemc.derive.assembly import check_assembly
+
+    if " cannot run a mechanism " in refusal or " is not available for " in refusal:
+        return
+    with pytest.raises(InputError) as refused:
+        check_assembly(mechanism)
+    assert all(problem.file == FILE and problem.line >= 1 for problem in refused.value.problems)
+
+
+@pytest.mark.slow
+def test_values_check_accepts_run_on_the_examples_own_builds(tmp_path: Path) -> None:
+    """Each example compiled once; VALUES_PER_EXAMPLE seeded variants of it (a parameter, an
+    initial value, an input, the method or rtol set to 0, -1, 1e-12, 1e12, 1e150, ...) that
+    validation accepts are run on that build with the same values (simulate's params, y0 as
+    --initial makes it, inputs, method, rtol): the outcome is a result or nemc's one-line
+    ModelError, never another exception, and a start the run refuses `check` refuses too
+    (its assembly, at a line). Every example's variants run, the format's version-3
+    items among them, a few hundred accepted files in all (NEMC_FUZZ_VALUES sets the count)."""
+    import nemc
+
+    rng = random.Random(51)
+    outcomes: dict[str, list[str]] = {}
+    for name in sorted(EXAMPLES):
+        document = yaml.load(EXAMPLES[name], Loader=Yaml12Loader)
+        model = nemc.compile(ROOT / "examples" / f"{name}.yaml")
+        for _ in range(VALUES_PER_EXAMPLE):
+            variant, change = value_variant(document, rng)
+            mechanism = assert_clean(yaml.safe_dump(variant, sort_keys=False))
+            if isinstance(mechanism, Mechanism):
+                outcome = run_variant(model, change)
+                if outcome.startswith("refused: "):
+                    assert_check_refuses(mechanism, outcome)
+                    outcome = "refused"
+                outcomes.setdefault(name, []).append(outcome)
+    accepted = sum(map(len, outcomes.values()))
+    print(f"\nvalue fuzz: {accepted} accepted variants of {len(outcomes)} examples run: "
+          f"{sum(o.count('ran') for o in outcomes.values())} ran, "
+          f"{sum(o.count('failed') for o in outcomes.values())} failed with a message, "
+          f"{sum(x == 'refused' for o in outcomes.values() for x in o)} refused by the run "
+          "as by check")
+    missing = {item: name for item, name in V3_EXAMPLES.items() if name not in outcomes}
+    assert not missing, missing
+    assert accepted >= len(EXAMPLES) * VALUES_PER_EXAMPLE // 2, outcomes

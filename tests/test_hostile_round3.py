@@ -2,7 +2,110 @@
 found, each with its own inputs (tests/hostile/round3/ and files made here), general rather than
 tuned to one file. The classes, in the order of the issue's note: outputs written over the
 files nemc read; a sweep store's missing chunks; events exactly at the interval's end; crashes
-of the derivation; bad option values; the cache's stray extensions; messages."""
+of the derivation; bad option values; the cache's stray extensions; messages.
+
+Every class of the issue, its fix and its tests (r3 = this module, r3b = test_hostile_round3b;
+the issue's bullets split into their classes, 24 for its 22: the bad option values and the
+API's sizes are one guard, a run's NaN event and its doubled "integration failed" one message):
+
+ 1. `--csv X.yaml` overwrites the mechanism
+    fix: tools/files.py `output_refusal`, `same_file` (every output option)
+    test: r3 `test_no_output_option_writes_over_the_mechanism`,
+          `test_fit_never_writes_over_its_data`
+ 2. driven parallelogram jumps branch after flat
+    fix: runtime/kinematic.py `BranchFollower` (`nearest`: two states apart); free runs'
+         message runtime/passages.py
+    test: test_kinematic_branch.py (all); r3b
+          `test_a_driven_parallelogram_keeps_its_branch_at_any_requested_times`,
+          `test_a_free_run_through_a_singular_configuration_says_so`,
+          `test_the_double_four_bar_names_its_ten_flat_positions`
+ 3. sweep store's lost status / `y` chunk reads as success
+    fix: tools/sweep_store.py status fill value NOT_RUN, a done chunk's files
+    test: r3 `test_a_lost_chunk_of_a_sweep_store_is_run_again`
+ 4. event zero exactly at t_end missed by native methods
+    fix: templates/run_control.c.tmpl (the interval's end located)
+    test: r3 `test_every_method_sees_an_event_exactly_at_t_end`
+ 5. every coordinate driven: sympy TypeError
+    fix: derive/equations.py, runtime/simulation.py `kinematic_run`
+    test: r3 `test_a_tree_with_every_coordinate_driven_is_an_inverse_dynamic_analysis`
+ 6. abs/sign/min/max motion laws crash the compile
+    fix: derive/kinematics.py (derivatives where they exist)
+    test: r3 same test, its 7 laws; r3b `test_abs_sign_min_max_in_a_drive_of_a_moving_mechanism`
+ 7. event / impact law naming a driven coordinate
+    fix: derive/loops.py, front/scene.py (a law setting one refused)
+    test: r3 `test_events_and_impact_laws_may_name_driven_coordinates`,
+          `test_an_impact_law_setting_a_driven_coordinate_is_refused_at_its_line`
+ 8. LSODA blow-up: ZeroDivisionError
+    fix: runtime/runs.py (message of a zero step)
+    test: r3 `test_a_blow_up_is_a_failed_run_under_every_method`
+ 9. bad option values: tracebacks, hangs
+    fix: tools/cli.py argument types, runtime/checks.py `within_budget`, `step_times`,
+         build/builder.py (CC)
+    test: r3 `test_bad_option_values_are_one_line_refusals`,
+          `test_an_unsplittable_cc_is_a_one_line_build_error`
+10. sweep store with corrupted metadata: traceback
+    fix: tools/sweep_store.py `damaged_store`
+    test: r3 `test_a_damaged_sweep_store_is_a_one_line_refusal`
+11. cache loads a stray `_native.*.so`
+    fix: runtime/load.py `extension_file` (the manifest's file)
+    test: r3 `test_a_stray_extension_beside_a_cached_build_is_never_loaded`
+12. `--dask local:N` workers die: Nanny traceback
+    fix: tools/sweeps.py, tools/cli.py (one line, exit 1)
+    test: r3b `test_workers_that_die_at_start_are_one_line`
+13. `simulate_many` of 10^9 runs, 10^8-point t_eval: MemoryError
+    fix: runtime/checks.py `within_budget`
+    test: r3 `test_api_calls_too_large_are_refused_before_allocating`
+14. a run failing mid-run returns only the failing point
+    fix: runtime/outcome.py `failed_after`, runtime/runs.py `ScipyControl.fail`
+    test: r3b `test_a_run_that_fails_mid_run_keeps_its_states_events_and_outputs`,
+          `test_an_event_function_or_law_failing_mid_run_keeps_the_states_before`,
+          `test_a_run_that_fails_at_its_start_returns_the_state_it_failed_at`
+15. a loop's initial values not settable by `--initial` or a sweep
+    fix: tools/start.py `start_values`, runtime/built.py `guess_state`, tools/sweeps.py
+    test: r3b `test_initial_values_of_a_closed_loop_are_kept_and_the_rest_solved`;
+          test_loop_initial.py (all)
+16. degrees of freedom counted at a singular start
+    fix: derive/assembly.py and runtime/loops.py `singular_start`
+    test: r3b `test_a_start_at_a_singular_configuration_is_refused_by_name`
+17. auto hands a stiffening problem to nemc.Taylor
+    fix: templates/taylor.c.tmpl (Hairer's stiffness test), runtime/simulation.py
+         `integrate_auto`
+    test: test_taylor_stiffness.py `test_auto_hands_the_stiff_rest_to_radau`,
+          `test_taylor_alone_stops_stiff_well_before_its_budget`
+18. NaN event function reported as "accelerations not finite"
+    fix: templates/events.c.tmpl, run_control.c.tmpl (NEMC_EVENT_NOT_FINITE,
+         NEMC_LAW_NOT_FINITE), runtime/failures.py
+    test: r3 `test_a_nan_event_function_or_impact_law_is_named_once`
+19. "integration failed: integration failed:"
+    fix: tools/cli.py `failure_line`
+    test: r3 same test (said once)
+20. `--csv ''` silently ignored
+    fix: tools/files.py `output_refusal`
+    test: r3 `test_an_empty_output_name_is_refused`
+21. Ctrl-C before the sweep's store exists says runs were kept
+    fix: tools/cli.py `interrupted_sweep`
+    test: r3 `test_ctrl_c_before_the_sweep_store_exists_says_nothing_was_kept`
+22. two sweeps creating one store: the loser names its scratch
+    fix: tools/sweep_store.py `publish`
+    test: r3 `test_the_sweep_that_loses_the_race_to_create_a_store_names_it`
+23. `nemc stress` exits 2 on bouncing_ball, fourbar_driven
+    fix: tools/stress.py (a long run ended by its events; 0 DOF)
+    test: r3b `test_stress_measures_a_ball_that_comes_to_rest_before_its_horizon`,
+          `test_stress_reports_a_mechanism_without_a_degree_of_freedom`
+24. scene values `check` accepts refused only by the run
+    fix: front/scene.py (rtol, initial values over 1e150), templates/loops.c.tmpl (rates
+         relative), derive/assembly.py `rates_problem`; an accepted rtol below 100 eps
+         warns in one line (tools/cli.py `one_line_warning`)
+    test: r3 `test_an_rtol_no_run_takes_is_refused_by_check_at_its_line`; r3b
+          `test_check_refuses_initial_values_no_run_can_take`,
+          `test_large_consistent_rates_of_a_loop_are_assembled`,
+          `test_check_refuses_a_start_no_rates_can_take`,
+          `test_a_warning_of_a_command_is_one_line`
+
+What `check` accepts is compiled and run by the fuzzer (test_fuzz.py, slow):
+`test_what_check_accepts_compiles_and_runs` (mutated examples) and
+`test_values_check_accepts_run_on_the_examples_own_builds` (values, on each example's build).
+"""
 
 from __future__ import annotations
 

@@ -50,6 +50,9 @@ def check_assembly(mech: m.Mechanism) -> Assembly:
     singular = singular_start(mech, jacobian, q)
     if singular:
         raise InputError([singular])
+    stuck = rates_problem(mech, phi, jacobian, q)
+    if stuck:
+        raise InputError([stuck])
     return Assembly(dict(zip(names, q.tolist())), len(names) - rank(jacobian(q)[positions]),
                     len(residual), len(names) - rank(jacobian(q)))
 
@@ -86,6 +89,46 @@ def singular_start(mech: m.Mechanism, jacobian, q: np.ndarray) -> Problem | None
                    "0036, but cannot start at one)")
 
 
+RATES_TOLERANCE = 1e-6  # a rate residual over this, relative to its terms, is not rounding
+
+
+def rates_problem(mech: m.Mechanism, phi, jacobian, q: np.ndarray) -> Problem | None:
+    """The start's rates (the runtime solves Phi_q q' = -Phi_t, the given rates kept): where
+    no rates satisfy it (Phi_t, the drives' motion, out of Phi_q's range: a mechanism locked
+    against its drives; or given rates that over-determine it), the problem naming the
+    constraint left farthest and the initial values or the constraint's line."""
+    rates = np.array([float(mech_number(mech, mech.simulation.initial[f"dot({name})"]))
+                      if f"dot({name})" in mech.simulation.initial else 0.0
+                      for name in mech.coordinates])
+    given = np.array([f"dot({name})" in mech.simulation.initial for name in mech.coordinates])
+    step = 1e-6 * (1.0 + abs(start_time(mech)))
+    later, earlier = (numeric_loops(mech, start_time(mech) + sign * step)[0]
+                      for sign in (1.0, -1.0))
+    phi_t = (later(q) - earlier(q)) / (2 * step)
+    phi_q = jacobian(q)
+    free = ~given
+    if free.any():
+        rates[free] = np.linalg.lstsq(phi_q[:, free], -phi_t - phi_q[:, given] @ rates[given],
+                                      rcond=None)[0]
+    residual = np.abs(phi_q @ rates + phi_t)
+    size = np.abs(phi_q) @ np.abs(rates) + np.abs(phi_t)
+    if not residual.max() > RATES_TOLERANCE * max(1.0, size.max()):
+        return None
+    owners = [c for c in mech.constraints for _ in range(c.equations_count)]
+    worst = owners[int(residual.argmax())]
+    where = mech.simulation.initial_loc if given.any() else None
+    if where is not None:
+        return Problem(where.file, where.line, where.key,
+                       f"constraint {worst.name!r} ({worst.loc.key}, line {worst.loc.line}) "
+                       f"cannot hold with these initial rates: its rate stays "
+                       f"{residual.max():.3g} from 0; give fewer rates, or consistent ones")
+    return Problem(worst.loc.file, worst.loc.line, worst.loc.key,
+                   f"no rates satisfy this constraint at the start (its rate stays "
+                   f"{residual.max():.3g} from 0): the mechanism cannot move as its drives "
+                   "prescribe there (locked against them, or at a dead position); change the "
+                   "geometry, the drives or the start")
+
+
 def assembly_problem(mech: m.Mechanism, phi, jacobian, start: np.ndarray, given: np.ndarray,
                      residual: np.ndarray) -> Problem:
     """Why the loops cannot close: the given initial values (when the loops close once they
@@ -109,14 +152,28 @@ def assembly_problem(mech: m.Mechanism, phi, jacobian, start: np.ndarray, given:
                    "close); change the geometry, or the guess that starts the solve")
 
 
-def numeric_loops(mech: m.Mechanism):
-    """Phi(q) and Phi_q(q) at the default parameters and t0, the start of the solve (the
+def start_time(mech: m.Mechanism) -> float:
+    return float((mech.simulation.t_span or (0.0, 0.0))[0])
+
+
+def mech_number(mech: m.Mechanism, expr: sympy.Expr) -> float:
+    """EXPR (an initial value) at the default parameters and the start time."""
+    values = resolve_values(mech)
+    at = {**{symbol: sympy.Float(value) for symbol, value
+             in zip(values.runtime_symbols, values.runtime_defaults)},
+          m.TIME: sympy.Float(start_time(mech))}
+    return float(sympy.sympify(expr).xreplace(values.substitutions).xreplace(at))
+
+
+def numeric_loops(mech: m.Mechanism, t0: float | None = None):
+    """Phi(q) and Phi_q(q) at the default parameters and t0 (the scene's start unless given),
+    the start of the solve (the
     scene's given values and guesses), which coordinates are given and which equations are on
     the positions (an equation on the velocities has Phi 0 and its A as its row of Phi_q: the
     solve keeps the positions off that direction)."""
     values = resolve_values(mech)
     defaults = dict(zip(values.runtime_symbols, values.runtime_defaults))
-    t0 = (mech.simulation.t_span or (0.0, 0.0))[0]
+    t0 = start_time(mech) if t0 is None else t0
 
     at_start = {**{symbol: sympy.Float(value) for symbol, value in defaults.items()},
                 m.TIME: sympy.Float(t0)}

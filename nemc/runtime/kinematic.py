@@ -4,7 +4,7 @@ through isolated singular configurations too (decision 0036's continuation, in t
 
 Each state is assembled from its nearest known state (as before this module: a run away from
 singular configurations gives the same states bit for bit) and checked against the prediction
-along the motion (cubic Hermite through the two nearest known states); a solution on another
+along the motion (cubic Hermite through the two nearest known states, apart); a solution on another
 branch is refused, the assembly started from the prediction, then the step split. A time near
 a singular configuration (Phi_q's conditioning below KINEMATIC_WINDOW, or its rank lost) takes
 its state and outputs from NODES times on each side of it out of the configuration, by the
@@ -36,6 +36,7 @@ LONGEST_STEP = 0.1  # the largest motion of a step the prediction is trusted ove
 REFINEMENTS = 30  # the splits of a step before the branch is declared lost
 SPLITS = (0.5, 0.3)  # where a refined step is split (the second where the first is singular)
 TRUSTED = 1e-6  # the conditioning above which a state predicts the ones after it
+SEPARATION = 1e-2  # the least distance of the two known states predicting t, over t's from one
 
 
 class BranchLost(Exception):
@@ -99,11 +100,16 @@ class BranchFollower:
         self.states: list[np.ndarray] = [y0]
 
     def nearest(self, t: float) -> list[tuple[float, np.ndarray]]:
-        """The (at most) two known states nearest t, nearest first."""
+        """The (at most) two known states nearest t, nearest first; the second at least
+        SEPARATION of the distance to t from the first (two states almost at one time, as a
+        requested time and a passage's node can be, make a cubic that extrapolates them by
+        their distance's inverse cubed)."""
         at = bisect.bisect_left(self.times, t)
-        around = range(max(at - 2, 0), min(at + 2, len(self.times)))
-        closest = sorted(around, key=lambda k: (abs(self.times[k] - t), -k))[:2]
-        return [(self.times[k], self.states[k]) for k in closest]
+        around = range(max(at - 3, 0), min(at + 3, len(self.times)))
+        first, *others = sorted(around, key=lambda k: (abs(self.times[k] - t), -k))
+        apart = SEPARATION * abs(t - self.times[first])
+        second = [k for k in others if abs(self.times[k] - self.times[first]) >= apart][:1]
+        return [(self.times[k], self.states[k]) for k in (first, *second)]
 
     def remember(self, t: float, y: np.ndarray) -> None:
         """A state out of singular configurations, for the predictions that follow."""

@@ -17,6 +17,7 @@ import numpy as np
 from .compiled import Compiled
 from .failures import ModelError, loop_equation
 from .kinematic import BranchFollower, KinematicStates, kinematic_states
+from .passages import SingularPassage, singular_passages
 
 ASSEMBLY_TOLERANCE = 1e-10  # what an assembled or given state may leave of a constraint
 
@@ -112,11 +113,33 @@ class Loops:
         """Phi_q's conditioning at (t, y) as the right-hand side measures it (R's smallest kept
         pivot over its largest, Phi_q^T = Q R: below 2e-2 it passes a singular configuration)
         and its rank (the pivots kept)."""
-        out = np.empty(3)
+        return self.pivot_at(t, y, p)[:2]
+
+    def pivot_at(self, t: float, y: np.ndarray, p: np.ndarray) -> tuple[float, int, int]:
+        """conditioning_at's two and the constraint equation of the smallest kept pivot."""
+        ratio, rank, where = self.pivots_at(np.array([t]), np.asarray(y)[None, :], p)
+        return float(ratio[0]), int(rank[0]), int(where[0])
+
+    def pivots_at(self, ts: np.ndarray, ys: np.ndarray, p: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """pivot_at's three at the states YS (n, n_state) and times TS (n,), one C call."""
+        out = np.empty((len(ys), 3))
         buffer = self.compiled.buffer
-        state = np.ascontiguousarray(y, dtype=float)
-        self._loop_c("constraint_conditioning")(float(t), buffer(state), buffer(p), buffer(out))
-        return float(out[0]), len(self.constraint_equations) - int(out[1])
+        states = np.ascontiguousarray(ys, dtype=float)
+        times = np.ascontiguousarray(ts, dtype=float)
+        self._loop_c("constraint_conditioning")(len(states), buffer(times), buffer(states),
+                                                buffer(p), buffer(out))
+        rank = len(self.constraint_equations) - out[:, 1].astype(int)
+        return out[:, 0], rank, out[:, 2].astype(int)
+
+    def passages(self, t: np.ndarray, y: np.ndarray, p: np.ndarray) -> list[SingularPassage]:
+        """The singular configurations a free run of states Y (n_state, n_t) at times T passed
+        (passages.singular_passages), in order; none for a tree."""
+        if not self.has_loops or not len(t):
+            return []
+        return singular_passages(lambda s, states: self.pivots_at(s, states.T, p),
+                                 self.generic_rank(float(t[0]), p), self.constraint_equations,
+                                 np.asarray(t, dtype=float), np.asarray(y, dtype=float))
 
     def generic_rank(self, t: float, p: np.ndarray) -> int:
         """The rank Phi_q has away from singular configurations: its largest at a few seeded
@@ -210,6 +233,10 @@ class Loops:
                     f"{constraint!r} is left {info[0]:.3g} from closing "
                     f"(more than {ASSEMBLY_TOLERANCE:g}); change the initial values, the guess "
                     "(which picks the assembly's branch) or the geometry")
+        if not np.asarray(given)[1::2].any():  # no rate given: the drives' motion
+            return (f"no rates satisfy constraint {constraint!r} (residual {info[2]:.3g})"
+                    f"{values}: the mechanism cannot move as its drives prescribe there (locked "
+                    "against them, or at a dead position)")
         return (f"the given rates cannot satisfy constraint {constraint!r} "
                 f"(residual {info[2]:.3g}){values}; give fewer rates, or consistent ones")
 

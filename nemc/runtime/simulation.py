@@ -41,6 +41,7 @@ from .inputs import RunInputs
 from .kinematic import Passage
 from .native import native_build, simulate_native
 from .outcome import RunSpec, at_start, lazy_outputs
+from .passages import passages_message
 from .results import LazyOutputs, SimulationResult
 from .scipy_run import simulate_scipy
 
@@ -74,6 +75,7 @@ def simulate(model: BuiltModel, arguments: tuple, t_eval: Any) -> SimulationResu
         return kinematic_run(model, spec)
     result = integrate(model, spec)
     result.y = model.friction.held(result.y, model.loops.projected(result.t, result.y, spec.p))
+    result.message += passages_message(model.loops.passages(result.t, result.y, spec.p))
     return result
 
 

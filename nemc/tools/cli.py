@@ -16,6 +16,7 @@ import os
 import re
 import sys
 import time
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager, suppress
 from pathlib import Path
@@ -598,8 +599,23 @@ COMMANDS = {
 }
 
 
+def one_line_warning(message: Warning | str, category: type[Warning], filename: str,
+                     lineno: int, file: Any = None, line: str | None = None) -> None:
+    """A warning during a command, one line on stderr (Python's names the user's line, which
+    for a command is nemc's own `sys.exit(main())`, and prints it too)."""
+    print(f"nemc: warning: {message}", file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run one command; every expected failure is one message on stderr, never a traceback."""
+    """Run one command; every expected failure is one message on stderr, never a traceback;
+    a warning one line."""
+    with warnings.catch_warnings():
+        warnings.showwarning = one_line_warning
+        return command(argv)
+
+
+def command(argv: Sequence[str] | None) -> int:
+    """main's command, its expected failures each one message on stderr."""
     # The command's arrays are small, and its threads are nemc's own (runs in C, Dask workers):
     # numpy's BLAS threads would only spin, OpenBLAS's one per core for about 0.1 s of CPU
     # after numpy's import (benchmarks/startup.py). Set before numpy is imported; the user's
