@@ -147,12 +147,17 @@ class Loops:
         key = (float(t), p.tobytes())
         if self._generic_rank[0] != key:
             rng = np.random.default_rng(51)
-            n = len(self.state_names) // 2
-            states = [np.concatenate([rng.uniform(-np.pi, np.pi, n), np.zeros(n)])
-                      for _ in range(GENERIC_SAMPLES)]
+            states = [self.random_positions(rng) for _ in range(GENERIC_SAMPLES)]
             self._generic_rank = (key, max(matrix_rank(self.jacobian_at(t, y, p))
                                            for y in states))
         return self._generic_rank[1]
+
+    def random_positions(self, rng: np.random.Generator) -> np.ndarray:
+        """A state with every coordinate drawn in [-pi, pi] and every rate 0 (the state holds
+        each coordinate then its rate: STATE_Q(i) = 2 i)."""
+        state = np.zeros(len(self.state_names))
+        state[0::2] = rng.uniform(-np.pi, np.pi, state.size // 2)
+        return state
 
     def singular_start(self, t0: float, y0: np.ndarray, p: np.ndarray) -> str:
         """Whether the start y0 is at a singular configuration (Phi_q loses rank there): the
