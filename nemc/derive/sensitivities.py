@@ -10,10 +10,10 @@ the same tangent as the linearization's (linearization.py), with the parameters 
 as the state. The generated C (templates/sensitivities.c.tmpl) runs the accelerations' program
 once, then forms their Jacobian [J_y | J_p] once from this tangent (read backwards: reverse
 accumulation) and makes each column a small dense product (a long program's tangent runs
-forward once per column, seeded with its own s and e). The outputs' tangent along the same seeds gives the
-outputs' sensitivities by the chain rule (through the accelerations' and drives' tangents), and
-the initial state's partial derivatives by the parameters give the columns' start (a scene's
-initial values may be expressions of parameters).
+forward once per column, seeded with its own s and e). The outputs' tangent along the same
+seeds gives the outputs' sensitivities by the chain rule (through the accelerations' and drives'
+tangents), and the initial state's partial derivatives by the parameters give the columns'
+start (a scene's initial values may be expressions of parameters).
 
 A closed loop's sensitivities need the projection onto the constraints' tangent space and the
 assembly's sensitivity: not derived here (`unavailable`)."""
