@@ -9,12 +9,13 @@ one C call, the accelerations' program once and its exact forward-mode derivativ
 column). The columns' start: the unit vectors for initial values, d y0 / d p for a parameter
 when the scene's initial state is used (its values may be expressions of parameters), else 0.
 
-The system runs with nemc.DOP853 and nemc.Vern9 (the drivers compiled for the system's size
-once, kept in the cache: nemc/build/systems.py; the model's events located on the state's
-entries) or with scipy's methods (the implicit ones with the block-diagonal Jacobian diag(J_y,
-..., J_y): the Newton iteration's, the second derivatives left out). A closed loop's
-sensitivities, impacts (a jump in the sensitivities), inputs given as Python functions,
-nemc.Radau and nemc.Taylor are refused, each by name.
+The system runs with nemc.DOP853, nemc.Vern9 and nemc.Radau (the drivers compiled for the
+system's size once, kept in the cache: nemc/build/systems.py; the model's events located on the
+state's entries) or with scipy's methods; the implicit ones (nemc.Radau too, the build then
+with the part "jacobian" as well) take the block-diagonal Jacobian diag(J_y, ..., J_y): the
+Newton iteration's, the second derivatives left out. A closed loop's sensitivities, impacts (a
+jump in the sensitivities), inputs given as Python functions and nemc.Taylor are refused, each
+by name.
 """
 
 from __future__ import annotations
@@ -44,7 +45,8 @@ from .results import LazyOutputs, SimulationResult
 INITIAL_VALUES = "y0"  # the name asking for d y(t) / d y0, every initial value at once
 SCIPY_DEFAULT = "DOP853"  # "auto" where the native drivers cannot run (a standalone package,
 #                           events= callables): scipy's DOP853
-SYSTEM_METHODS = ("nemc.DOP853", "nemc.Vern9")  # the native methods that take the system
+SYSTEM_METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Radau")  # the native methods that take it
+NATIVE_RADAU = "nemc.Radau"  # its Newton matrix: the build's Jacobian (sensitivity_jacobian)
 
 
 @dataclass(frozen=True)
@@ -148,6 +150,17 @@ def sensitivity_build(model: BuiltModel) -> BuiltModel:
     return build
 
 
+def radau_build(build: BuiltModel) -> BuiltModel:
+    """The sensitivity build with the part "jacobian" too (nemc.Radau's Newton matrix, the
+    C function sensitivity_jacobian), compiled on first need."""
+    variant = build.compiled_with("jacobian")
+    if not (variant.has_part("jacobian") and variant.has_part("sensitivities")):
+        raise ModelError(f"sensitivities with {NATIVE_RADAU} need the analytic Jacobian, and "
+                         "this build has none: compile it with nemc (jacobian=True), or use "
+                         "nemc.Vern9 or scipy's Radau")
+    return variant
+
+
 def checked_spec(model: BuiltModel, spec: RunSpec) -> RunSpec:
     """The run's plan with its method for sensitivities: scipy's (DOP853 for none or "auto");
     what cannot have sensitivities refused by name."""
@@ -190,6 +203,8 @@ def simulate_sensitivities(model: BuiltModel, spec: RunSpec, names: Any,
     names = requested(names)
     spec = checked_spec(model, spec)
     build = sensitivity_build(model)
+    if spec.method == NATIVE_RADAU:
+        build = radau_build(build)
     tangent = None if y0_given else initial_tangent(build, spec.p)
     cols = columns(model, names, spec.p, tangent)
     if spec.span[0] == spec.span[1]:
@@ -320,7 +335,8 @@ def system_drivers(maker: Callable[[int], Any], size: int) -> SystemDrivers:
 
 def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Columns,
                z0: np.ndarray) -> SystemOutcome:
-    """The system by nemc.DOP853 or nemc.Vern9 in C, the drivers compiled for its size."""
+    """The system by nemc.DOP853, nemc.Vern9 or nemc.Radau in C, the drivers compiled for its
+    size."""
     assert model.system_drivers is not None
     size = z0.size
     drivers = system_drivers(model.system_drivers, size)
@@ -341,10 +357,12 @@ def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
     ints = drivers.ffi.typeof("int[]")
     rhs, events = (drivers.function(build, "sensitivity_rhs"),
                    drivers.function(build, "events") if table else drivers.ffi.NULL)
+    jacobian = (drivers.function(build, "sensitivity_jacobian") if spec.method == NATIVE_RADAU
+                else drivers.ffi.NULL)
 
     def integrate(method: int, run: Any, y0: Any, p: Any) -> int:
         return drivers.lib.nemc_system_integrate(
-            method, rhs, len(table), drivers.ffi.from_buffer(ints, directions),
+            method, rhs, jacobian, len(table), drivers.ffi.from_buffer(ints, directions),
             drivers.ffi.from_buffer(ints, actions), events, run, y0, p)
 
     method_id = getattr(drivers.lib, "NEMC_" + spec.method.split(".")[1].upper())
