@@ -46,7 +46,7 @@ INITIAL_VALUES = "y0"  # the name asking for d y(t) / d y0, every initial value 
 SCIPY_DEFAULT = "DOP853"  # "auto" where the native drivers cannot run (a standalone package,
 #                           events= callables): scipy's DOP853
 SYSTEM_METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Radau")  # the native methods that take it
-NATIVE_RADAU = "nemc.Radau"  # its Newton matrix: the build's Jacobian (sensitivity_jacobian)
+NATIVE_RADAU = "nemc.Radau"  # its Newton matrix diag(J_y, ..., J_y): the build's J_y, a block
 
 
 @dataclass(frozen=True)
@@ -151,8 +151,8 @@ def sensitivity_build(model: BuiltModel) -> BuiltModel:
 
 
 def radau_build(build: BuiltModel) -> BuiltModel:
-    """The sensitivity build with the part "jacobian" too (nemc.Radau's Newton matrix, the
-    C function sensitivity_jacobian), compiled on first need."""
+    """The sensitivity build with the part "jacobian" too (nemc.Radau's Newton matrix
+    diag(J_y, ..., J_y), J_y the build's exact Jacobian), compiled on first need."""
     variant = build.compiled_with("jacobian")
     if not (variant.has_part("jacobian") and variant.has_part("sensitivities")):
         raise ModelError(f"sensitivities with {NATIVE_RADAU} need the analytic Jacobian, and "
@@ -357,13 +357,14 @@ def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
     ints = drivers.ffi.typeof("int[]")
     rhs, events = (drivers.function(build, "sensitivity_rhs"),
                    drivers.function(build, "events") if table else drivers.ffi.NULL)
-    jacobian = (drivers.function(build, "sensitivity_jacobian") if spec.method == NATIVE_RADAU
-                else drivers.ffi.NULL)
+    radau = spec.method == NATIVE_RADAU  # J_y a block of the system's Jacobian
+    jacobian = drivers.function(build, "jacobian") if radau else drivers.ffi.NULL
 
     def integrate(method: int, run: Any, y0: Any, p: Any) -> int:
         return drivers.lib.nemc_system_integrate(
-            method, rhs, jacobian, len(table), drivers.ffi.from_buffer(ints, directions),
-            drivers.ffi.from_buffer(ints, actions), events, run, y0, p)
+            method, rhs, jacobian, model.n_state if radau else 0, len(table),
+            drivers.ffi.from_buffer(ints, directions), drivers.ffi.from_buffer(ints, actions),
+            events, run, y0, p)
 
     method_id = getattr(drivers.lib, "NEMC_" + spec.method.split(".")[1].upper())
     try:
