@@ -173,6 +173,8 @@ def jacobian_tangent(printer: SymbolTablePrinter, tangent: Program, seeds: set[s
     except NotLinear:
         return None
     constants = Constants(printer)
+    steps = [(name, {symbol: constants.named(coefficient) for symbol, coefficient in form.items()})
+             for name, form in steps]  # each coefficient computed once, for every row's sweep
     rows = [jacobian_row(steps, result, constants) for result in results]
     inner = constants.names()
     loop = [f"        DQDD({i}) = "
