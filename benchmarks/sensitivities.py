@@ -22,6 +22,7 @@ drivers' own work per call (sensitivity_breakdown.py), and the floor they leave.
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -200,8 +201,17 @@ def where_the_time_goes(model: Any, rows: list[dict[str, Any]], config: Config
     native = [row for row in rows if row["contender"].startswith("nemc.")]
     if not config.breakdown or not native:
         return []
-    costs = sensitivity_breakdown.call_costs(model, NAMES, config.rounds)
-    return [sensitivity_breakdown.breakdown(row, costs, 9) for row in native]
+    loops = sensitivity_breakdown.call_loops(model, NAMES)
+    parts = []
+    for row in native:
+        span = (0.0, config.t_end)
+        options = {"method": row["contender"], "rtol": RTOL, "atol": ATOL, "t_eval": [span[1]]}
+        plain = functools.partial(model.simulate, span, **options)
+        with_ = functools.partial(model.simulate, span, sensitivities=NAMES, **options)
+        times = common.interleaved({"plain": (plain, 1), "sensitivities": (with_, 1), **loops},
+                                   config.rounds, config.sample_seconds)
+        parts.append(sensitivity_breakdown.breakdown(row["contender"], times, row["nfev"], 9))
+    return parts
 
 
 def markdown(result: dict[str, Any]) -> str:

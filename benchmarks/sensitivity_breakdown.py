@@ -4,9 +4,10 @@ A native run's time is its right-hand side calls times (one call's cost + the dr
 per call). Measured: the calls (nfev, with and without the columns), one call of the model's
 `rhs` and of its `sensitivity_rhs` with all the columns and with none, each timed in a C loop
 (a small cffi module compiled here: a loop of calls through the function pointer, timed with
-clock_gettime, so no Python in the way). Derived: the drivers' work per call, the run's median
-time less its calls' (their stage sums, error norm and step control, on 4 states or on the
-system's 40), and the floor: the sensitivity run's steps and drivers with its columns free.
+clock_gettime, so no Python in the way), interleaved with the runs themselves. Derived: the
+drivers' work per call, the run's median time less its calls' (their stage sums, error norm
+and step control, on 4 states or on the system's 40), and the floor: the sensitivity run's
+steps and drivers with its columns free.
 """
 
 from __future__ import annotations
@@ -61,10 +62,11 @@ def address(build: Any, name: str) -> int:
         compiled.lib, compiled.prefix + name)))
 
 
-def call_costs(model: Any, names: list[str], rounds: int, count: int = 400_000
-               ) -> dict[str, float]:
-    """Median ns of one call: the plain rhs, the sensitivity system's with the NAMES' columns
-    and with none (the state's part and J alone), interleaved over ROUNDS."""
+def call_loops(model: Any, names: list[str], count: int = 100_000
+               ) -> dict[str, tuple[Any, int]]:
+    """common.interleaved's contenders for one call's cost, each COUNT calls in the C loop:
+    the plain rhs, the sensitivity system's with the NAMES' columns and with none (the
+    state's part and J alone)."""
     from nemc.runtime.sensitivities import columns, sensitivity_build
 
     timer = call_timer()
@@ -77,43 +79,45 @@ def call_costs(model: Any, names: list[str], rounds: int, count: int = 400_000
     full, none = cols.parameters(p), cols.parameters(p)
     none[p.size] = 0.0  # no column
     out = np.empty(z.size)
-    buffer = lambda array: timer.ffi.from_buffer("double[]", array)  # noqa: E731
-    calls = {"rhs": (address(model, "rhs"), y, p),
-             "system": (address(build, "sensitivity_rhs"), z, full),
-             "system_no_columns": (address(build, "sensitivity_rhs"), z, none)}
-    samples: dict[str, list[float]] = {name: [] for name in calls}
-    for _ in range(rounds):
-        for name, (where, state, params) in calls.items():
-            samples[name].append(timer.lib.ns_per_call(where, count, buffer(state),
-                                                       buffer(params), buffer(out)))
-    return {name: float(np.median(values)) for name, values in samples.items()}
+    buffer = timer.ffi.from_buffer
+    arguments = {"rhs": (address(model, "rhs"), y, p),
+                 "system": (address(build, "sensitivity_rhs"), z, full),
+                 "system_no_columns": (address(build, "sensitivity_rhs"), z, none)}
+
+    def loop(where: int, state: np.ndarray, params: np.ndarray) -> Any:
+        held = (buffer("double[]", state), buffer("double[]", params), buffer("double[]", out))
+        return lambda: timer.lib.ns_per_call(where, count, *held)
+
+    return {name: (loop(*args), count) for name, args in arguments.items()}
 
 
-def breakdown(row: dict[str, Any], costs: dict[str, float], columns: int) -> dict[str, Any]:
-    """ROW's ratio (benchmarks/sensitivities.py's nemc_pair) split into its factors: the calls,
-    one call's cost, the drivers' work per call; and the floor with the columns free."""
-    nfev_plain, nfev_with = row["nfev"]
-    plain_ns = row["plain"]["median"] * 1e9
-    with_ns = row["sensitivities"]["median"] * 1e9
-    drivers_plain = plain_ns / nfev_plain - costs["rhs"]
-    drivers_with = with_ns / nfev_with - costs["system"]
-    floor = nfev_with * (costs["system_no_columns"] + drivers_with) / plain_ns
-    return {"contender": row["contender"], "calls_ratio": nfev_with / nfev_plain,
-            "rhs_ns": costs["rhs"], "system_ns": costs["system"],
-            "system_no_columns_ns": costs["system_no_columns"],
-            "column_ns": (costs["system"] - costs["system_no_columns"]) / columns,
+def breakdown(contender: str, times: dict[str, dict[str, Any]], nfev: list[int],
+              columns: int) -> dict[str, Any]:
+    """A run's ratio split into its factors: the calls (NFEV plain, with), one call's cost
+    and the drivers' work per call, from TIMES (common.interleaved's: the runs and the
+    call_loops, timed in the same rounds); and the floor with the columns free."""
+    nfev_plain, nfev_with = nfev
+    ns = {name: value["median"] * 1e9 for name, value in times.items()}
+    drivers_plain = ns["plain"] / nfev_plain - ns["rhs"]
+    drivers_with = ns["sensitivities"] / nfev_with - ns["system"]
+    floor = nfev_with * (ns["system_no_columns"] + drivers_with) / ns["plain"]
+    return {"contender": contender, "calls_ratio": nfev_with / nfev_plain,
+            "rhs_ns": ns["rhs"], "system_ns": ns["system"],
+            "system_no_columns_ns": ns["system_no_columns"],
+            "column_ns": (ns["system"] - ns["system_no_columns"]) / columns,
             "drivers_ns_plain": drivers_plain, "drivers_ns_with": drivers_with,
-            "rhs_share_with": costs["system"] * nfev_with / with_ns,
-            "floor_ratio": floor, "ratio": row["ratio"]}
+            "rhs_share_with": ns["system"] * nfev_with / ns["sensitivities"],
+            "floor_ratio": floor, "ratio": ns["sensitivities"] / ns["plain"]}
 
 
 def markdown_lines(parts: list[dict[str, Any]]) -> list[str]:
     """The breakdown as a table and what it says."""
     lines = ["## Where the time goes", "",
-             "One call timed in a C loop (median of the rounds); the drivers' work per call = "
-             "the run's median time / its calls - one call. Floor: the sensitivity run's calls "
-             "and drivers with the columns free (the system's call without columns: the state's "
-             "right-hand side and J).", "",
+             "The runs again, with one call timed in a C loop (100,000 calls), interleaved in "
+             "the same rounds (medians); the drivers' work per call = the run's time / its "
+             "calls - one call (the C loop's call is cache-warm: a lower bound of a call in "
+             "the run). Floor: the sensitivity run's calls and drivers with the columns free "
+             "(the system's call without columns: the state's right-hand side and J).", "",
              "| method | calls with / plain | rhs plain | system: none / 9 columns (per column) "
              "| drivers per call plain / with | floor | ratio |",
              "| --- | --- | --- | --- | --- | --- | --- |"]
