@@ -58,8 +58,8 @@ def drivers_text(n_state: int, radau: bool) -> str:
 class SystemCode:
     """The C of the native integrators for a system of N_STATE states given by a function
     pointer (a model's sensitivity system): nemc_drivers.c (with Radau, which takes the
-    system's Jacobian as a pointer too), nemc_system.c's entry points, the shared headers and
-    the cffi cdef. It names no model."""
+    model's Jacobian as a pointer too, the block of the system's), nemc_system.c's entry
+    points, the shared headers and the cffi cdef. It names no model."""
 
     n_state: int
     drivers: str
