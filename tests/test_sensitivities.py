@@ -254,6 +254,44 @@ def test_native_radau_integrates_the_system_with_its_newton_matrix(double_pendul
     assert errors[1] < 1e-8 and errors[1] < errors[0] / 100, errors
 
 
+def test_radaus_block_solves_give_the_dense_lus_bits(double_pendulum, monkeypatch) -> None:
+    """nemc.Radau factors J_y once and solves block by block: the same bits as its dense LU of
+    the whole diag(J_y, ..., J_y) (handed to the drivers as one Jacobian of the system's size,
+    built here from the model's J_y)."""
+    from nemc.runtime import sensitivities as variational
+
+    names = ["y0", "m2", "g"]
+    run = {"t_eval": np.linspace(0, 3, 7), "sensitivities": names, "method": "nemc.Radau",
+           "rtol": 1e-9, "atol": 1e-11}
+    blocks = double_pendulum.simulate((0, 3), **run)
+    n, size = double_pendulum.n_state, double_pendulum.n_state * (1 + 4 + 2)
+    calls = []
+
+    def dense(drivers, build, spec):
+        compiled = build.compiled
+
+        def jacobian(t, z, p, jac):
+            at = [compiled.ffi.cast("double *", int(drivers.ffi.cast("uintptr_t", x)))
+                  for x in (z, p)]
+            block = np.empty((n, n))
+            status = compiled.functions["jacobian"](t, *at, compiled.buffer(block))
+            whole = np.frombuffer(drivers.ffi.buffer(jac, 8 * size * size)).reshape(size, size)
+            whole[:] = np.kron(np.eye(size // n), block)
+            calls.append(t)
+            return status
+
+        callback = drivers.ffi.callback("nemc_system_fn", jacobian)
+        dense.keep = callback
+        return callback, size
+
+    monkeypatch.setattr(variational, "newton_block", dense)
+    whole = double_pendulum.simulate((0, 3), **run)
+    assert calls and whole.njev == blocks.njev == len(calls) and whole.nlu == blocks.nlu
+    assert np.array_equal(whole.y, blocks.y)
+    for name in names:
+        assert np.array_equal(whole.sensitivities[name], blocks.sensitivities[name]), name
+
+
 def test_native_radau_on_a_stiff_arm_matches_differences_and_the_oracle() -> None:
     """The book's stiff 5.4 arm (its scene's method nemc.Radau, stiffness ~1e3): the run's
     sensitivities against central differences of tight nemc.Vern9 runs (rtol 1e-13, an

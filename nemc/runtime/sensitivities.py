@@ -357,12 +357,11 @@ def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
     ints = drivers.ffi.typeof("int[]")
     rhs, events = (drivers.function(build, "sensitivity_rhs"),
                    drivers.function(build, "events") if table else drivers.ffi.NULL)
-    radau = spec.method == NATIVE_RADAU  # J_y a block of the system's Jacobian
-    jacobian = drivers.function(build, "jacobian") if radau else drivers.ffi.NULL
+    jacobian, block = newton_block(drivers, build, spec)
 
     def integrate(method: int, run: Any, y0: Any, p: Any) -> int:
         return drivers.lib.nemc_system_integrate(
-            method, rhs, jacobian, model.n_state if radau else 0, len(table),
+            method, rhs, jacobian, block, len(table),
             drivers.ffi.from_buffer(ints, directions), drivers.ffi.from_buffer(ints, actions),
             events, run, y0, p)
 
@@ -379,6 +378,15 @@ def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
                                  model.state_names, build.compiled.status_cause(run.rhs_status))
     message = native.native_message(model, spec, run, out[-1][:model.n_state])
     return SystemOutcome(t, z, status, message, run.nfev, run.njev, run.nlu, rtol, atol, found)
+
+
+def newton_block(drivers: SystemDrivers, build: BuiltModel, spec: RunSpec
+                 ) -> tuple[Any, int]:
+    """nemc.Radau's Jacobian of the system as the drivers take it: the build's own J_y and its
+    size, the block of diag(J_y, ..., J_y) (NULL and 0 for the explicit methods)."""
+    if spec.method != NATIVE_RADAU:
+        return drivers.ffi.NULL, 0
+    return drivers.function(build, "jacobian"), build.n_state
 
 
 def native_states(drivers: SystemDrivers, run: Any, spec: RunSpec, out: np.ndarray
