@@ -11,11 +11,12 @@ when the scene's initial state is used (its values may be expressions of paramet
 
 The system runs with nemc.DOP853, nemc.Vern9 and nemc.Radau (the drivers compiled for the
 system's size once, kept in the cache: nemc/build/systems.py; the model's events located on the
-state's entries) or with scipy's methods; the implicit ones (nemc.Radau too, the build then
-with the part "jacobian" as well) take the block-diagonal Jacobian diag(J_y, ..., J_y): the
-Newton iteration's, the second derivatives left out. A closed loop's sensitivities, impacts (a
-jump in the sensitivities), inputs given as Python functions and nemc.Taylor are refused, each
-by name.
+state's entries) or with scipy's methods, the implicit ones with the block-diagonal Jacobian
+diag(J_y, ..., J_y) (the Newton iteration's, the second derivatives left out); nemc.Radau (the
+build then with the part "jacobian" as well) takes J_y as the diagonal block of its Newton
+matrix and the columns' coupling by differences (templates/radau.c.tmpl). A closed loop's
+sensitivities, impacts (a jump in the sensitivities), inputs given as Python functions and
+nemc.Taylor are refused, each by name.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ INITIAL_VALUES = "y0"  # the name asking for d y(t) / d y0, every initial value 
 SCIPY_DEFAULT = "DOP853"  # "auto" where the native drivers cannot run (a standalone package,
 #                           events= callables): scipy's DOP853
 SYSTEM_METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Radau")  # the native methods that take it
-NATIVE_RADAU = "nemc.Radau"  # its Newton matrix diag(J_y, ..., J_y): the build's J_y, a block
+NATIVE_RADAU = "nemc.Radau"  # its Newton matrix's diagonal blocks: the build's J_y
 
 
 @dataclass(frozen=True)
@@ -151,8 +152,8 @@ def sensitivity_build(model: BuiltModel) -> BuiltModel:
 
 
 def radau_build(build: BuiltModel) -> BuiltModel:
-    """The sensitivity build with the part "jacobian" too (nemc.Radau's Newton matrix
-    diag(J_y, ..., J_y), J_y the build's exact Jacobian), compiled on first need."""
+    """The sensitivity build with the part "jacobian" too (J_y, the exact Jacobian, the
+    diagonal blocks of nemc.Radau's Newton matrix), compiled on first need."""
     variant = build.compiled_with("jacobian")
     if not (variant.has_part("jacobian") and variant.has_part("sensitivities")):
         raise ModelError(f"sensitivities with {NATIVE_RADAU} need the analytic Jacobian, and "
@@ -383,7 +384,7 @@ def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
 def newton_block(drivers: SystemDrivers, build: BuiltModel, spec: RunSpec
                  ) -> tuple[Any, int]:
     """nemc.Radau's Jacobian of the system as the drivers take it: the build's own J_y and its
-    size, the block of diag(J_y, ..., J_y) (NULL and 0 for the explicit methods)."""
+    size, the diagonal block (NULL and 0 for the explicit methods)."""
     if spec.method != NATIVE_RADAU:
         return drivers.ffi.NULL, 0
     return drivers.function(build, "jacobian"), build.n_state
