@@ -12,7 +12,6 @@ steps and drivers with its columns free.
 
 from __future__ import annotations
 
-import sys
 import tempfile
 from typing import Any
 
@@ -41,16 +40,19 @@ _timer: list[Any] = []
 def call_timer() -> Any:
     """The C loop timing a right-hand side (compiled once per process, in a temporary folder)."""
     if not _timer:
+        import importlib.util
+
         import cffi
 
         ffi = cffi.FFI()
         ffi.cdef(TIMER_CDEF)
         ffi.set_source("_nemc_bench_call_timer", TIMER_C, extra_compile_args=["-O2"])
-        folder = tempfile.mkdtemp(prefix="nemc-bench-timer-")
-        ffi.compile(tmpdir=folder, verbose=False)
-        sys.path.insert(0, folder)
-        import _nemc_bench_call_timer as module  # type: ignore[import-not-found]
-
+        library = ffi.compile(tmpdir=tempfile.mkdtemp(prefix="nemc-bench-timer-"),
+                              verbose=False)
+        spec = importlib.util.spec_from_file_location("_nemc_bench_call_timer", library)
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
         _timer.append(module)
     return _timer[0]
 

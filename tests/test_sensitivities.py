@@ -8,6 +8,7 @@ thing that has none."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -254,7 +255,8 @@ def test_native_radau_integrates_the_system_with_its_newton_matrix(double_pendul
     assert errors[1] < 1e-8 and errors[1] < errors[0] / 100, errors
 
 
-def test_radaus_block_solves_equal_the_dense_lus(double_pendulum, monkeypatch) -> None:
+def test_radaus_block_solves_equal_the_dense_lus(double_pendulum,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
     """nemc.Radau factors J_y once and solves block by block, the columns' coupling blocks
     C_j = d f_j / d y (forward differences of the system's right-hand side) applied between:
     the same iteration as its dense LU of the whole Newton matrix [[J_y, 0], [C_j, J_y]]
@@ -268,17 +270,17 @@ def test_radaus_block_solves_equal_the_dense_lus(double_pendulum, monkeypatch) -
     n, size = double_pendulum.n_state, double_pendulum.n_state * (1 + 4 + 2)
     calls = []
 
-    def dense(drivers, build, spec):
+    def dense(drivers: Any, build: Any, spec: Any) -> tuple[Any, int]:
         compiled = build.compiled
 
-        def system(t, z, p):
+        def system(t: float, z: np.ndarray, p: np.ndarray) -> np.ndarray:
             out = np.empty(size)
             assert compiled.functions["sensitivity_rhs"](t, compiled.buffer(z),
                                                           compiled.buffer(p),
                                                           compiled.buffer(out)) == 0
             return out
 
-        def jacobian(t, z_pointer, p_pointer, jac):
+        def jacobian(t: float, z_pointer: Any, p_pointer: Any, jac: Any) -> int:
             z = np.frombuffer(drivers.ffi.buffer(z_pointer, 8 * size)).copy()
             count = int(drivers.ffi.cast("double *", p_pointer)[spec.p.size])  # the columns
             p = np.frombuffer(drivers.ffi.buffer(p_pointer,
