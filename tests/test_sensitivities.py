@@ -239,8 +239,8 @@ def test_the_native_methods_integrate_the_system_in_c(double_pendulum, method: s
 
 
 def test_native_radau_integrates_the_system_with_its_newton_matrix(double_pendulum) -> None:
-    """nemc.Radau on the sensitivity system (the Newton matrix diag(J_y, ..., J_y) from the
-    build's Jacobian): scipy's tight run's sensitivities, and its error shrinking with rtol."""
+    """nemc.Radau on the sensitivity system (its Newton matrix from the build's J_y and the
+    columns' coupling): scipy's tight run's sensitivities, and its error shrinking with rtol."""
     names = ["y0", *double_pendulum.parameter_names]
     t_eval = np.linspace(0, 5, 51)
     reference = double_pendulum.simulate((0, 5), t_eval=t_eval, sensitivities=names,
