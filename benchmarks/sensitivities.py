@@ -6,7 +6,8 @@ Results: benchmarks/results/sensitivities-latest.{json,md} (smoke: a temporary f
 
 System: the book's double pendulum (5.2) over [0, 20] at rtol 1e-10 (atol 1e-12), the state at
 t = 20 only. Contenders: nemc.Vern9 and nemc.DOP853 (the sensitivity system in C, in the same
-error control as the state), scipy's DOP853 on the same C right-hand side, each with and
+error control as the state), in full mode nemc.Radau (its Newton matrix diag(J_y, ..., J_y),
+factored once per block) and scipy's DOP853 on the same C right-hand side, each with and
 without the 9 sensitivity columns; heyoka's var_ode_sys (first order, by the initial values and
 the parameters, heyoka's Taylor method at tol 1e-10; its JIT time reported apart) and its own
 plain run, when heyoka is installed (the `peers` extra). Every contender's error is its
@@ -14,11 +15,14 @@ sensitivities' largest error at t = 20 over the largest entry, against scipy's D
 1e-13 (the same error for all: "at equal error" is read from the table). The with/without pairs
 are timed interleaved (common.interleaved: calibrated loops, rounds rotating the order); ratio =
 median with / median without, with the range of the per-round ratios; the load average is
-recorded at the start and the end, all timed work pinned to one CPU (common.one_cpu).
+recorded at the start and the end, all timed work pinned to one CPU (common.one_cpu). Then
+(quick and full modes) where the time goes: the calls, one call's cost timed in a C loop and the
+drivers' own work per call (sensitivity_breakdown.py), and the floor they leave.
 """
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -31,6 +35,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import common  # noqa: E402 (the benchmarks folder is not a package)
+import sensitivity_breakdown  # noqa: E402
 from common import ROOT, fmt_time  # noqa: E402
 
 import nemc  # noqa: E402
@@ -49,12 +54,14 @@ class Config:
     rounds: int
     sample_seconds: float
     heyoka: bool
+    breakdown: bool  # where the time goes (sensitivity_breakdown.py): one call timed in C
 
 
 MODES = {
-    "full": Config("full", 20.0, ("nemc.Vern9", "nemc.DOP853", "DOP853"), 15, 0.2, True),
-    "quick": Config("quick", 20.0, ("nemc.Vern9", "nemc.DOP853"), 7, 0.1, True),
-    "smoke": Config("smoke", 2.0, ("nemc.Vern9",), 2, 0.01, False),
+    "full": Config("full", 20.0, ("nemc.Vern9", "nemc.DOP853", "nemc.Radau", "DOP853"), 15,
+                   0.2, True, True),
+    "quick": Config("quick", 20.0, ("nemc.Vern9", "nemc.DOP853"), 7, 0.1, True, True),
+    "smoke": Config("smoke", 2.0, ("nemc.Vern9",), 2, 0.01, False, False),
 }
 
 
@@ -182,9 +189,29 @@ def run(config: Config) -> dict[str, Any]:
                 print(f"  heyoka: {rows[-1]['ratio']:.2f}x its plain run", flush=True)
             except ImportError:
                 heyoka_note = "heyoka is not installed (pip install '.[peers]')"
+        parts = where_the_time_goes(model, rows, config)
     common.finish_environment(env, started)
     return {"environment": env, "config": config.__dict__, "rows": rows, "target": TARGET,
-            "first_call_seconds": first_call, "heyoka": heyoka_note}
+            "first_call_seconds": first_call, "heyoka": heyoka_note, "breakdown": parts}
+
+
+def where_the_time_goes(model: Any, rows: list[dict[str, Any]], config: Config
+                        ) -> list[dict[str, Any]]:
+    """The native rows' ratios split into calls, one call's cost and the drivers' work."""
+    native = [row for row in rows if row["contender"].startswith("nemc.")]
+    if not config.breakdown or not native:
+        return []
+    loops = sensitivity_breakdown.call_loops(model, NAMES)
+    parts = []
+    for row in native:
+        span = (0.0, config.t_end)
+        options = {"method": row["contender"], "rtol": RTOL, "atol": ATOL, "t_eval": [span[1]]}
+        plain = functools.partial(model.simulate, span, **options)
+        with_ = functools.partial(model.simulate, span, sensitivities=NAMES, **options)
+        times = common.interleaved({"plain": (plain, 1), "sensitivities": (with_, 1), **loops},
+                                   config.rounds, config.sample_seconds)
+        parts.append(sensitivity_breakdown.breakdown(row["contender"], times, row["nfev"], 9))
+    return parts
 
 
 def markdown(result: dict[str, Any]) -> str:
@@ -222,6 +249,8 @@ def markdown(result: dict[str, Any]) -> str:
                              f"{heyoka['error']:.1e}).")
     elif result["heyoka"]:
         lines.append(result["heyoka"] + ".")
+    if result.get("breakdown"):
+        lines += ["", *sensitivity_breakdown.markdown_lines(result["breakdown"])]
     return "\n".join(lines) + "\n"
 
 

@@ -8,6 +8,7 @@ thing that has none."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -237,6 +238,102 @@ def test_the_native_methods_integrate_the_system_in_c(double_pendulum, method: s
     assert steps.t.size == steps.sensitivities["m2"].shape[1] > 2  # the solver's own steps
 
 
+def test_native_radau_integrates_the_system_with_its_newton_matrix(double_pendulum) -> None:
+    """nemc.Radau on the sensitivity system (its Newton matrix from the build's J_y and the
+    columns' coupling): scipy's tight run's sensitivities, and its error shrinking with rtol."""
+    names = ["y0", *double_pendulum.parameter_names]
+    t_eval = np.linspace(0, 5, 51)
+    reference = double_pendulum.simulate((0, 5), t_eval=t_eval, sensitivities=names,
+                                         method="DOP853", rtol=1e-12, atol=1e-14)
+    errors = []
+    for rtol in (1e-8, 1e-11):
+        res = double_pendulum.simulate((0, 5), t_eval=t_eval, sensitivities=names,
+                                       method="nemc.Radau", rtol=rtol, atol=rtol * 1e-2)
+        assert res.success and res.method == "nemc.Radau" and res.nlu > 0, res.message
+        errors.append(max(relative_error(res.sensitivities[name], reference.sensitivities[name])
+                          for name in names))
+    assert errors[1] < 1e-8 and errors[1] < errors[0] / 100, errors
+
+
+def test_radaus_block_solves_equal_the_dense_lus(double_pendulum,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """nemc.Radau factors J_y once and solves block by block, the columns' coupling blocks
+    C_j = d f_j / d y (forward differences of the system's right-hand side) applied between:
+    the same iteration as its dense LU of the whole Newton matrix [[J_y, 0], [C_j, J_y]]
+    (handed to the drivers as one Jacobian of the system's size, built here the same way)."""
+    from nemc.runtime import sensitivities as variational
+
+    names = ["y0", "m2", "g"]
+    run = {"t_eval": np.linspace(0, 3, 7), "sensitivities": names, "method": "nemc.Radau",
+           "rtol": 1e-9, "atol": 1e-11}
+    blocks = double_pendulum.simulate((0, 3), **run)
+    n, size = double_pendulum.n_state, double_pendulum.n_state * (1 + 4 + 2)
+    calls = []
+
+    def dense(drivers: Any, build: Any, spec: Any) -> tuple[Any, int]:
+        compiled = build.compiled
+
+        def system(t: float, z: np.ndarray, p: np.ndarray) -> np.ndarray:
+            out = np.empty(size)
+            assert compiled.functions["sensitivity_rhs"](t, compiled.buffer(z),
+                                                          compiled.buffer(p),
+                                                          compiled.buffer(out)) == 0
+            return out
+
+        def jacobian(t: float, z_pointer: Any, p_pointer: Any, jac: Any) -> int:
+            z = np.frombuffer(drivers.ffi.buffer(z_pointer, 8 * size)).copy()
+            count = int(drivers.ffi.cast("double *", p_pointer)[spec.p.size])  # the columns
+            p = np.frombuffer(drivers.ffi.buffer(p_pointer,
+                                                 8 * (spec.p.size * (1 + count) + 1))).copy()
+            block = np.empty((n, n))
+            status = compiled.functions["jacobian"](t, compiled.buffer(z), compiled.buffer(p),
+                                                    compiled.buffer(block))
+            whole = np.frombuffer(drivers.ffi.buffer(jac, 8 * size * size)).reshape(size, size)
+            whole[:] = np.kron(np.eye(size // n), block)
+            f = system(t, z, p)
+            for m in range(n):  # the coupling as radau_jacobian takes it
+                moved = z.copy()
+                moved[m] += np.sqrt(np.finfo(float).eps) * max(1.0, abs(z[m]))
+                whole[n:, m] = (system(t, moved, p) - f)[n:] / (moved[m] - z[m])
+            calls.append(t)
+            return status
+
+        callback = drivers.ffi.callback("nemc_system_fn", jacobian)
+        dense.keep = callback
+        return callback, size
+
+    monkeypatch.setattr(variational, "newton_block", dense)
+    whole = double_pendulum.simulate((0, 3), **run)
+    assert calls and whole.njev == blocks.njev == len(calls) and whole.nlu == blocks.nlu
+    assert relative_error(whole.y, blocks.y) < 1e-13
+    for name in names:
+        assert relative_error(whole.sensitivities[name], blocks.sensitivities[name]) < 1e-12
+
+
+def test_native_radau_on_a_stiff_arm_matches_differences_and_the_oracle() -> None:
+    """The book's stiff 5.4 arm (its scene's method nemc.Radau, stiffness ~1e3): the run's
+    sensitivities against central differences of tight nemc.Vern9 runs (rtol 1e-13, an
+    explicit method) and the Lagrange oracle's augmented system."""
+    path = EXAMPLES / "two_link_robot_arm.yaml"
+    model = nemc.compile(path)
+    names = ["b01", "g12", "m2"]
+    t_eval = np.linspace(0, 1, 11)
+    y0 = model.initial_state()
+    res = model.simulate((0, 1), y0, t_eval=t_eval, sensitivities=["y0", *names],
+                         rtol=1e-11, atol=1e-13)  # the scene's method
+    assert res.success and res.method == "nemc.Radau" and res.njev > 0, res.message
+    tight = {"method": "nemc.Vern9", "rtol": 1e-13, "atol": 1e-15, "t_eval": t_eval}
+    for name in names:
+        value = model.parameters[name]
+        h = 1e-4 * max(1.0, value)  # m2's columns are ~1e-3 of y: a smaller h rounds
+        up = model.simulate((0, 1), y0, params={name: value + h}, **tight).y
+        down = model.simulate((0, 1), y0, params={name: value - h}, **tight).y
+        assert relative_error(res.sensitivities[name], (up - down) / (2 * h)) < 1e-7, name
+    reference = oracle_sensitivities(path, names, t_eval, y0)
+    for name, expected in reference.items():
+        assert relative_error(res.sensitivities[name], expected) < 1e-8, name
+
+
 def test_auto_takes_a_native_method_and_events_are_located() -> None:
     model = nemc.compile(EXAMPLES / "double_pendulum_events.yaml")
     plain = model.simulate((0, 4), method="nemc.Vern9", rtol=1e-11, atol=1e-13)
@@ -266,9 +363,8 @@ def test_a_table_input_runs_natively_too(tmp_path: Path) -> None:
 
 
 def test_what_has_no_sensitivities_yet_is_refused_by_name(damped) -> None:
-    for method in ("nemc.Radau", "nemc.Taylor"):
-        with pytest.raises(ModelError, match=f"{method} does not integrate the variational"):
-            damped.simulate(sensitivities=["c"], method=method)
+    with pytest.raises(ModelError, match="nemc.Taylor does not integrate the variational"):
+        damped.simulate(sensitivities=["c"], method="nemc.Taylor")
     with pytest.raises(ModelError, match="closed loop"):
         nemc.compile(EXAMPLES / "fourbar.yaml").simulate(sensitivities=["y0"])
 

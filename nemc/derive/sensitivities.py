@@ -8,11 +8,12 @@ state's sensitivity s = d y / d (direction), the variational equations are
 which is the forward-mode derivative of the right-hand side along the seeds (y -> s, p -> e):
 the same tangent as the linearization's (linearization.py), with the parameters seeded as well
 as the state. The generated C (templates/sensitivities.c.tmpl) runs the accelerations' program
-once and its tangent once per sensitivity column, each column seeded with its own s and e: no
-Jacobian is formed, no matrix product made. The outputs' tangent along the same seeds gives the
-outputs' sensitivities by the chain rule (through the accelerations' and drives' tangents), and
-the initial state's partial derivatives by the parameters give the columns' start (a scene's
-initial values may be expressions of parameters).
+once, then forms their Jacobian [J_y | J_p] once from this tangent (read backwards: reverse
+accumulation) and makes each column a small dense product (a long program's tangent runs
+forward once per column, seeded with its own s and e). The outputs' tangent along the same
+seeds gives the outputs' sensitivities by the chain rule (through the accelerations' and drives'
+tangents), and the initial state's partial derivatives by the parameters give the columns'
+start (a scene's initial values may be expressions of parameters).
 
 At a scene's event (g(t, y, p) = 0 at its time tau) the columns jump: the event's partial
 derivatives g_y, g_p, g_t and, for an impact law y+ = G(t, y-, p), G_y, G_p, G_t are derived

@@ -57,7 +57,8 @@ def drivers_text(n_state: int, radau: bool) -> str:
 @dataclass(frozen=True)
 class SystemCode:
     """The C of the native integrators for a system of N_STATE states given by a function
-    pointer (a model's sensitivity system): nemc_drivers.c (no Radau), nemc_system.c's entry
+    pointer (a model's sensitivity system): nemc_drivers.c (with Radau, which takes the
+    model's Jacobian as a pointer too, the block of the system's), nemc_system.c's entry
     points, the shared headers and the cffi cdef. It names no model."""
 
     n_state: int
@@ -70,7 +71,7 @@ class SystemCode:
 def system_code(n_state: int) -> SystemCode:
     entry = template("system.c.tmpl").substitute(version=__version__, n_state=n_state)
     headers = shared_headers()
-    return SystemCode(n_state, drivers_text(n_state, radau=False), entry, headers,
+    return SystemCode(n_state, drivers_text(n_state, radau=True), entry, headers,
                       cdef(dict(headers)["nemc_run.h"], entry))
 
 

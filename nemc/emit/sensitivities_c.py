@@ -1,10 +1,11 @@
 """The variational equations' C, an optional part of a build (nemc/derive/sensitivities.py):
 the sensitivity system's right-hand side (templates/sensitivities.c.tmpl), the initial state's
 derivatives by the parameters, and the outputs' sensitivities at a point of a run
-(templates/output_sensitivities.c.tmpl). Exact: the accelerations' program once, then its
-forward-mode derivative once per sensitivity column. At the scene's events, the columns' jump
-and the event times' sensitivities (templates/event_sensitivities.c.tmpl), from each event's
-partial derivatives.
+(templates/output_sensitivities.c.tmpl). Exact: the accelerations' program once, then (a
+short program's) the Jacobian [J_y | J_p] of the accelerations by reverse accumulation of its
+linear tangent, and each sensitivity column a small dense product; a long program's tangent
+runs forward once per column. At the scene's events, the columns' jump and the event times'
+sensitivities (templates/event_sensitivities.c.tmpl), from each event's partial derivatives.
 """
 
 from __future__ import annotations
@@ -98,21 +99,22 @@ def event_partials_case(eqs: Equations, block: Block, printer: SymbolTablePrinte
 
 def system_programs(eqs: Equations, block: Block, printer: SymbolTablePrinter,
                     chunk_steps: int, units: Units | None) -> tuple[Printed, str, Printed]:
-    """The system's primal, the tangent's coefficients (computed once) and its columns' steps:
-    hoisted (hoisted_tangent) where the programs are short enough for one body, else the
-    tangent as the Jacobian prints it (in parts), every column computing its coefficients."""
+    """The system's primal, what is computed once before the columns and each column's steps:
+    J formed once and a product per column (jacobian_tangent) where the programs are short
+    enough for one body, else the tangent as the Jacobian prints it (in parts), run forward
+    for every column."""
     programs = block.programs
     dynamics, tangent = programs["dynamics"], programs["sensitivities"]
     if max(dynamics.size, tangent.size) <= chunk_steps:
         angles = angles_c(eqs, printer, dynamics, tangent)
         assert angles.reader is not None
         seeds = set(eqs.sensitivities.tangents.seeds.values()) if eqs.sensitivities else set()
-        hoisted = hoisted_tangent(angles.printer.with_names({}, order="none"), angles.reader,
-                                  seeds)
-        if hoisted is not None:
+        dense = jacobian_tangent(angles.printer.with_names({}, order="none"), angles.reader,
+                                 seeds)
+        if dense is not None:
             primal = Printed("", angles.prologue + program_body(angles.printer, angles.program,
                                                                 PRIMAL.writes))
-            return primal, hoisted[0], Printed("", hoisted[1])
+            return primal, dense[0], Printed("", dense[1])
     primal, columns = jacobian_programs(eqs, printer, dynamics, tangent, chunk_steps, units,
                                         (PRIMAL, TANGENT))
     return primal, "", columns
@@ -135,11 +137,15 @@ def output_sensitivities(eqs: Equations, block: Block, printer: SymbolTablePrint
         tangent=tangent.body, outputs=outputs, outputs_tangent=outputs_tangent)
 
 
-# ---- the columns' tangent with its coefficients hoisted out of the loop over columns ---------
+# ---- the columns' tangent as a small dense product, J formed once per call ----------------
 # The tangent is linear in the seeds and in its own earlier steps: each step is a sum of
-# coefficient x tangent, the coefficients functions of the primal values only. They are the
-# same for every column, so they are computed once, before the loop, and each column's steps
-# are then short sums of products.
+# coefficient x tangent, the coefficients functions of the primal values only, the same for
+# every column. Read backwards at generation time (reverse accumulation), it gives each
+# result's row of the Jacobian by every seed, J = [J_y | J_p] (the accelerations' and drives'
+# rows), in one sweep per row, once per call; each column is then the dense product
+# DQDD = J [s_j; e_j], a few multiply-adds a row, where the forward tangent ran the whole
+# program again for every column (the double pendulum's 9 columns: 75 against 100 ns a call,
+# benchmarks/sensitivities.py's breakdown).
 
 Linear = dict[sympy.Symbol, sympy.Expr]  # tangent symbol -> its coefficient
 
@@ -173,36 +179,67 @@ def linear_form(expr: sympy.Expr, tangents: frozenset[sympy.Symbol]) -> Linear:
     raise NotLinear(expr)
 
 
-def hoisted_tangent(printer: SymbolTablePrinter, tangent: Program, seeds: set[sympy.Symbol]
-                    ) -> tuple[str, str] | None:
-    """The tangent as (the coefficients' lines, before the loop over columns; each column's
-    steps and results), or None where a step is not linear or the program has guards."""
+class Constants:
+    """The values computed once per call, before the loop over the columns: each named
+    kj<k> and printed in the order named (a value names only earlier ones)."""
+
+    def __init__(self, printer: SymbolTablePrinter):
+        self.printer = printer
+        self.symbols: dict[sympy.Expr, sympy.Symbol] = {}
+        self.lines: list[str] = []
+
+    def named(self, value: sympy.Expr) -> sympy.Expr:
+        """VALUE itself where it is a number or a symbol, else the constant naming it."""
+        if value.is_Number or value.is_Symbol:
+            return value
+        if -value in self.symbols:
+            return -self.symbols[-value]
+        if value not in self.symbols:
+            text = self.names().doprint(value)
+            self.symbols[value] = sympy.Dummy(f"kj{len(self.symbols)}", real=True)
+            self.lines.append(f"    const double {self.symbols[value].name} = {text};")
+        return self.symbols[value]
+
+    def names(self) -> SymbolTablePrinter:
+        """The printer of the constants named so far too."""
+        return self.printer.with_names({s: s.name for s in self.symbols.values()},
+                                       order="none")
+
+
+def jacobian_tangent(printer: SymbolTablePrinter, tangent: Program, seeds: set[sympy.Symbol]
+                     ) -> tuple[str, str] | None:
+    """The tangent as (the lines forming J before the loop over the columns; each column's
+    product DQDD = J [seed; seed_p]), or None where a step is not linear or the program has
+    guards (then printed as the Jacobian's tangent is, per column)."""
     if any(isinstance(step, Guard) for step in tangent.steps):
         return None
     tangents = frozenset(seeds | {name for name, _ in tangent.assignments()})
-    coefficients: dict[sympy.Expr, sympy.Symbol] = {}
-
-    def named(coefficient: sympy.Expr) -> sympy.Expr:
-        if coefficient.is_Number or coefficient.is_Symbol:
-            return coefficient
-        if -coefficient in coefficients:
-            return -coefficients[-coefficient]
-        if coefficient not in coefficients:
-            coefficients[coefficient] = sympy.Dummy(f"kc{len(coefficients)}", real=True)
-        return coefficients[coefficient]
-
     try:
         steps = [(name, linear_form(expr, tangents)) for name, expr in tangent.assignments()]
         results = [linear_form(result, tangents) for result in tangent.results]
     except NotLinear:
         return None
-    sums = [(name, sympy.Add(*(named(c) * t for t, c in form.items())))
-            for name, form in steps]
-    result_sums = [sympy.Add(*(named(c) * t for t, c in form.items())) for form in results]
-    inner = printer.with_names({s: s.name for s in coefficients.values()}, order="none")
-    before = "\n".join(f"    const double {symbol.name} = {printer.doprint(expr)};"
-                       for expr, symbol in coefficients.items())
-    indent = " " * 8
-    loop = [f"{indent}const double {name.name} = {inner.doprint(expr)};" for name, expr in sums]
-    loop += [f"{indent}DQDD({i}) = {inner.doprint(expr)};" for i, expr in enumerate(result_sums)]
-    return before, "\n".join(loop)
+    constants = Constants(printer)
+    steps = [(name, {symbol: constants.named(coefficient) for symbol, coefficient in form.items()})
+             for name, form in steps]  # each coefficient computed once, for every row's sweep
+    rows = [jacobian_row(steps, result, constants) for result in results]
+    inner = constants.names()
+    loop = [f"        DQDD({i}) = "
+            f"{inner.doprint(sympy.Add(*(entry * seed for seed, entry in row.items())))};"
+            for i, row in enumerate(rows)]
+    return "\n".join(constants.lines), "\n".join(loop)
+
+
+def jacobian_row(steps: list[tuple[sympy.Symbol, Linear]], result: Linear,
+                 constants: Constants) -> Linear:
+    """RESULT's derivative by each seed, its row of J: its adjoint carried back through
+    STEPS, each step's adjoint named once complete (it is then read by earlier steps)."""
+    adjoint: dict[sympy.Expr, sympy.Expr] = dict(result)
+    for name, form in reversed(steps):
+        weight = adjoint.pop(name, None)
+        if weight is None:
+            continue
+        weight = constants.named(weight)
+        for symbol, coefficient in form.items():
+            adjoint[symbol] = adjoint.get(symbol, sympy.S.Zero) + weight * coefficient
+    return {seed: constants.named(value) for seed, value in adjoint.items() if value != 0}

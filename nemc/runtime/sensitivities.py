@@ -9,15 +9,17 @@ one C call, the accelerations' program once and its exact forward-mode derivativ
 column). The columns' start: the unit vectors for initial values, d y0 / d p for a parameter
 when the scene's initial state is used (its values may be expressions of parameters), else 0.
 
-The system runs with nemc.DOP853 and nemc.Vern9 (the drivers compiled for the system's size
-once, kept in the cache: nemc/build/systems.py; the model's events located on the state's
-entries) or with scipy's methods (the implicit ones with the block-diagonal Jacobian diag(J_y,
-..., J_y): the Newton iteration's, the second derivatives left out). At the scene's impact
+The system runs with nemc.DOP853, nemc.Vern9 and nemc.Radau (the drivers compiled for the
+system's size once, kept in the cache: nemc/build/systems.py; the model's events located on the
+state's entries) or with scipy's methods, the implicit ones with the block-diagonal Jacobian
+diag(J_y, ..., J_y) (the Newton iteration's, the second derivatives left out); nemc.Radau (the
+build then with the part "jacobian" as well) takes J_y as the diagonal block of its Newton
+matrix and the columns' coupling by differences (templates/radau.c.tmpl). At the scene's impact
 events the columns jump (the build's `sensitivity_impact`, applied where the run applies the
 law: by the native drivers in C, by scipy's runs through the same C), and every event's time has
 its own sensitivities (`event_time_sensitivities` at the states recorded before each event:
-res.event_sensitivities). A closed loop's sensitivities, inputs given as Python functions,
-nemc.Radau and nemc.Taylor are refused, each by name.
+res.event_sensitivities). A closed loop's sensitivities, inputs given as Python functions and
+nemc.Taylor are refused, each by name.
 """
 
 from __future__ import annotations
@@ -48,7 +50,8 @@ from .results import LazyOutputs, SimulationResult
 INITIAL_VALUES = "y0"  # the name asking for d y(t) / d y0, every initial value at once
 SCIPY_DEFAULT = "DOP853"  # "auto" where the native drivers cannot run (a standalone package,
 #                           events= callables): scipy's DOP853
-SYSTEM_METHODS = ("nemc.DOP853", "nemc.Vern9")  # the native methods that take the system
+SYSTEM_METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Radau")  # the native methods that take it
+NATIVE_RADAU = "nemc.Radau"  # its Newton matrix's diagonal blocks: the build's J_y
 ACTIONS = {"record": 0, "stop": 1, "impact": 2}  # enum nemc_event_action
 
 
@@ -153,6 +156,17 @@ def sensitivity_build(model: BuiltModel) -> BuiltModel:
     return build
 
 
+def radau_build(build: BuiltModel) -> BuiltModel:
+    """The sensitivity build with the part "jacobian" too (J_y, the exact Jacobian, the
+    diagonal blocks of nemc.Radau's Newton matrix), compiled on first need."""
+    variant = build.compiled_with("jacobian")
+    if not (variant.has_part("jacobian") and variant.has_part("sensitivities")):
+        raise ModelError(f"sensitivities with {NATIVE_RADAU} need the analytic Jacobian, and "
+                         "this build has none: compile it with nemc (jacobian=True), or use "
+                         "nemc.Vern9 or scipy's Radau")
+    return variant
+
+
 def checked_spec(model: BuiltModel, spec: RunSpec) -> RunSpec:
     """The run's plan with its method for sensitivities: scipy's (DOP853 for none or "auto");
     what cannot have sensitivities refused by name."""
@@ -193,6 +207,8 @@ def simulate_sensitivities(model: BuiltModel, spec: RunSpec, names: Any,
         raise ModelError("sensitivities: this standalone package was built by an nemc without "
                          "the sensitivities at events: compile it again (nemc compile "
                          "--sensitivities)")
+    if spec.method == NATIVE_RADAU:
+        build = radau_build(build)
     tangent = None if y0_given else initial_tangent(build, spec.p)
     cols = columns(model, names, spec.p, tangent)
     if spec.span[0] == spec.span[1]:
@@ -373,7 +389,8 @@ def system_drivers(maker: Callable[[int], Any], size: int) -> SystemDrivers:
 
 def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Columns,
                z0: np.ndarray) -> SystemOutcome:
-    """The system by nemc.DOP853 or nemc.Vern9 in C, the drivers compiled for its size."""
+    """The system by nemc.DOP853, nemc.Vern9 or nemc.Radau in C, the drivers compiled for its
+    size."""
     assert model.system_drivers is not None
     size = z0.size
     drivers = system_drivers(model.system_drivers, size)
@@ -396,11 +413,13 @@ def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
                            drivers.function(build, "sensitivity_impact",
                                             "nemc_system_impact_fn")
                            if table else drivers.ffi.NULL)
+    jacobian, block = newton_block(drivers, build, spec)
 
     def integrate(method: int, run: Any, y0: Any, p: Any) -> int:
-        return drivers.lib.nemc_system_integrate_impacts(
-            method, rhs, len(table), drivers.ffi.from_buffer(ints, directions),
-            drivers.ffi.from_buffer(ints, actions), events, impact, run, y0, p)
+        return drivers.lib.nemc_system_integrate(
+            method, rhs, jacobian, block, len(table),
+            drivers.ffi.from_buffer(ints, directions), drivers.ffi.from_buffer(ints, actions),
+            events, impact, run, y0, p)
 
     method_id = getattr(drivers.lib, "NEMC_" + spec.method.split(".")[1].upper())
     try:
@@ -415,6 +434,15 @@ def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
                                  model.state_names, build.compiled.status_cause(run.rhs_status))
     message = native.native_message(model, spec, run, out[-1][:model.n_state])
     return SystemOutcome(t, z, status, message, run.nfev, run.njev, run.nlu, rtol, atol, found)
+
+
+def newton_block(drivers: SystemDrivers, build: BuiltModel, spec: RunSpec
+                 ) -> tuple[Any, int]:
+    """nemc.Radau's Jacobian of the system as the drivers take it: the build's own J_y and its
+    size, the diagonal block (NULL and 0 for the explicit methods)."""
+    if spec.method != NATIVE_RADAU:
+        return drivers.ffi.NULL, 0
+    return drivers.function(build, "jacobian"), build.n_state
 
 
 def native_states(drivers: SystemDrivers, run: Any, spec: RunSpec, out: np.ndarray
