@@ -5,6 +5,8 @@ up): accuracy against a tight reference per method and tolerance, energy drift o
 horizon, sensitivity to the initial state (largest Lyapunov exponent), stiffness (the Jacobian's
 eigenvalues along the trajectory), conditioning of the mass matrix, and the error estimate of
 one run that `nemc simulate --error-estimate` prints. Every run goes through `Model.simulate`.
+With Coulomb friction or contacts the methods are nemc.Vern9 and nemc.DOP853, the reference
+nemc.Vern9, and the energy is a balance against the friction's work (`energy_balance`).
 """
 
 from __future__ import annotations
