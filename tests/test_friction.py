@@ -422,8 +422,7 @@ def test_painleves_rod_normal_force_and_its_paradox(tmp_path: Path) -> None:
 
 def test_a_sweep_over_the_stretch_sticks_each_run_where_its_closed_form_says(tmp_path: Path
                                                                             ) -> None:
-    """`nemc sweep` takes friction's method (nemc.Vern9) and each run its own mode; `nemc
-    stress`, whose measurements assume no mode switches, says it does not measure friction."""
+    """`nemc sweep` takes friction's method (nemc.Vern9) and each run its own mode."""
     from nemc.tools.cli import main
 
     store = tmp_path / "block.zarr"
@@ -437,5 +436,3 @@ def test_a_sweep_over_the_stretch_sticks_each_run_where_its_closed_form_says(tmp
         while abs(x) * K > MU_S * M * G:
             x = -(x - math.copysign(delta, x))
         assert y[0] == pytest.approx(x, abs=1e-9) and y[1] == 0.0
-    assert main(["stress", str(EXAMPLES / "coulomb_block.yaml"), "--out",
-                 str(tmp_path / "stress")]) == 2

@@ -5,6 +5,8 @@ up): accuracy against a tight reference per method and tolerance, energy drift o
 horizon, sensitivity to the initial state (largest Lyapunov exponent), stiffness (the Jacobian's
 eigenvalues along the trajectory), conditioning of the mass matrix, and the error estimate of
 one run that `nemc simulate --error-estimate` prints. Every run goes through `Model.simulate`.
+With Coulomb friction or contacts the methods are nemc.Vern9 and nemc.DOP853, the reference
+nemc.Vern9, and the energy is a balance against the friction's work (`energy_balance`).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import numpy as np
 
 from ..runtime import model as runtime
 from ..runtime import runs
+from ..runtime.friction import FRICTION_METHODS
 from ..runtime.model import Model, SimulationResult
 
 Params = Mapping[str, float] | None
@@ -41,7 +44,10 @@ def tolerance_pair(rtol: float) -> tuple[float, float]:
 def methods(explicit_only: bool = False, model: Model | None = None) -> tuple[str, ...]:
     """The methods compared: scipy's RK45, DOP853 and Radau, and nemc's native ones if present
     (without nemc.Taylor where MODEL cannot have it: a closed loop, a load with no recurrence;
-    asking builds its coefficients, which its runs need anyway)."""
+    asking builds its coefficients, which its runs need anyway). With Coulomb friction or
+    contacts, the methods that can run them: nemc.Vern9 and nemc.DOP853."""
+    if model is not None and model.friction.present:
+        return FRICTION_METHODS
     native = tuple(getattr(runtime, "NATIVE_METHODS", ()))
     chosen = ("RK45", "DOP853") if explicit_only else ("RK45", "DOP853", "Radau")
     extra = tuple(m for m in native if not (explicit_only and "radau" in m.lower()))
@@ -56,9 +62,9 @@ def methods(explicit_only: bool = False, model: Model | None = None) -> tuple[st
 
 @dataclass(frozen=True)
 class Reference:
-    """A tight DOP853 run, and a bound on its own error (its distance to a 100x looser run);
-    ended: why it ends before the span asked (an event's stop, impacts that accumulate), or
-    ""."""
+    """A tight run (DOP853; nemc.Vern9 with friction or contacts), and a bound on its own
+    error (its distance to a 100x looser run); ended: why it ends before the span asked (an
+    event's stop, impacts that accumulate), or ""."""
 
     result: SimulationResult
     own_error: float
@@ -68,20 +74,27 @@ class Reference:
 ENDS_BY_EVENTS = (runs.STOPPED_BY_EVENT, runs.CHATTERING)  # a scene's own end, not a failure
 
 
+def reference_method(model: Model) -> str:
+    """The reference's method: scipy's DOP853, or nemc.Vern9 where friction or contacts
+    switch modes (scipy's methods cannot run them)."""
+    return FRICTION_METHODS[0] if model.friction.present else "DOP853"
+
+
 def reference(model: Model, t_span: Sequence[float], times: np.ndarray, params: Params = None,
               y0: np.ndarray | None = None, rtol: float = REFERENCE_RTOL) -> Reference:
     """The reference over T_SPAN at TIMES; where the scene's events end it early (a stopping
     event, a ball coming to rest), over the times before that end, which `ended` names."""
-    tight = model.simulate(t_span, y0, method="DOP853", t_eval=times, rtol=rtol,
+    method = reference_method(model)
+    tight = model.simulate(t_span, y0, method=method, t_eval=times, rtol=rtol,
                            atol=rtol * 1e-2, params=params)
     ended = ""
     if tight.status in ENDS_BY_EVENTS and np.sum(times < tight.t[-1]) >= 2:
         ended = tight.message.split(" End t_span")[0].rstrip(".")
         times = times[times < tight.t[-1]]  # both runs over the part before the end
         t_span = (t_span[0], float(times[-1]))
-        tight = model.simulate(t_span, y0, method="DOP853", t_eval=times, rtol=rtol,
+        tight = model.simulate(t_span, y0, method=method, t_eval=times, rtol=rtol,
                                atol=rtol * 1e-2, params=params)
-    check = model.simulate(t_span, y0, method="DOP853", t_eval=times, rtol=rtol * 100,
+    check = model.simulate(t_span, y0, method=method, t_eval=times, rtol=rtol * 100,
                            atol=rtol, params=params)
     if not (tight.success and check.success):
         raise runtime.ModelError(f"the reference run failed: {tight.message} {check.message}")
@@ -104,6 +117,7 @@ class Run:
     atol: float
     nfev: int
     errors: tuple[float, ...]  # per state, max over t
+    events: int = 0  # the events the run located (friction's and contacts' switches)
 
     @property
     def max_error(self) -> float:
@@ -116,7 +130,8 @@ def measure_run(model: Model, ref: Reference, method: str, rtol: float, params: 
     rtol, atol = tolerance_pair(rtol)
     result = model.simulate((truth.t[0], truth.t[-1]), y0, method=method, t_eval=truth.t,
                             rtol=rtol, atol=atol, params=params)
-    return Run(method, rtol, atol, result.nfev, tuple(state_errors(result, truth).tolist()))
+    return Run(method, rtol, atol, result.nfev, tuple(state_errors(result, truth).tolist()),
+               sum(len(times) for times, _ in result.events.values()))
 
 
 def accuracy_table(model: Model, ref: Reference, method_names: Sequence[str],
@@ -152,13 +167,14 @@ def impacts_once(result: SimulationResult) -> tuple[np.ndarray, np.ndarray]:
 
 def error_estimate(model: Model, result: SimulationResult, params: Params = None
                    ) -> tuple[dict[str, float], float, float]:
-    """max |y - y_ref| per state over the run's times, y_ref from DOP853 at rtol/1000, atol/1000
-    (rtol at least 1e-13): (errors, reference rtol, reference atol). At an impact's time (the
-    state before and after it) the state after it is compared."""
+    """max |y - y_ref| per state over the run's times, y_ref from DOP853 (nemc.Vern9 with
+    friction or contacts) at rtol/1000, atol/1000 (rtol at least 1e-13): (errors, reference
+    rtol, reference atol). At an impact's time (the state before and after it) the state after
+    it is compared."""
     rtol, atol = max(result.rtol / 1000, 1e-13), result.atol / 1000
     t, y = impacts_once(result)
-    truth = model.simulate((t[0], t[-1]), y[:, 0], method="DOP853", t_eval=t, rtol=rtol,
-                           atol=atol, params=params)
+    truth = model.simulate((t[0], t[-1]), y[:, 0], method=reference_method(model), t_eval=t,
+                           rtol=rtol, atol=atol, params=params)
     errors = np.full(y.shape[0], np.inf) if not result.success or truth.y.shape != y.shape \
         else np.max(np.abs(y - truth.y), axis=1)
     return dict(zip(model.state_names, errors.tolist())), rtol, atol
@@ -246,6 +262,38 @@ def drift_exponent(drifts: Sequence[Drift], method: str) -> float:
         return math.nan
     x = np.log10([d.rtol for d in chosen])
     return float(np.polyfit(x, np.log10([d.rate for d in chosen]), 1)[0])
+
+
+@dataclass(frozen=True)
+class Balance:
+    """The energy balance of a run with friction: the change of energy.total over it, and the
+    work of the joints' friction (the integral of each JOINT.friction times its joint's rate);
+    the rest is the other loads' work (driven, time-dependent or damping loads, not in the
+    energy) and what the contacts take (impacts, their friction), which no output gives."""
+
+    change: float
+    friction_work: float
+
+    @property
+    def rest(self) -> float:
+        return self.change - self.friction_work
+
+
+def energy_balance(model: Model, span: Sequence[float], params: Params = None,
+                   samples: int = 20001) -> Balance:
+    """The balance over SPAN of a run of the reference's method at REFERENCE_RTOL, the friction
+    power integrated by Simpson's rule over SAMPLES times (its kinks at the switches cost
+    about 1e-8 of the work)."""
+    from scipy.integrate import simpson
+
+    times = np.linspace(span[0], span[1], samples)
+    run = model.simulate(tuple(span), method=reference_method(model), t_eval=times,
+                         rtol=REFERENCE_RTOL, atol=REFERENCE_RTOL * 1e-2, params=params)
+    total = run.outputs["energy.total"]
+    power = sum((run.outputs[f"{joint}.friction"] * run.y[rate]
+                 for joint, rate in zip(model.friction.items, model.friction.rates)
+                 if f"{joint}.friction" in run.outputs), np.zeros(run.t.size))
+    return Balance(float(total[-1] - total[0]), float(simpson(power, x=run.t)))
 
 
 # -- constraint drift (closed loops) ----------------------------------------------------------
@@ -462,9 +510,12 @@ def conditioning(model: Model, result: SimulationResult, params: Params = None
 
 def agreement(model: Model, params: Params = None) -> tuple[str, str, float]:
     """The scene run by its own method and by one of the other family (explicit vs implicit),
-    same tolerances: (method, other method, max |difference| over the scene's times)."""
+    same tolerances; with friction or contacts the other of nemc.Vern9 and nemc.DOP853:
+    (method, other method, max |difference| over the scene's times)."""
     own = model.simulate(params=params)
     other = "DOP853" if own.method in runtime.IMPLICIT_METHODS else "Radau"
+    if model.friction.present:
+        other = next(m for m in FRICTION_METHODS if m != own.method)
     t, y = impacts_once(own)
     second = model.simulate(method=other, t_eval=t, params=params)
     difference = float(np.max(np.abs(y - second.y))) if second.success else math.inf

@@ -15,6 +15,7 @@ import numpy as np
 from ..runtime import runs
 from ..runtime.model import DEFAULT_T_SPAN, Model, SimulationResult
 from . import stress as s
+from . import switches as sw
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 BOOK_SUITE = {  # file, the book's section, a second (high-energy) start for the sensitivity study
@@ -41,14 +42,16 @@ class Study:
     power_ratio: float
     horizon: s.Reference  # the long run (conservative scenes) or the scene's run again
     drifts: list[s.Drift]
-    lyapunov: s.Lyapunov
-    divergence: np.ndarray
-    stiffness: s.Stiffness
+    lyapunov: s.Lyapunov | None  # None with friction or contacts (SKIPPED says why)
+    divergence: np.ndarray | None
+    stiffness: s.Stiffness | None
     conditioning: s.Conditioning
     contrast: tuple[dict, s.Lyapunov] | None = None
     constraints: list[s.ConstraintDrift] = field(default_factory=list)  # closed loops only
     seconds: float = 0.0
     params: dict = field(default_factory=dict)
+    switches: sw.Switching | None = None  # friction or contacts: the reference's switches
+    balance: s.Balance | None = None  # friction or contacts: the energy balance
 
     @property
     def conservative(self) -> bool:
@@ -104,16 +107,12 @@ def check_horizon(model: Model, horizon: float) -> None:
                                    f"interval, {abs(t1 - t0):g} s, got {horizon:g} s")
 
 
-def refuse_friction(model: Model) -> None:
-    """The report's measurements assume a smooth, conservative-or-damped right-hand side that
-    every method can run (a DOP853 reference, energy drift, Lyapunov and stiffness estimates
-    from its derivative): a mechanism with Coulomb friction has none of these yet."""
-    if model.friction.present:
-        raise s.runtime.ModelError(
-            "nemc stress does not measure a mechanism with Coulomb friction yet (friction on "
-            f"{', '.join(model.friction.items)}): its reference runs scipy's DOP853 and its "
-            "drift, sensitivity and stiffness sections need a right-hand side without mode "
-            "switches; its accuracy is checked against closed forms in tests/test_friction.py")
+SKIPPED = {  # with friction or contacts: what has no meaning across mode switches, and why
+    "sensitivity": "a Lyapunov exponent linearizes the flow, which has no derivative at the "
+                   "switches (and a stuck joint's started modes are not a tangent direction)",
+    "stiffness": "the Jacobian's eigenvalues hold only within one mode, and RK45 and Radau, "
+                 "the comparison's methods, cannot run friction or contacts",
+}
 
 
 def measure(path: str | Path, horizon: float, lyapunov_time: float, params: dict,
@@ -121,7 +120,6 @@ def measure(path: str | Path, horizon: float, lyapunov_time: float, params: dict
     """study()'s measurements, in order, each reported to `finished`."""
     finished.start("compiling")
     model = compile_mechanism(path, True, energy=True, mass_matrix=True).model
-    refuse_friction(model)
     check_horizon(model, horizon)
     finished.start("the scene's own run")
     own = model.simulate(params=params)
@@ -131,7 +129,8 @@ def measure(path: str | Path, horizon: float, lyapunov_time: float, params: dict
     span = (float(own.t[0]), float(own.t[-1]))
     finished.start("the reference")
     ref = s.reference(model, span, np.linspace(*span, SCENE_SAMPLES), params)
-    power = s.energy_power_ratio(model, ref.result, params)
+    switching = model.friction.present  # modes switched at events: SKIPPED's sections
+    power = math.nan if switching else s.energy_power_ratio(model, ref.result, params)
     conservative = power < s.CONSERVED
     accuracy = s.accuracy_table(model, ref, s.methods(model=model), params=params,
                                 done=finished.run)
@@ -162,11 +161,13 @@ def measure(path: str | Path, horizon: float, lyapunov_time: float, params: dict
         name=model.name, path=str(path), model=model, reference=ref, runs=accuracy, own=own,
         own_error=s.error_estimate(model, own, params),
         agreement=s.agreement(model, params), power_ratio=power, horizon=long, drifts=drifts,
-        lyapunov=s.lyapunov(model, y0, duration, params),
-        divergence=s.divergence(model, long, 1e-6, params),
-        stiffness=s.stiffness(model, ref, params),
+        lyapunov=None if switching else s.lyapunov(model, y0, duration, params),
+        divergence=None if switching else s.divergence(model, long, 1e-6, params),
+        stiffness=None if switching else s.stiffness(model, ref, params),
         conditioning=s.conditioning(model, ref.result, params), params=params,
         constraints=constraints,
+        switches=sw.count_switches(model, ref.result, params) if switching else None,
+        balance=s.energy_balance(model, span, params) if switching else None,
     )
     if contrast:
         start_state = model.state_vector(contrast, params)
@@ -211,7 +212,8 @@ def scene_section(st: Study) -> list[str]:
         f"Scene: t_span {scene['t_span']}, method {st.own.method}, rtol {g(rtol)}, "
         f"atol {g(atol)}; {st.own.nfev} RHS calls. Measured in {st.seconds:.0f} s.", "",
         "## The scene's own run", "",
-        f"- Error estimate (against DOP853 at rtol {g(ref_rtol)}, atol {g(ref_atol)}): largest "
+        f"- Error estimate (against {s.reference_method(st.model)} at rtol {g(ref_rtol)}, atol "
+        f"{g(ref_atol)}): largest "
         f"{g(errors[worst])} on {worst}; all states: "
         + ", ".join(f"{k} {g(v)}" for k, v in errors.items()) + ".",
         f"- Agreement of two methods at the scene's tolerances: {method} and {other} differ by "
@@ -230,17 +232,19 @@ def accuracy_section(st: Study) -> list[str]:
             run = next(r for r in st.runs if r.method == m and r.rtol == tol)
             row.append(f"{g(run.max_error)} ({run.nfev})")
         rows.append(row)
-    book = next(r for r in st.runs if r.method == "RK45" and r.rtol == s.BOOK_RTOL)
+    book = next((r for r in st.runs if r.method == "RK45" and r.rtol == s.BOOK_RTOL), None)
     names = st.model.state_names
     loosest = [f"{m} rtol {g(s.loosest_tolerance(st.runs, m))}" for m in method_names]
     return [
         "## Accuracy against the true solution", "",
-        f"Truth: DOP853 at rtol {g(ref.result.rtol)} (its own error ≤ {g(ref.own_error)}), "
+        f"Truth: {ref.result.method} at rtol {g(ref.result.rtol)} (its own error ≤ "
+        f"{g(ref.own_error)}), "
         f"{SCENE_SAMPLES} times over the "
         "scene's t_span. Cells: max over t and states of |y − y_true| (RHS calls).", "",
         *table(["rtol / atol", *method_names], rows), "",
-        "- The book's ode45 defaults (RK45, rtol 1e-3, atol 1e-6) are off by "
-        + ", ".join(f"{n} {g(e)}" for n, e in zip(names, book.errors)) + ".",
+        *(["- The book's ode45 defaults (RK45, rtol 1e-3, atol 1e-6) are off by "
+           + ", ".join(f"{n} {g(e)}" for n, e in zip(names, book.errors)) + "."]
+          if book else []),
         f"- Loosest tolerance (atol = rtol/1000) reproducing the curve to {g(s.TRUST_ERROR)}: "
         + "; ".join(loosest) + ".", "",
     ]
@@ -248,6 +252,19 @@ def accuracy_section(st: Study) -> list[str]:
 
 def energy_section(st: Study) -> list[str]:
     head = ["## Energy drift", ""]
+    if st.balance is not None:
+        b = st.balance
+        return ["## Energy balance", "",
+                f"Friction and impacts take energy, so there is no drift to measure; instead "
+                f"(a {s.reference_method(st.model)} run at rtol {g(s.REFERENCE_RTOL)}, the "
+                "friction power integrated by Simpson's rule over 20001 times):", "",
+                f"- Energy change E(end) − E(0): {g(b.change, 8)}.",
+                f"- Work of the joints' friction (∫ JOINT.friction · its rate dt): "
+                f"{g(b.friction_work, 8)}.",
+                f"- The rest, {g(b.rest, 3)}: the other loads' work (driven, time-dependent or "
+                "damping loads, not in the energy) and what the contacts take (impacts, their "
+                "friction), which no output gives; 0 to the integration's error where neither "
+                "is present.", ""]
     if not st.conservative:
         return head + [
             f"Not conservative: the loads do work (max |dE/dt| / max |dT/dt| = "
@@ -292,6 +309,42 @@ def constraint_section(st: Study) -> list[str]:
                     "max |Φ'| first half", "second half", "growth"], rows), ""]
 
 
+def switching_section(st: Study) -> list[str]:
+    """Friction's and contacts' switches on the reference run by item and kind, the
+    chattering rule's verdict, and the events each method located at each tolerance."""
+    found = st.switches
+    if found is None:
+        return []
+    rows = [[item, *(str(counts.get(kind, 0)) for kind in sw.KINDS)]
+            for item, counts in found.counts.items()]
+    methods = list(dict.fromkeys(r.method for r in st.runs))
+    located = [[g(tol), *(str(next(r.events for r in st.runs if r.method == m
+                                   and r.rtol == tol)) for m in methods)]
+               for tol in s.TOLERANCES]
+    reference = sum(len(times) for times, _ in st.reference.result.events.values())
+    return ["## Switches", "",
+            f"Counted on the reference run ({st.reference.result.method}, rtol "
+            f"{g(st.reference.result.rtol)}) across each of its events, from the modes "
+            "(`J.stuck`, `C.active`) at the state before it and before the next "
+            "(docs/stress.md, \"Friction and contacts\").", "",
+            *table(["item", *sw.KINDS], rows), "", *chattering_lines(found), "",
+            f"Events located by each method at each tolerance (the reference: {reference}):",
+            "", *table(["rtol", *methods], located), ""]
+
+
+def chattering_lines(found: sw.Switching) -> list[str]:
+    """The chattering rule, and which events it flags (or the tightest bursts it does not)."""
+    rule = (f"Chattering rule: {sw.CHATTER_COUNT} consecutive occurrences of one event within "
+            f"{g(sw.CHATTER_FRACTION)} of the run's length ({g(found.window, 3)} s).")
+    if found.chattering:
+        return [rule, *(f"- **{b.event} chatters**: {sw.CHATTER_COUNT} occurrences within "
+                        f"{g(b.span, 3)} s from t = {g(b.start, 8)} s" for b in found.chattering),
+                f"- Closings (a plastic impact or the accumulation rule's): "
+                f"{found.total('closing')}."]
+    tightest = ", ".join(f"{b.event} {g(b.span, 3)} s" for b in found.bursts) or "none"
+    return [rule, f"- No chattering; the tightest {sw.CHATTER_COUNT} occurrences: {tightest}."]
+
+
 def until(drift: s.Drift) -> str:
     if math.isinf(drift.trusted_until):
         return f"over the whole {g(drift.t[-1] - drift.t[0], 4)} s"
@@ -300,6 +353,9 @@ def until(drift: s.Drift) -> str:
 
 def sensitivity_section(st: Study) -> list[str]:
     lam = st.lyapunov
+    if lam is None or st.divergence is None:
+        return ["## Sensitivity to the initial state", "", f"Skipped: {SKIPPED['sensitivity']}.",
+                ""]
     t = st.horizon.result.t
     if st.horizon.result.method == "kinematic":
         return ["## Sensitivity to the initial state", "",
@@ -337,7 +393,11 @@ def divergence_line(lam: s.Lyapunov, power: float) -> str:
 
 
 def stiffness_section(st: Study) -> list[str]:
-    k, c = st.stiffness, st.conditioning
+    """The stiffness (skipped with friction or contacts: SKIPPED), then the conditioning."""
+    k = st.stiffness
+    if k is None:
+        return ["## Stiffness", "", f"Skipped: {SKIPPED['stiffness']}.", "",
+                *conditioning_section(st)]
     advice = ("stiff: use an implicit method (Radau or BDF)" if k.stiff else
               "not stiff: an explicit method (DOP853, RK45) is the right choice")
     return [
@@ -350,7 +410,13 @@ def stiffness_section(st: Study) -> list[str]:
         + ("." if math.isnan(k.explicit_stopped_at) else
            f" (its stiffness test stopped it at t = {g(k.explicit_stopped_at, 6)}: its RHS "
            "calls are extrapolated from its pace until then)."),
-        f"- Verdict: {advice}.", "",
+        f"- Verdict: {advice}.", "", *conditioning_section(st)]
+
+
+def conditioning_section(st: Study) -> list[str]:
+    """cond(M) along the reference run, and the worst configuration."""
+    c = st.conditioning
+    return [
         "## Conditioning of the mass matrix", "",
         f"- cond₂(M(q)) along the trajectory: {g(float(np.min(c.condition)), 3)} to "
         f"{g(c.worst, 3)} ({c.verdict}; about {c.digits_lost:.1f} of 16 digits lost in the "
@@ -362,7 +428,8 @@ def stiffness_section(st: Study) -> list[str]:
 
 
 def markdown(st: Study, figure_name: str) -> str:
-    lines = [*scene_section(st), *accuracy_section(st), *energy_section(st),
+    lines = [*scene_section(st), *accuracy_section(st), *switching_section(st),
+             *energy_section(st),
              *constraint_section(st),
              *sensitivity_section(st), *stiffness_section(st), f"![{st.name}]({figure_name})", ""]
     return "\n".join(lines)
@@ -380,9 +447,14 @@ def figure(st: Study, path: Path) -> None:
     fig, axes = plt.subplots(2, 3, figsize=(16, 8.4), layout="constrained")
     plot_accuracy(st, axes[0, 0])
     plot_drift(st, axes[0, 1])
-    plot_divergence(st, axes[0, 2])
-    plot_lyapunov(st, axes[1, 0])
-    plot_eigenvalues(st, axes[1, 1])
+    if st.switches is None:
+        plot_divergence(st, axes[0, 2])
+        plot_lyapunov(st, axes[1, 0])
+        plot_eigenvalues(st, axes[1, 1])
+    else:
+        plot_switches(st, axes[0, 2])
+        plot_skipped(axes[1, 0], "largest Lyapunov exponent")
+        plot_skipped(axes[1, 1], "Jacobian eigenvalues")
     plot_conditioning(st, axes[1, 2])
     for ax in axes.flat:
         ax.grid(True, alpha=0.3)
@@ -424,6 +496,22 @@ def plot_drift(st: Study, ax) -> None:
 
 def plt_colours() -> list[str]:
     return ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"]
+
+
+def plot_switches(st: Study, ax) -> None:
+    """The reference run's events, one row per event name, at their times."""
+    events = st.reference.result.events
+    for row, (name, (times, _)) in enumerate(events.items()):
+        ax.plot(times, np.full(len(times), row), "|", ms=10, label=name)
+    ax.set_yticks(range(len(events)), list(events))
+    ax.set(xlabel="t (s)", title="switches (events) of the reference run")
+
+
+def plot_skipped(ax, title: str) -> None:
+    """An empty panel saying why it is empty: friction or contacts switch modes."""
+    ax.text(0.5, 0.5, "skipped: modes switch\n(see the report)", ha="center", va="center",
+            transform=ax.transAxes)
+    ax.set(title=title)
 
 
 def plot_divergence(st: Study, ax) -> None:
