@@ -59,7 +59,7 @@ def test_the_block_never_succeeds_through_the_floor(block, method: str, rtol: fl
     assert result.t[-1] == 7.0
     np.testing.assert_allclose(result.y[[0, 1, 2, 3, 4, 5], -1], [result.y[0, -1], 0, BLOCK.h,
                                                                    0, 0, 0], rtol=0, atol=1e-9)
-    # it rocks where Housner says, to the tolerance (measured 1e-2 at rtol 1e-3, 4e-6 at 1e-6)
+    # it rocks where Housner says, to the tolerance (measured 5e-3 at rtol 1e-3, 5e-6 at 1e-6)
     times = np.sort(np.concatenate([result.events[f"{c}.contact"][0]
                                     for c in ("left_corner", "right_corner")]))
     np.testing.assert_allclose(times[:4], rocking_impact_times(BLOCK, TH0, 4), rtol=0,
