@@ -355,20 +355,19 @@ def with_sensitivities(eqs: Equations) -> Equations:
     """Add the variational equations' programs (nemc/derive/sensitivities.py): the tangent of
     a tree's dynamics and outputs along the state's and the parameters' seeds, and the initial
     state's derivatives by the parameters, and each event's partial derivatives (the jump at
-    an event). A closed loop's: its pieces' tangent (no outputs'); what loop_refusal names is
-    refused, with its line."""
+    an event). A closed loop's: its pieces' tangent; what loop_refusal names is refused, with
+    its line."""
     if eqs.sensitivities_unavailable:
         return eqs
     why = loop_refusal(eqs) or event_refusal(eqs)
     if why:
         return dataclasses.replace(eqs, sensitivities_unavailable=why)
-    results = (*eqs.accelerations, *eqs.drives)
     # a closed loop's: the tangent of the program's every result (its pieces, DynamicsLayout;
-    # templates/loop_sensitivities.c.tmpl solves the index-1 equations' derivative); the
-    # outputs' sensitivities of a loop are not derived
-    outputs = () if eqs.loops is not None else tuple(expr for _, expr in eqs.outputs)
-    found = sensitivities(eqs.dynamics, eqs.state, eqs.parameters, results, outputs,
-                          eqs.initial_state)
+    # templates/loop_sensitivities.c.tmpl solves the index-1 equations' derivative), its
+    # outputs' reading the multipliers' too
+    results = (*eqs.accelerations, *eqs.drives, *eqs.multipliers)
+    found = sensitivities(eqs.dynamics, eqs.state, eqs.parameters, results,
+                          tuple(expr for _, expr in eqs.outputs), eqs.initial_state)
     partials = tuple(event_partials(event.when, {m.symbol(name): value for name, value
                                                  in event.law},
                                     eqs.state, eqs.parameters, m.TIME) for event in eqs.events)

@@ -58,7 +58,7 @@ def sensitivities_section(eqs: Equations, block: Block, printer: SymbolTablePrin
     if eqs.sensitivities is None:
         return absent + no_outputs + event_sensitivities(eqs, block, printer, prefix) + no_loop
     if eqs.loops is not None:
-        return loop_sensitivities(eqs, block, printer, prefix, chunk_steps, units) + no_outputs
+        return loop_sensitivities(eqs, block, printer, prefix, chunk_steps, units)
     primal, coefficients, tangent = system_programs(eqs, block, printer, chunk_steps, units)
     rows = [(f"out[{i * len(eqs.parameters) + k}]", expr) for i in range(len(eqs.state))
             for k, expr in enumerate(block.groups["sensitivity_initial"][
@@ -75,15 +75,27 @@ def loop_sensitivities(eqs: Equations, block: Block, printer: SymbolTablePrinter
                        chunk_steps: int, units: Units | None) -> str:
     """A closed loop's sensitivity system (templates/loop_sensitivities.c.tmpl): its pieces'
     program and their tangent along seed and seed_p, solved per column; the initial state's
-    derivatives by the parameters. Its scene has no impacts (derive's loop_refusal)."""
-    primal, tangent = jacobian_programs(eqs, printer, block.programs["dynamics"],
-                                        block.programs["sensitivities"], chunk_steps, units,
+    derivatives by the parameters; its outputs' sensitivities
+    (templates/loop_output_sensitivities.c.tmpl). Its scene has no impacts (derive's
+    loop_refusal)."""
+    programs = block.programs
+    primal, tangent = jacobian_programs(eqs, printer, programs["dynamics"],
+                                        programs["sensitivities"], chunk_steps, units,
                                         (LOOP_PRIMAL, LOOP_TANGENT))
-    return template("loop_sensitivities.c.tmpl").substitute(
+    system = template("loop_sensitivities.c.tmpl").substitute(
         prefix=prefix, loop_sensitivity_parts=primal.functions + tangent.functions,
         primal=primal.body, tangent=tangent.body,
-        initial=body(printer, block, initial_rows(eqs, block))) + event_sensitivities(
-        eqs, block, printer, prefix)
+        initial=body(printer, block, initial_rows(eqs, block)))
+    if "sensitivity_outputs_tangent" not in programs:
+        outputs = template("output_sensitivities_absent.c.tmpl").substitute(prefix=prefix)
+    else:
+        outputs = template("loop_output_sensitivities.c.tmpl").substitute(
+            prefix=prefix, primal=primal.body, tangent=tangent.body,
+            outputs=program_body(printer, programs["sensitivity_outputs"], ()),
+            outputs_tangent=program_body(printer.with_names({}, order="none"),
+                                         programs["sensitivity_outputs_tangent"], "DOUT",
+                                         " " * 8))
+    return system + outputs + event_sensitivities(eqs, block, printer, prefix)
 
 
 def initial_rows(eqs: Equations, block: Block) -> list[tuple[str, sympy.Expr]]:

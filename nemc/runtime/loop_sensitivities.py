@@ -27,7 +27,7 @@ from .built import BuiltModel
 from .failures import ModelError
 from .linear import LoopPieces
 from .outcome import RunSpec
-from .results import LazyOutputs, SimulationResult
+from .results import SimulationResult
 
 
 def assembled_spec(model: BuiltModel, spec: RunSpec, y0: Any) -> tuple[RunSpec, np.ndarray]:
@@ -110,13 +110,3 @@ def singular_noted(model: BuiltModel, result: SimulationResult) -> SimulationRes
         result.message += ("; a run with sensitivities ends within a singular configuration's "
                            "window: its passage (decision 0036) is not differentiated")
     return result
-
-
-def refused_outputs(*_: Any) -> dict[str, Any]:
-    raise ModelError("sensitivities: the outputs' sensitivities of a closed loop are not "
-                     "available yet (the states' are: res.sensitivities)")
-
-
-def no_output_sensitivities() -> LazyOutputs:
-    """A closed loop's res.output_sensitivities: refused by name when read."""
-    return LazyOutputs(refused_outputs)

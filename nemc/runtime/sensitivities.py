@@ -238,8 +238,7 @@ def run_system(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
         model.parameters_at(spec.p),
         {name: (times, states[:, :n]) for name, (times, states) in outcome.events.items()})
     result.sensitivities = split_columns(z[n:], cols, n)
-    result.output_sensitivities = (closed.no_output_sensitivities() if model.has_loops else
-                                   output_sensitivities(model, build, spec, cols, t, z))
+    result.output_sensitivities = output_sensitivities(model, build, spec, cols, t, z)
     result.event_sensitivities = event_sensitivities(build, spec, cols, outcome.events)
     return result
 
