@@ -95,8 +95,8 @@ class Model(BuiltModel):
         initial values (state names, or "y0" for all): the variational equations integrated
         with the run, exact (the part "sensitivities", compiled on first need), in the same
         error control; res.sensitivities[name] is d y(t) / d name, (n_state, n_t) ("y0":
-        (n_state, n_state, n_t)), res.output_sensitivities[name][output] the outputs' (not
-        yet for a closed loop, whose solved initial values have none either)."""
+        (n_state, n_state, n_t)), res.output_sensitivities[name][output] the outputs'. A
+        closed loop's solved initial values (and "y0") have none: refused by name."""
         arguments = (t_span, y0, method, rtol, atol, params, events, max_step, tstops,
                      max_steps, inputs)  # as simulation.RUN_ARGUMENTS names them
         if sensitivities is not None:
