@@ -273,6 +273,8 @@ def test_what_the_formulation_leaves_out_is_refused_by_name(tmp_path: Path) -> N
         fourbar.simulate(sensitivities=["q2"])
     with pytest.raises(ModelError, match="\"y0\" asks for every initial value"):
         fourbar.simulate(sensitivities=["y0"])
+    with pytest.raises(ModelError, match="y0 gives every coordinate of a closed loop"):
+        fourbar.simulate(y0=fourbar.initial_state(None), sensitivities=["g"])
     with pytest.raises(ModelError, match="gear_train.yaml:.*as at the start"):
         nemc.compile(EXAMPLES / "gear_train.yaml").simulate(sensitivities=["ra"])
     with pytest.raises(ModelError, match="chaplygin_sleigh.yaml:.*on the velocities"):

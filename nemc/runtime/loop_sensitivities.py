@@ -39,8 +39,13 @@ def assembled_spec(model: BuiltModel, spec: RunSpec, y0: Any) -> tuple[RunSpec, 
 
 
 def refused_entries(model: BuiltModel, names: tuple[str, ...], given: np.ndarray) -> None:
-    """Refuse by name "y0" and the initial values the assembly solves (no column)."""
+    """Refuse by name "y0" and the initial values the assembly solves (no column), and a y0
+    giving every coordinate (nothing left to solve: no column is in the tangent space)."""
     kept = [name for name, held in zip(model.state_names, given) if held]
+    if all(given[0::2]):
+        raise ModelError("sensitivities: y0 gives every coordinate of a closed loop, so none is "
+                         "solved and no column can stay on the constraints: give the independent"
+                         " initial values as a dict (y0={name: value, ...}), the others solved")
     for name in names:
         if name == "y0" or (name in model.state_names
                             and not given[model.state_names.index(name)]):
