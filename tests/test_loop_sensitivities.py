@@ -11,10 +11,12 @@ compared with fourth-order central differences of runs at rtol 1e-13 (the four-b
 slider-crank, the initial values the scenes give), and its columns are checked to stay in the
 tangent space along the run.
 
-Then the C (templates/loop_sensitivities.c.tmpl, the runtime's start columns in
-nemc/runtime/loop_sensitivities.py) is compared with that reference (the given initial values'
-columns) and with differences of runs (the parameters' columns), by nemc.Vern9, nemc.DOP853 and
-scipy's DOP853, and what the formulation leaves out is checked to be refused by name."""
+Then the C (templates/loop_sensitivities.c.tmpl and loop_output_sensitivities.c.tmpl, the
+runtime's start columns in nemc/runtime/loop_sensitivities.py) is compared with that reference
+(the given initial values' columns, by nemc.Vern9, nemc.DOP853 and scipy's DOP853) and with
+differences of runs (the parameters', an input's, the outputs', an event time's), the total
+energy's sensitivities are checked constant in time, a fit recovers known parameters, and what
+the formulation leaves out is checked to be refused by name."""
 
 from __future__ import annotations
 
