@@ -357,26 +357,47 @@ def with_sensitivities(eqs: Equations) -> Equations:
     """Add the variational equations' programs (nemc/derive/sensitivities.py): the tangent of
     a tree's dynamics and outputs along the state's and the parameters' seeds, and the initial
     state's derivatives by the parameters, and each event's partial derivatives (the jump at
-    an event). A closed loop's are refused, with its line."""
-    mech = eqs.mechanism
+    an event). A closed loop's: its pieces' tangent; what loop_refusal names is refused, with
+    its line."""
     if eqs.sensitivities_unavailable:
         return eqs
-    if eqs.loops is not None:
-        where = mech.constraints[0].loc
-        return dataclasses.replace(eqs, sensitivities_unavailable=(
-            f"{where.file}:{where.line}: {where.key}: sensitivities of a closed loop (projected "
-            "onto its constraints, its assembly's own sensitivity) are not available yet; "
-            "trees only"))
-    why = event_refusal(eqs)
+    why = loop_refusal(eqs) or event_refusal(eqs)
     if why:
         return dataclasses.replace(eqs, sensitivities_unavailable=why)
-    results = (*eqs.accelerations, *eqs.drives)
+    # a closed loop's: the tangent of the program's every result (its pieces, DynamicsLayout;
+    # templates/loop_sensitivities.c.tmpl solves the index-1 equations' derivative), its
+    # outputs' reading the multipliers' too
+    results = (*eqs.accelerations, *eqs.drives, *eqs.multipliers)
     found = sensitivities(eqs.dynamics, eqs.state, eqs.parameters, results,
                           tuple(expr for _, expr in eqs.outputs), eqs.initial_state)
     partials = tuple(event_partials(event.when, {m.symbol(name): value for name, value
                                                  in event.law},
                                     eqs.state, eqs.parameters, m.TIME) for event in eqs.events)
     return dataclasses.replace(eqs, sensitivities=dataclasses.replace(found, events=partials))
+
+
+def loop_refusal(eqs: Equations) -> str | None:
+    """Why a closed loop's sensitivities cannot be derived (FILE:LINE: ...): what decision
+    0035's amendment leaves out: equations held "as at the start" (their offset moves with
+    y0 and p), equations on the velocities, and impacts (their jump goes through the
+    assembly). None for a tree."""
+    loops = eqs.loops
+    if loops is None:
+        return None
+    owners = {constraint.name: constraint.loc for constraint in eqs.mechanism.constraints}
+    for equations, what in ((tuple(k for k, _ in loops.starts), "holds its equations as at "
+                             "the start (their offset moves with y0 and the parameters)"),
+                            (loops.on_velocities, "is on the velocities")):
+        if equations:
+            where = owners[loops.owners[equations[0]]]
+            return (f"{where.file}:{where.line}: {where.key}: sensitivities of a closed loop "
+                    f"whose constraint {what} are not available")
+    for event in eqs.events:
+        if event.law:
+            where = f"{event.loc.file}:{event.loc.line}: {event.loc.key}: " if event.loc else ""
+            return (f"{where}sensitivities through an impact on a closed loop (its jump goes "
+                    "through the assembly) are not available")
+    return None
 
 
 def event_refusal(eqs: Equations) -> str | None:

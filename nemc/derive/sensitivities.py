@@ -24,8 +24,10 @@ here (`event_partials`), exactly, and templates/event_sensitivities.c.tmpl appli
 
 (f-, f+ the right-hand side before and after the impact).
 
-A closed loop's sensitivities need the projection onto the constraints' tangent space and the
-assembly's sensitivity: not derived here (`unavailable`)."""
+A closed loop's: the same tangent of its program's every result (its pieces: the tree's
+accelerations, the unit passes, G, Phi, Phi_q, Phi_t), along the state's and the parameters'
+seeds; templates/loop_sensitivities.c.tmpl solves the index-1 equations' derivative from them
+(decision 0035's amendment); its outputs' tangent reads the multipliers' tangents as well."""
 
 from __future__ import annotations
 

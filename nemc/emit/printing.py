@@ -70,7 +70,7 @@ def linearization_names(eqs: Equations) -> dict[sympy.Symbol, str]:
 
 def sensitivity_names(eqs: Equations) -> dict[sympy.Symbol, str]:
     """The variational equations' seeds (the state's, the parameters') and the tangents of
-    the accelerations and drives."""
+    the accelerations, drives and (a closed loop's) multipliers."""
     sens = eqs.sensitivities
     assert sens is not None
     seeds, names = sens.tangents.seeds, {}
@@ -80,6 +80,7 @@ def sensitivity_names(eqs: Equations) -> dict[sympy.Symbol, str]:
     results = sens.tangents.results_seeds
     names.update({results[a]: f"DQDD({i})" for i, a in enumerate(eqs.accelerations)})
     names.update({results[d]: f"DDRIVE({j})" for j, d in enumerate(eqs.drives)})
+    names.update({results[k]: f"DLAMBDA({j})" for j, k in enumerate(eqs.multipliers)})
     return names
 
 

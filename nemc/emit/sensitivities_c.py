@@ -6,6 +6,9 @@ short program's) the Jacobian [J_y | J_p] of the accelerations by reverse accumu
 linear tangent, and each sensitivity column a small dense product; a long program's tangent
 runs forward once per column. At the scene's events, the columns' jump and the event times'
 sensitivities (templates/event_sensitivities.c.tmpl), from each event's partial derivatives.
+A closed loop's system is templates/loop_sensitivities.c.tmpl (the same sensitivity_rhs
+signature: its pieces' program once, their tangent per column, the index-1 equations'
+derivative solved), with loop_sensitivity_pieces for the runtime's start columns.
 """
 
 from __future__ import annotations
@@ -37,6 +40,13 @@ PRIMAL = Caller("sensitivity_primal", "The accelerations and drives, and what th
 TANGENT = Caller("sensitivity_tangent", "The derivative of the accelerations and drives "
                  "along seed and seed_p", (*STATE_INPUTS, *SEEDS, ("const double *", "v")),
                  ("DQDD", "dqdd"), "dv", indent=" " * 8)
+LOOP_PRIMAL = dataclasses.replace(PRIMAL, function="loop_sensitivity_primal",
+                                  what="A closed loop's pieces (the accelerations' program's "
+                                  "results), and what their derivative reads",
+                                  results=("ACC", "acc"))
+LOOP_TANGENT = dataclasses.replace(TANGENT, function="loop_sensitivity_tangent",
+                                   what="The pieces' derivative along seed and seed_p",
+                                   results=("DACC", "dacc_col"))
 OUTPUT_PRIMAL = dataclasses.replace(PRIMAL, function="output_sensitivity_primal")
 OUTPUT_TANGENT = dataclasses.replace(TANGENT, function="output_sensitivity_tangent")
 
@@ -46,18 +56,55 @@ def sensitivities_section(eqs: Equations, block: Block, printer: SymbolTablePrin
     """The sensitivity system's functions, or the functions saying this build has none."""
     absent = template("sensitivities_absent.c.tmpl").substitute(prefix=prefix)
     no_outputs = template("output_sensitivities_absent.c.tmpl").substitute(prefix=prefix)
+    no_loop = template("loop_sensitivities_absent.c.tmpl").substitute(prefix=prefix)
     if eqs.sensitivities is None:
-        return absent + no_outputs + event_sensitivities(eqs, block, printer, prefix)
+        return absent + no_outputs + event_sensitivities(eqs, block, printer, prefix) + no_loop
+    if eqs.loops is not None:
+        return loop_sensitivities(eqs, block, printer, prefix, chunk_steps, units)
     primal, coefficients, tangent = system_programs(eqs, block, printer, chunk_steps, units)
     rows = [(f"out[{i * len(eqs.parameters) + k}]", expr) for i in range(len(eqs.state))
             for k, expr in enumerate(block.groups["sensitivity_initial"][
                 i * len(eqs.parameters): (i + 1) * len(eqs.parameters)])]
-    system = template("sensitivities.c.tmpl").substitute(
+    system = no_loop + template("sensitivities.c.tmpl").substitute(
         prefix=prefix, sensitivity_parts=primal.functions + tangent.functions,
         primal=primal.body, coefficients=coefficients, tangent=tangent.body,
         initial=body(printer, block, rows))
     return (system + output_sensitivities(eqs, block, printer, prefix, chunk_steps, units)
             + event_sensitivities(eqs, block, printer, prefix))
+
+
+def loop_sensitivities(eqs: Equations, block: Block, printer: SymbolTablePrinter, prefix: str,
+                       chunk_steps: int, units: Units | None) -> str:
+    """A closed loop's sensitivity system (templates/loop_sensitivities.c.tmpl): its pieces'
+    program and their tangent along seed and seed_p, solved per column; the initial state's
+    derivatives by the parameters; its outputs' sensitivities
+    (templates/loop_output_sensitivities.c.tmpl). Its scene has no impacts (derive's
+    loop_refusal)."""
+    programs = block.programs
+    primal, tangent = jacobian_programs(eqs, printer, programs["dynamics"],
+                                        programs["sensitivities"], chunk_steps, units,
+                                        (LOOP_PRIMAL, LOOP_TANGENT))
+    system = template("loop_sensitivities.c.tmpl").substitute(
+        prefix=prefix, loop_sensitivity_parts=primal.functions + tangent.functions,
+        primal=primal.body, tangent=tangent.body,
+        initial=body(printer, block, initial_rows(eqs, block)))
+    if "sensitivity_outputs_tangent" not in programs:
+        outputs = template("output_sensitivities_absent.c.tmpl").substitute(prefix=prefix)
+    else:
+        outputs = template("loop_output_sensitivities.c.tmpl").substitute(
+            prefix=prefix, primal=primal.body, tangent=tangent.body,
+            outputs=program_body(printer, programs["sensitivity_outputs"], ()),
+            outputs_tangent=program_body(printer.with_names({}, order="none"),
+                                         programs["sensitivity_outputs_tangent"], "DOUT",
+                                         " " * 8))
+    return system + outputs + event_sensitivities(eqs, block, printer, prefix)
+
+
+def initial_rows(eqs: Equations, block: Block) -> list[tuple[str, sympy.Expr]]:
+    """initial_state_tangent's assignments: out[i * N_PARAM + k] = d y0[i] / d p[k]."""
+    return [(f"out[{i * len(eqs.parameters) + k}]", expr) for i in range(len(eqs.state))
+            for k, expr in enumerate(block.groups["sensitivity_initial"][
+                i * len(eqs.parameters): (i + 1) * len(eqs.parameters)])]
 
 
 def event_sensitivities(eqs: Equations, block: Block, printer: SymbolTablePrinter,

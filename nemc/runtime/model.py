@@ -95,14 +95,14 @@ class Model(BuiltModel):
         initial values (state names, or "y0" for all): the variational equations integrated
         with the run, exact (the part "sensitivities", compiled on first need), in the same
         error control; res.sensitivities[name] is d y(t) / d name, (n_state, n_t) ("y0":
-        (n_state, n_state, n_t)), res.output_sensitivities[name][output] the outputs'. Trees
-        only; with scipy's methods (none or "auto": DOP853)."""
+        (n_state, n_state, n_t)), res.output_sensitivities[name][output] the outputs'. A
+        closed loop's solved initial values (and "y0") have none: refused by name."""
         arguments = (t_span, y0, method, rtol, atol, params, events, max_step, tstops,
                      max_steps, inputs)  # as simulation.RUN_ARGUMENTS names them
         if sensitivities is not None:
             spec = simulation.run_spec(self, arguments, t_eval)
             result = variational.simulate_sensitivities(self, spec, sensitivities,
-                                                        y0 is not None)
+                                                        y0 is not None, y0)
         else:
             result = simulation.simulate(self, arguments, t_eval)
         result.model = self  # the result knows its model, and runs again at other times (a

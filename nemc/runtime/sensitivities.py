@@ -18,8 +18,9 @@ matrix and the columns' coupling by differences (templates/radau.c.tmpl). At the
 events the columns jump (the build's `sensitivity_impact`, applied where the run applies the
 law: by the native drivers in C, by scipy's runs through the same C), and every event's time has
 its own sensitivities (`event_time_sensitivities` at the states recorded before each event:
-res.event_sensitivities). A closed loop's sensitivities, inputs given as Python functions and
-nemc.Taylor are refused, each by name.
+res.event_sensitivities). A closed loop's run starts from its assembled state with its
+columns in the constraints' tangent space (loop_sensitivities.py); inputs given as Python
+functions and nemc.Taylor are refused, each by name.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ from ..vocabulary import (
     NATIVE_METHODS,
     SCIPY_METHODS,
 )
+from . import loop_sensitivities as closed
 from . import native, runs
 from .built import BuiltModel
 from .checks import native_tolerances
@@ -170,9 +172,6 @@ def radau_build(build: BuiltModel) -> BuiltModel:
 def checked_spec(model: BuiltModel, spec: RunSpec) -> RunSpec:
     """The run's plan with its method for sensitivities: scipy's (DOP853 for none or "auto");
     what cannot have sensitivities refused by name."""
-    if model.has_loops:
-        raise ModelError("sensitivities: a closed loop's sensitivities (projected onto its "
-                         "constraints, its assembly's own) are not available yet: trees only")
     if spec.inputs is not None and spec.inputs.callables:
         raise ModelError("sensitivities: an input given as a Python function has no derivative "
                          "nemc can take; give it as a number, a table or nemc.feedback(...)")
@@ -197,9 +196,10 @@ def checked_spec(model: BuiltModel, spec: RunSpec) -> RunSpec:
 
 
 def simulate_sensitivities(model: BuiltModel, spec: RunSpec, names: Any,
-                           y0_given: bool) -> SimulationResult:
+                           y0_given: bool, y0: Any = None) -> SimulationResult:
     """One run of SPEC with the sensitivities of NAMES (see Model.simulate). Y0_GIVEN: the
-    caller gave y0 (then it does not move with the parameters)."""
+    caller gave y0 (then it does not move with the parameters), Y0 (a closed loop's: what it
+    gives)."""
     names = requested(names)
     spec = checked_spec(model, spec)
     build = sensitivity_build(model)
@@ -210,7 +210,13 @@ def simulate_sensitivities(model: BuiltModel, spec: RunSpec, names: Any,
     if spec.method == NATIVE_RADAU:
         build = radau_build(build)
     tangent = None if y0_given else initial_tangent(build, spec.p)
+    if model.has_loops:  # the start assembled, the columns in its tangent space
+        spec, given = closed.assembled_spec(model, spec, y0)
+        closed.refused_entries(model, names, given)
     cols = columns(model, names, spec.p, tangent)
+    if model.has_loops:
+        cols = dataclasses.replace(cols, start=closed.start_columns(
+            build, spec, given, cols.start, cols.directions))
     if spec.span[0] == spec.span[1]:
         raise ModelError("sensitivities: t_span is empty (t0 == t1): nothing to integrate")
     return run_system(model, build, spec, cols)
@@ -234,10 +240,12 @@ def run_system(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
     try:
         outcome = run(model, build, spec, cols, z0)
     except IntegrationFailure as failure:
-        return failed_run(model, spec, cols, failure)
+        return closed.singular_noted(model, failed_run(model, spec, cols, failure))
     t, z = outcome.t, outcome.z
     y = z[:n].copy()
     finite = bool(np.all(np.isfinite(z)))
+    if model.has_loops and finite and t.size:  # as simulate's: the states on the constraints
+        y = model.loops.projected(t, y, spec.p)
     result = SimulationResult(
         t, y, lazy_outputs(model, t, y, spec.p, spec.inputs), outcome.nfev, outcome.njev,
         outcome.nlu, outcome.status, outcome.message if finite else
