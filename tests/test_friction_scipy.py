@@ -13,9 +13,11 @@ import numpy as np
 import pytest
 from contact_reference import (
     RockingBlock,
+    SliderCrank,
     StickSlip,
     rocking_accumulation_time,
     rocking_impact_times,
+    slider_crank_run,
     stick_slip_switches,
 )
 from scipy.optimize import brentq
@@ -161,6 +163,40 @@ def test_the_rocking_block_rocks_as_housner_says_and_comes_to_rest(method: str,
     assert resting.sum() > 3
     for i in (1, 3, 4, 5):
         np.testing.assert_allclose(result.y[i, resting], 0.0, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("rtol", TOLERANCES)
+@pytest.mark.parametrize("method", METHODS)
+def test_the_slider_crank_under_motor_pulses_switches_as_the_reference(method: str,
+                                                                       rtol: float) -> None:
+    model = nemc.compile(DATA / "friction" / "slider_crank_friction_tree.yaml")
+    result = model.simulate(t_eval=[0.0, 3.0], method=method, rtol=rtol, atol=rtol / 100)
+    assert result.success
+    reference = slider_crank_run(SliderCrank(), 3.0, np.pi / 3)
+    times, _ = result.events["S.stick_slip"]
+    assert len(reference.switches) == 6
+    np.testing.assert_allclose(times, [t for t, _ in reference.switches], rtol=0,
+                               atol=1e-9 if rtol == 1e-10 else 1e-7)
+
+
+@pytest.mark.parametrize("rtol", TOLERANCES)
+@pytest.mark.parametrize("method", METHODS)
+def test_on_a_shaken_table_the_block_lifts_rocks_and_rests_as_the_reference_says(
+        method: str, rtol: float) -> None:
+    """rocking_block_pulse.yaml: the numbers tests/test_contacts_rocking.py holds the native
+    methods to (tests/contact_reference.py, rocking_base_run)."""
+    model = nemc.compile(DATA / "friction" / "rocking_block_pulse.yaml")
+    result = model.simulate(method=method, rtol=rtol, atol=rtol / 100)
+    assert result.success
+    times = np.sort(np.concatenate([result.events[f"{corner}.contact"][0]
+                                    for corner in ("left_corner", "right_corner")]))
+    np.testing.assert_allclose(times[:5], [0.052521951990, 0.442335662650, 0.693868674237,
+                                           0.919565957500, 1.122732730433], rtol=0,
+                               atol=1e-9 if rtol == 1e-10 else 1e-7)
+    assert np.abs(result.y[4]).max() == pytest.approx(0.0374781, abs=5e-7)
+    assert 0 < 3.13895503 - times[-1] < 2e-5
+    resting = result.t > times[-1]
+    np.testing.assert_allclose(result.y[4, resting], 0.0, rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("method", ["Radau", "BDF", "LSODA"])
