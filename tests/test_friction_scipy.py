@@ -199,6 +199,18 @@ def test_on_a_shaken_table_the_block_lifts_rocks_and_rests_as_the_reference_says
     np.testing.assert_allclose(result.y[4, resting], 0.0, rtol=0, atol=1e-12)
 
 
+@pytest.mark.parametrize("method", ["RK23", "DOP853"])
+def test_a_scene_with_contacts_may_name_scipys_explicit_methods(tmp_path: Path,
+                                                                method: str) -> None:
+    """The front end's check (vocabulary.CONTACT_METHODS) takes them; the run is theirs."""
+    text = (DATA / "contacts" / "ball_on_floor.yaml").read_text()
+    path = tmp_path / "ball.yaml"
+    path.write_text(text.replace("simulation:\n", f"simulation:\n  method: {method}\n", 1))
+    result = nemc.compile(path).simulate()
+    assert result.success and result.method == method
+    assert len(result.events["floor.contact"][0]) == 22
+
+
 @pytest.mark.parametrize("method", ["Radau", "BDF", "LSODA"])
 def test_scipys_implicit_methods_are_refused_by_name(block, method: str) -> None:
     with pytest.raises(ModelError, match=f"{method} cannot run a mechanism with Coulomb "
