@@ -15,9 +15,10 @@ AUTO = "auto"  # nemc chooses, by the rules below (Model.simulate's default)
 METHODS = SCIPY_METHODS + NATIVE_METHODS + (AUTO,)
 IMPLICIT_METHODS = ("Radau", "BDF", "LSODA", "nemc.Radau")  # these get the analytic Jacobian
 TAYLOR_METHODS = ("nemc.Taylor",)  # these need the build's Taylor coefficients
-# Contacts (format v3 `contacts`, decision 0041): explicit methods whose events are located in C
-# inside the steps, as Coulomb friction's (nemc/runtime/friction.py)
-CONTACT_METHODS = ("nemc.Vern9", "nemc.DOP853")
+# Contacts (format v3 `contacts`, decision 0041): explicit methods whose switch events are
+# located inside the steps too (in C; scipy's by nemc/runtime/scipy_switches.py), as Coulomb
+# friction's (nemc/runtime/friction.py)
+CONTACT_METHODS = ("nemc.Vern9", "nemc.DOP853", "RK45", "RK23", "DOP853")
 DEFAULT_METHOD = AUTO
 DEFAULT_RTOL = 1e-6  # a run's tolerances when neither the call nor the scene sets them
 DEFAULT_ATOL = 1e-9

@@ -94,7 +94,7 @@ def test_a_bad_contact_is_refused_at_its_line_with_its_key(case: str, tmp_path: 
     assert words in text
 
 
-@pytest.mark.parametrize("method", ["RK45", "Radau", "nemc.Radau", "nemc.Taylor"])
+@pytest.mark.parametrize("method", ["BDF", "Radau", "nemc.Radau", "nemc.Taylor"])
 def test_a_method_that_cannot_run_contacts_is_refused_at_its_line(method: str,
                                                                    tmp_path: Path) -> None:
     text = str(_refusal(BALL.replace("method: nemc.Vern9", f"method: {method}"), tmp_path))

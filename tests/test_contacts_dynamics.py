@@ -101,7 +101,7 @@ def test_a_restitution_above_1_at_a_runs_parameters_is_refused(ball) -> None:
         ball.simulate(params={"e": 1.5})
 
 
-@pytest.mark.parametrize("method", ["RK45", "Radau", "nemc.Radau", "nemc.Taylor"])
+@pytest.mark.parametrize("method", ["LSODA", "Radau", "nemc.Radau", "nemc.Taylor"])
 def test_methods_that_cannot_run_contacts_are_refused_by_name(ball, method: str) -> None:
     with pytest.raises(ModelError, match=f"{method} cannot run a mechanism with Coulomb "
                                          r"friction or contacts \(on floor\)"):

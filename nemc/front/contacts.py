@@ -58,9 +58,9 @@ def _within_bounds(ctx: Context, contact: Contact, node: Node, path: str) -> boo
 
 def check_contact_method(ctx: Context, contacts: tuple[Contact, ...],
                          simulation: Node | None) -> None:
-    """Refuse a scene whose method cannot run contacts: only nemc's explicit methods locate the
-    impacts and mode switches inside their steps and keep a closed contact's mode (auto takes
-    one of them)."""
+    """Refuse a scene whose method cannot run contacts: only explicit methods (nemc's, and
+    scipy's through runtime/scipy_switches.py) locate the impacts and mode switches inside their
+    steps and keep a closed contact's mode (auto takes one of them)."""
     if not contacts or simulation is None or not simulation.is_map:
         return
     method = entries_of(simulation).get("method")
@@ -69,5 +69,6 @@ def check_contact_method(ctx: Context, contacts: tuple[Contact, ...],
     names = ", ".join(contact.name for contact in contacts)
     ctx.problem(method.line, "simulation.method", f"{method.value} cannot run a mechanism with "
                 f"contacts ({names}): their impacts and lasting modes switch at events located "
-                f"inside the steps, which {' and '.join(CONTACT_METHODS)} do (method auto "
-                "takes one of them)")
+                f"inside the steps, which {', '.join(CONTACT_METHODS)} do (method auto "
+                "takes nemc.Vern9); an implicit method's Newton iteration does not keep a "
+                "held rate exactly 0")

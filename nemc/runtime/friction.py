@@ -5,10 +5,13 @@ the items' modes, and the items at rest that cannot be held set slipping), and t
 from the states for the outputs.
 
 A stuck joint's rate is held at exactly 0 by the right-hand side's exact zeros, which an
-explicit Runge-Kutta step keeps (its increments are sums of zeros). An implicit method's
-Newton iteration mixes the state's entries, nemc.Taylor's series has no switch, and scipy's
-events are looked at only at each step's end (a stuck mechanism at rest takes long steps, over
-which a holding margin may dip and recover): those are refused by name.
+explicit Runge-Kutta step keeps (its increments are sums of zeros): nemc's Vern9 and DOP853,
+whose drivers switch in C, and scipy's RK45, RK23 and DOP853, whose switches
+scipy_switches.py applies around solve_ivp (the same C laws, the solver restarted, and the
+switch events looked at inside each step on its dense output too). An implicit method's
+Newton iteration mixes the state's entries (the rate's zero is lost to the iteration's
+rounding, and its Jacobian has no switch) and nemc.Taylor's series has no switch: those are
+refused by name.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from .compiled import Compiled
 from .failures import IntegrationFailure, ModelError
 
 FRICTION_METHODS = ("nemc.Vern9", "nemc.DOP853")  # explicit, their events in C
+SCIPY_FRICTION_METHODS = ("RK45", "RK23", "DOP853")  # explicit, driven by scipy_switches.py
 FRICTION_METHOD = "nemc.Vern9"  # method "auto"'s choice with friction
 
 
@@ -36,14 +40,16 @@ class Friction:
 
     def check_method(self, method: str) -> None:
         """Refuse a method that cannot keep a stuck joint's rate exactly 0."""
-        if self.present and method not in FRICTION_METHODS:
+        if self.present and method not in FRICTION_METHODS + SCIPY_FRICTION_METHODS:
             raise ModelError(
                 f"{method} cannot run a mechanism with Coulomb friction or contacts (on "
                 f"{', '.join(self.items)}): a stuck joint's rate is held at exactly 0, which "
-                f"nemc's explicit methods keep ({', '.join(FRICTION_METHODS)}; method auto "
-                "takes nemc.Vern9), switching modes at the events they locate, also inside "
-                "long steps; an implicit method's Newton iteration and nemc.Taylor's series "
-                "do not, and scipy's event search looks only at each step's end")
+                "only an explicit Runge-Kutta step keeps (nemc's "
+                f"{', '.join(FRICTION_METHODS)}; scipy's {', '.join(SCIPY_FRICTION_METHODS)}; "
+                "method auto takes nemc.Vern9), switching modes at the events located, also "
+                "inside long steps; an implicit method's Newton iteration mixes the state's "
+                "entries (Radau, BDF, LSODA, nemc.Radau) and nemc.Taylor's series has no "
+                "switch")
 
     def refuse(self, what: str) -> None:
         """Refuse WHAT (the model as a plant, an FMU) with friction, which switches modes."""

@@ -388,6 +388,7 @@ class ScipyControl:
     t: float = math.nan  # where it ended, and the state there
     y: np.ndarray = field(default_factory=lambda: np.empty(0))
     failure: IntegrationFailure | None = None  # what ended the run, if the equations failed
+    inside: Callable | None = None  # (solver, t_old) -> a shorter step to take again, or None
 
     def fail(self, failure: IntegrationFailure) -> None:
         """The equations (an event's function, an impact law) failed: the run ends before the
@@ -477,7 +478,13 @@ def controlled_solver(base: type) -> type:
                 if reason:
                     return False, reason
                 try:
+                    inside = self.control.inside  # explicit RK only (scipy_switches.py)
+                    before = (self.t, self.y, self.f) if inside else ()
                     success, message = super()._step_impl()
+                    cut = success and inside and inside(self, before[0])
+                    if cut:  # a mode switch crossed inside the step: the step taken to there
+                        self.t, self.y, self.f, self.h_abs = (*before, cut)
+                        success, message = super()._step_impl()
                 except IntegrationFailure as failure:  # the steps so far are kept
                     self.control.fail(failure)
                     return False, "the equations failed"
@@ -759,8 +766,10 @@ def _event_name(fn: Callable, index: int, taken: set[str]) -> str:
 def simulate_scipy(solve_ivp: Callable, rhs: Callable, method: str, span: tuple[float, float],
                    y0: np.ndarray, times: np.ndarray | None, options: dict,
                    model_events: ModelEvents | None, user_events: Sequence[Callable],
-                   settings: RunSettings, flag: np.ndarray) -> tuple[ScipyOutcome, ScipyControl]:
-    """A run of scipy's METHOD under the run settings and events (see _Segments)."""
+                   settings: RunSettings, flag: np.ndarray, segments_class: type | None = None
+                   ) -> tuple[ScipyOutcome, ScipyControl]:
+    """A run of scipy's METHOD under the run settings and events (see _Segments; with
+    friction's mode switches, SEGMENTS_CLASS: scipy_switches.SwitchingSegments)."""
     from scipy.integrate._ivp.ivp import METHODS as SCIPY_CLASSES
 
     control = ScipyControl(settings, span, flag, STIFFNESS_STAGES.get(method),
@@ -768,6 +777,7 @@ def simulate_scipy(solve_ivp: Callable, rhs: Callable, method: str, span: tuple[
     options = dict(options)
     if math.isfinite(settings.max_step):
         options["max_step"] = settings.max_step
-    segments = _Segments(solve_ivp, rhs, controlled_solver(SCIPY_CLASSES[method]), span,
-                         times, options, model_events, user_events, control)
+    segments = (segments_class or _Segments)(
+        solve_ivp, rhs, controlled_solver(SCIPY_CLASSES[method]), span, times, options,
+        model_events, user_events, control)
     return segments.run(y0), control

@@ -15,6 +15,7 @@ from .failures import IntegrationFailure
 from .inputs import RunInputs
 from .outcome import RunSpec, ended_early, failed, failed_after, gave_up, lazy_outputs
 from .results import SimulationResult
+from .scipy_switches import SwitchingSegments
 
 
 def simulate_scipy(model: BuiltModel, spec: RunSpec) -> SimulationResult:
@@ -35,7 +36,8 @@ def simulate_scipy(model: BuiltModel, spec: RunSpec) -> SimulationResult:
             outcome, control = runs.simulate_scipy(
                 solve_ivp, rhs, method, spec.span, spec.state0,
                 None if spec.times is None else np.asarray(spec.times, dtype=float), options,
-                model_events, spec.user_events, settings, flag)
+                model_events, spec.user_events, settings, flag,
+                SwitchingSegments if model.friction.present else None)
     except IntegrationFailure as failure:  # the Jacobian's, before the run
         return failed(failure, method, rtol, atol, model.parameters_at(p))
     status, message = outcome.status, outcome.message
