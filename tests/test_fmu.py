@@ -398,25 +398,59 @@ simulation:
 """
 
 
-@pytest.mark.xfail(strict=True, reason="docs/fmu.md, What is not covered: a driven loop's "
-                   "co-simulation assembles each step's end from the state before, and can "
-                   "leave its branch at a singular configuration, where nemc's analysis keeps it")
-def test_a_driven_parallelogram_keeps_its_branch_in_cosimulation(tmp_path: Path) -> None:
-    """A driven parallelogram lies flat at q1 = k pi (t = 0.914, 1.961): on its branch the
-    coupler stays level (q2 = 0) and the rocker parallel to the crank (q3 = q1 = 0.4 + 3 t),
-    as nemc's kinematic analysis keeps them (tests/test_kinematic_branch.py). The FMU does not
-    yet: after the first flat position it follows the crossed branch (q3 - q1 up to 3 rad with
-    300 steps of 0.01 s), which this test pins until it is fixed."""
+@pytest.mark.parametrize(("fmi", "steps"), [(2, 300), (3, 7)])
+def test_a_driven_parallelogram_keeps_its_branch_in_cosimulation(tmp_path: Path, fmi: int,
+                                                                 steps: int) -> None:
+    """A driven parallelogram lies flat at q1 = k pi (t = 0.914, 1.961, and 0.025 rad before
+    t = 3): on its branch the coupler stays level (q2 = 0) and the rocker parallel to the crank
+    (q3 = q1 = 0.4 + 3 t), as nemc's kinematic analysis keeps them
+    (tests/test_kinematic_branch.py). The FMU's steps keep it too (each end assembled near the
+    prediction along the motion, docs/fmu.md), in 300 steps of 0.01 s and in 7 of 1.3 rad,
+    which it splits; assembled from the state before, the rocker ended up to 3 rad off."""
     file = tmp_path / "driven_parallelogram.yaml"
     file.write_text(DRIVEN_PARALLELOGRAM)
     model = nemc.compile(file)
-    path = str(model.export_fmu(tmp_path / "driven_parallelogram.fmu", fmi=2, kind="cs"))
-    times, states, _ = cosimulation(path, model, 2, 300)
+    path = str(model.export_fmu(tmp_path / "driven_parallelogram.fmu", fmi=fmi, kind="cs"))
+    times, states, _ = cosimulation(path, model, fmi, steps)
+    assert len(times) == steps + 1
     analysis = model.simulate(t_eval=times)
     assert analysis.success
-    np.testing.assert_allclose(analysis.y[model.state_names.index("q3")], 0.4 + 3 * times,
-                               atol=1e-9)
+    crank = 0.4 + 3 * times
+    np.testing.assert_allclose(analysis.y[model.state_names.index("q3")], crank, atol=1e-9)
+    np.testing.assert_allclose(states[model.state_names.index("q3")], crank, atol=1e-9)
+    np.testing.assert_allclose(states[model.state_names.index("q2")], 0.0, atol=1e-9)
     np.testing.assert_allclose(states, analysis.y, atol=1e-9)
+
+
+def test_a_driven_loop_past_a_dead_point_stops_naming_the_constraint(tmp_path: Path) -> None:
+    """fourbar_driven with a crank of 0.3 cannot turn round: nemc's analysis stops at the dead
+    point before t = 0.13 (tests/test_kinematic_branch.py); the FMU's step that reaches it
+    returns an error naming the constraint, never a state on another branch, and the states
+    before it are the analysis's."""
+    text = (EXAMPLES / "fourbar_driven.yaml").read_text().replace("L1: 0.1\n", "L1: 0.3\n")
+    file = tmp_path / "fourbar_dead_point.yaml"
+    file.write_text(text)
+    model = nemc.compile(file)
+    h = Harness(str(model.export_fmu(tmp_path / "dead.fmu", fmi=2, kind="cs")), tmp_path / "x")
+    c = h.instantiate(kind=1)
+    h.setup(c)
+    n = len(model.state_names)
+    vrs = (ctypes.c_uint * n)(*[h.vr[s] for s in model.state_names])
+    times, rows, status = [0.0], [], 0
+    for k in range(20):
+        status = h.call("DoStep", c, times[-1], 0.01, 1)
+        if status:
+            break
+        times.append((k + 1) * 0.01)
+        values = (ctypes.c_double * n)()
+        assert h.call("GetReal", c, vrs, n, values) == 0
+        rows.append(list(values))
+    assert status == 3 and len(times) == 13  # the step from 0.12 to 0.13
+    assert "constraint 'C'" in h.messages[-1] and "dead point" in h.messages[-1]
+    analysis = model.simulate(t_eval=np.array(times))
+    np.testing.assert_allclose(np.array(rows).T, analysis.y[:, 1:], atol=1e-12)
+    assert not model.simulate(t_eval=np.append(times, 0.13)).success
+    h.call("FreeInstance", c)
 
 
 def test_cosimulation_takes_inputs_methods_and_tolerances(fmus) -> None:
