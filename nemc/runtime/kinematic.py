@@ -95,7 +95,8 @@ class BranchFollower:
     def __init__(self, assemble: Callable[[float, np.ndarray], np.ndarray],
                  conditioning: Callable[[float, np.ndarray], tuple[float, int]], rank: int,
                  t0: float, y0: np.ndarray):
-        self.assemble, self.conditioning, self.rank = assemble, conditioning, rank
+        self.assemble, self.measure, self.rank = assemble, conditioning, rank
+        self.measured: tuple[float, bytes, tuple[float, int]] | None = None  # the last one
         self.times: list[float] = [t0]  # the known states' times, sorted, out of singularities
         self.states: list[np.ndarray] = [y0]
 
@@ -110,6 +111,14 @@ class BranchFollower:
         apart = SEPARATION * abs(t - self.times[first])
         second = [k for k in others if abs(self.times[k] - self.times[first]) >= apart][:1]
         return [(self.times[k], self.states[k]) for k in (first, *second)]
+
+    def conditioning(self, t: float, y: np.ndarray) -> tuple[float, int]:
+        """Phi_q's conditioning and rank at y at t (the last kept: a solution's branch check
+        and the singularity check after it measure the same state)."""
+        key = y.tobytes()
+        if self.measured is None or self.measured[:2] != (t, key):
+            self.measured = (t, key, self.measure(t, y))
+        return self.measured[2]
 
     def remember(self, t: float, y: np.ndarray) -> None:
         """A state out of singular configurations, for the predictions that follow."""
@@ -140,7 +149,7 @@ class BranchFollower:
             except ModelError as error:
                 unassembled = error
                 continue
-            if np.abs(state[0::2] - prediction[0::2]).max() <= allowed:
+            if self.near(t, state, prediction, allowed):
                 return state
         if depth < REFINEMENTS:
             for fraction in SPLITS:  # a state on the way there (not at the singular instant)
@@ -156,6 +165,17 @@ class BranchFollower:
         raise BranchLost(f"at t={t:.9g}: the assembly leaves the branch the analysis is on and "
                          "no smaller step keeps it there (a dead point: the drives carry the "
                          "mechanism past the positions its branch reaches)")
+
+    def near(self, t: float, state: np.ndarray, prediction: np.ndarray, allowed: float) -> bool:
+        """Whether STATE lies on the branch of its PREDICTION: within ALLOWED of it, and near a
+        singular configuration within BRANCH_FRACTION of Phi_q's conditioning there (the other
+        branch lies about that far away: a step's motion can be larger, and its assembly from
+        the state before then lands on the crossed branch within 5% of it)."""
+        distance = np.abs(state[0::2] - prediction[0::2]).max()
+        if not distance <= allowed:
+            return False
+        floor = BRANCH_FLOOR * (1.0 + np.abs(prediction[0::2]).max())
+        return distance <= floor or distance <= BRANCH_FRACTION * self.conditioning(t, state)[0]
 
     def trusted(self, t: float, y: np.ndarray) -> bool:
         """Whether y at t may predict the states after it: Phi_q of full rank there, its
