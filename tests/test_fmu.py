@@ -367,9 +367,10 @@ def test_cosimulation_is_nemcs_own_run_bit_for_bit(fmus, example: str, fmi: int)
         # to rounding while the loop is closed); the FMU keeps the offset of its initialization
         np.testing.assert_allclose(states, steps, rtol=1e-12, atol=1e-12)
     elif kinematic(model):
-        # a driven loop without freedom: nemc's analysis predicts each time's state along the
-        # motion and may split a long step to keep its branch (nemc/runtime/kinematic.py); the
-        # FMU's C assembles from the last state: the same to rounding (6.7e-16 measured)
+        # a driven loop without freedom: each predicts each time's state along the motion and
+        # may split a long step to keep its branch (nemc/runtime/kinematic.py, the FMU's C),
+        # nemc's step-by-step runs from one state, the FMU from its last two: the same to
+        # rounding
         np.testing.assert_allclose(states, steps, rtol=1e-12, atol=1e-12)
     else:
         assert np.array_equal(states, steps)
