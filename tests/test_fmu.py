@@ -447,6 +447,37 @@ def test_a_driven_parallelograms_drive_torque_near_its_flat_positions(tmp_path: 
     np.testing.assert_allclose(torques, analysis.outputs["A.drive"][1:], atol=1e-9)
 
 
+def test_a_crank_held_at_the_flat_position_stops_the_cosimulation(tmp_path: Path) -> None:
+    """q1 = pi - exp(-3 t)/2 reaches the flat position only as t grows: the loss of rank lasts,
+    and as nemc's analysis stops there (tests/test_kinematic_branch.py), the FMU's step into it
+    returns an error naming the constraint; the states before are on the parallelogram."""
+    file = tmp_path / "held.yaml"
+    file.write_text(DRIVEN_PARALLELOGRAM.replace("0.4 + 3*t", "pi - exp(-3*t)/2")
+                    .replace("q3: 0.4}", "q3: 2.6}"))
+    model = nemc.compile(file)
+    analysis = model.simulate(t_span=(0.0, 3.0), t_eval=np.arange(61) * 0.05)
+    assert not analysis.success and "lasts" in analysis.message
+    h = Harness(str(model.export_fmu(tmp_path / "held.fmu", fmi=2, kind="cs")), tmp_path / "x")
+    c = h.instantiate(kind=1)
+    h.setup(c)
+    n = len(model.state_names)
+    vrs = (ctypes.c_uint * n)(*[h.vr[s] for s in model.state_names])
+    times, rows, status = [0.0], [], 0
+    for k in range(60):
+        status = h.call("DoStep", c, times[-1], 0.05, 1)
+        if status:
+            break
+        times.append((k + 1) * 0.05)
+        values = (ctypes.c_double * n)()
+        assert h.call("GetReal", c, vrs, n, values) == 0
+        rows.append(list(values))
+    assert status == 3 and times[-1] == pytest.approx(analysis.t[-1])  # where it stops
+    assert "constraint 'C'" in h.messages[-1] and "lasts" in h.messages[-1]
+    q1 = np.pi - np.exp(-3 * np.array(times[1:])) / 2
+    np.testing.assert_allclose(np.array(rows).T[model.state_names.index("q3")], q1, atol=1e-9)
+    h.call("FreeInstance", c)
+
+
 def test_an_fmu_state_keeps_a_driven_loops_branch(tmp_path: Path) -> None:
     """The states a kinematic co-simulation predicts from live in the FMU state: set back to
     t = 0.85, the steps over the flat position at t = 0.914 repeat bit for bit (their guesses
