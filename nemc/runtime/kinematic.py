@@ -4,12 +4,13 @@ through isolated singular configurations too (decision 0036's continuation, in t
 
 Each state is assembled from its nearest known state (as before this module: a run away from
 singular configurations gives the same states bit for bit) and checked against the prediction
-along the motion (cubic Hermite through the two nearest known states, apart); a solution on another
-branch is refused, the assembly started from the prediction, then the step split. A time near
-a singular configuration (Phi_q's conditioning below KINEMATIC_WINDOW, or its rank lost) takes
-its state and outputs from NODES times on each side of it out of the configuration, by the
-polynomial through them (degree 7); where the motion does not leave the configuration on a
-side, the loss of rank lasts and the analysis stops there.
+along the motion (cubic Hermite through the two nearest known states, apart; near a singular
+configuration within a fraction of Phi_q's conditioning, about the crossed branch's distance);
+a solution on another branch is refused, the assembly started from the prediction, then the
+step split. A time near a singular configuration (Phi_q's conditioning below KINEMATIC_WINDOW,
+or its rank lost) takes its state and outputs from NODES times on each side of it out of the
+configuration, by the polynomial through them (degree 7); where the motion does not leave the
+configuration on a side, the loss of rank lasts and the analysis stops there.
 """
 
 from __future__ import annotations
@@ -31,7 +32,8 @@ SHIFT = 0.02  # near a singular configuration, the interpolation's nodes' spacin
 NODES = 4  # the nodes on each side of a singular configuration (degree 2 NODES - 1)
 EDGE_STEPS = 200  # the steps on each side within which the motion leaves it, else it lasts
 BRANCH_FRACTION = 0.05  # how far a solution may lie from its prediction: this of the step's...
-BRANCH_FLOOR = 1e-8  # ...motion, plus this (relative to the coordinates' size)
+BRANCH_FLOOR = 1e-8  # ...motion, plus this (relative to the coordinates' size); and beyond the
+#                      floor, this fraction of Phi_q's conditioning at the solution
 LONGEST_STEP = 0.1  # the largest motion of a step the prediction is trusted over (coordinates)
 REFINEMENTS = 30  # the splits of a step before the branch is declared lost
 SPLITS = (0.5, 0.3)  # where a refined step is split (the second where the first is singular)
