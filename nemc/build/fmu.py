@@ -228,7 +228,9 @@ def wrapper_source(meta: Mapping, layout: fv.Layout, defaults: fv.FmuDefaults, f
         setting_max=c_list([float(s.maximum) for s in settings]),
         event_directions=c_list([DIRECTIONS[e["direction"]] for e in events]),
         event_actions=c_list([ACTIONS[e["action"]] for e in events]),
-        check_names=c_strings(meta["check_names"]), tstops=c_list(list(defaults.tstops)),
+        check_names=c_strings(meta["check_names"]),
+        constraint_names=c_strings(meta.get("constraint_equations", ())),
+        tstops=c_list(list(defaults.tstops)),
         n_start=len(starts), start_equation=c_list([k for k, _ in starts]),
         start_parameter=c_list([index for _, index in starts]),
         state_magic=int(token[1:9], 16))

@@ -4,12 +4,13 @@ through isolated singular configurations too (decision 0036's continuation, in t
 
 Each state is assembled from its nearest known state (as before this module: a run away from
 singular configurations gives the same states bit for bit) and checked against the prediction
-along the motion (cubic Hermite through the two nearest known states, apart); a solution on another
-branch is refused, the assembly started from the prediction, then the step split. A time near
-a singular configuration (Phi_q's conditioning below KINEMATIC_WINDOW, or its rank lost) takes
-its state and outputs from NODES times on each side of it out of the configuration, by the
-polynomial through them (degree 7); where the motion does not leave the configuration on a
-side, the loss of rank lasts and the analysis stops there.
+along the motion (cubic Hermite through the two nearest known states, apart; near a singular
+configuration within a fraction of Phi_q's conditioning, about the crossed branch's distance);
+a solution on another branch is refused, the assembly started from the prediction, then the
+step split. A time near a singular configuration (Phi_q's conditioning below KINEMATIC_WINDOW,
+or its rank lost) takes its state and outputs from NODES times on each side of it out of the
+configuration, by the polynomial through them (degree 7); where the motion does not leave the
+configuration on a side, the loss of rank lasts and the analysis stops there.
 """
 
 from __future__ import annotations
@@ -31,7 +32,8 @@ SHIFT = 0.02  # near a singular configuration, the interpolation's nodes' spacin
 NODES = 4  # the nodes on each side of a singular configuration (degree 2 NODES - 1)
 EDGE_STEPS = 200  # the steps on each side within which the motion leaves it, else it lasts
 BRANCH_FRACTION = 0.05  # how far a solution may lie from its prediction: this of the step's...
-BRANCH_FLOOR = 1e-8  # ...motion, plus this (relative to the coordinates' size)
+BRANCH_FLOOR = 1e-8  # ...motion, plus this (relative to the coordinates' size); and beyond the
+#                      floor, this fraction of Phi_q's conditioning at the solution
 LONGEST_STEP = 0.1  # the largest motion of a step the prediction is trusted over (coordinates)
 REFINEMENTS = 30  # the splits of a step before the branch is declared lost
 SPLITS = (0.5, 0.3)  # where a refined step is split (the second where the first is singular)
@@ -95,7 +97,8 @@ class BranchFollower:
     def __init__(self, assemble: Callable[[float, np.ndarray], np.ndarray],
                  conditioning: Callable[[float, np.ndarray], tuple[float, int]], rank: int,
                  t0: float, y0: np.ndarray):
-        self.assemble, self.conditioning, self.rank = assemble, conditioning, rank
+        self.assemble, self.measure, self.rank = assemble, conditioning, rank
+        self.measured: tuple[float, bytes, tuple[float, int]] | None = None  # the last one
         self.times: list[float] = [t0]  # the known states' times, sorted, out of singularities
         self.states: list[np.ndarray] = [y0]
 
@@ -110,6 +113,14 @@ class BranchFollower:
         apart = SEPARATION * abs(t - self.times[first])
         second = [k for k in others if abs(self.times[k] - self.times[first]) >= apart][:1]
         return [(self.times[k], self.states[k]) for k in (first, *second)]
+
+    def conditioning(self, t: float, y: np.ndarray) -> tuple[float, int]:
+        """Phi_q's conditioning and rank at y at t (the last kept: a solution's branch check
+        and the singularity check after it measure the same state)."""
+        key = y.tobytes()
+        if self.measured is None or self.measured[:2] != (t, key):
+            self.measured = (t, key, self.measure(t, y))
+        return self.measured[2]
 
     def remember(self, t: float, y: np.ndarray) -> None:
         """A state out of singular configurations, for the predictions that follow."""
@@ -140,7 +151,7 @@ class BranchFollower:
             except ModelError as error:
                 unassembled = error
                 continue
-            if np.abs(state[0::2] - prediction[0::2]).max() <= allowed:
+            if self.near(t, state, prediction, allowed):
                 return state
         if depth < REFINEMENTS:
             for fraction in SPLITS:  # a state on the way there (not at the singular instant)
@@ -156,6 +167,17 @@ class BranchFollower:
         raise BranchLost(f"at t={t:.9g}: the assembly leaves the branch the analysis is on and "
                          "no smaller step keeps it there (a dead point: the drives carry the "
                          "mechanism past the positions its branch reaches)")
+
+    def near(self, t: float, state: np.ndarray, prediction: np.ndarray, allowed: float) -> bool:
+        """Whether STATE lies on the branch of its PREDICTION: within ALLOWED of it, and near a
+        singular configuration within BRANCH_FRACTION of Phi_q's conditioning there (the other
+        branch lies about that far away: a step's motion can be larger, and its assembly from
+        the state before then lands on the crossed branch within 5% of it)."""
+        distance = np.abs(state[0::2] - prediction[0::2]).max()
+        if not distance <= allowed:
+            return False
+        floor = BRANCH_FLOOR * (1.0 + np.abs(prediction[0::2]).max())
+        return distance <= floor or distance <= BRANCH_FRACTION * self.conditioning(t, state)[0]
 
     def trusted(self, t: float, y: np.ndarray) -> bool:
         """Whether y at t may predict the states after it: Phi_q of full rank there, its
