@@ -447,6 +447,26 @@ def test_a_driven_parallelograms_drive_torque_near_its_flat_positions(tmp_path: 
     np.testing.assert_allclose(torques, analysis.outputs["A.drive"][1:], atol=1e-9)
 
 
+def steps_until_stopped(h: Harness, model, size: float, most: int) -> tuple:
+    """A co-simulation instance of H stepped by SIZE until a step fails (at most MOST steps),
+    its states read after each: the instance, the communication times reached, the states there
+    and the failing step's status (0 if none failed)."""
+    c = h.instantiate(kind=1)
+    h.setup(c)
+    n = len(model.state_names)
+    vrs = (ctypes.c_uint * n)(*[h.vr[s] for s in model.state_names])
+    times, rows, status = [0.0], [], 0
+    for k in range(most):
+        status = h.call("DoStep", c, times[-1], size, 1)
+        if status:
+            break
+        times.append((k + 1) * size)
+        values = (ctypes.c_double * n)()
+        assert h.call("GetReal", c, vrs, n, values) == 0
+        rows.append(list(values))
+    return c, times, rows, status
+
+
 def test_a_crank_held_at_the_flat_position_stops_the_cosimulation(tmp_path: Path) -> None:
     """q1 = pi - exp(-3 t)/2 reaches the flat position only as t grows: the loss of rank lasts,
     and as nemc's analysis stops there (tests/test_kinematic_branch.py), the FMU's step into it
@@ -458,19 +478,7 @@ def test_a_crank_held_at_the_flat_position_stops_the_cosimulation(tmp_path: Path
     analysis = model.simulate(t_span=(0.0, 3.0), t_eval=np.arange(61) * 0.05)
     assert not analysis.success and "lasts" in analysis.message
     h = Harness(str(model.export_fmu(tmp_path / "held.fmu", fmi=2, kind="cs")), tmp_path / "x")
-    c = h.instantiate(kind=1)
-    h.setup(c)
-    n = len(model.state_names)
-    vrs = (ctypes.c_uint * n)(*[h.vr[s] for s in model.state_names])
-    times, rows, status = [0.0], [], 0
-    for k in range(60):
-        status = h.call("DoStep", c, times[-1], 0.05, 1)
-        if status:
-            break
-        times.append((k + 1) * 0.05)
-        values = (ctypes.c_double * n)()
-        assert h.call("GetReal", c, vrs, n, values) == 0
-        rows.append(list(values))
+    c, times, rows, status = steps_until_stopped(h, model, 0.05, 60)
     assert status == 3 and times[-1] == pytest.approx(analysis.t[-1])  # where it stops
     assert "constraint 'C'" in h.messages[-1] and "lasts" in h.messages[-1]
     q1 = np.pi - np.exp(-3 * np.array(times[1:])) / 2
@@ -517,19 +525,7 @@ def test_a_driven_loop_past_a_dead_point_stops_naming_the_constraint(tmp_path: P
     file.write_text(text)
     model = nemc.compile(file)
     h = Harness(str(model.export_fmu(tmp_path / "dead.fmu", fmi=2, kind="cs")), tmp_path / "x")
-    c = h.instantiate(kind=1)
-    h.setup(c)
-    n = len(model.state_names)
-    vrs = (ctypes.c_uint * n)(*[h.vr[s] for s in model.state_names])
-    times, rows, status = [0.0], [], 0
-    for k in range(20):
-        status = h.call("DoStep", c, times[-1], 0.01, 1)
-        if status:
-            break
-        times.append((k + 1) * 0.01)
-        values = (ctypes.c_double * n)()
-        assert h.call("GetReal", c, vrs, n, values) == 0
-        rows.append(list(values))
+    c, times, rows, status = steps_until_stopped(h, model, 0.01, 20)
     assert status == 3 and len(times) == 13  # the step from 0.12 to 0.13
     assert "constraint 'C'" in h.messages[-1] and "dead point" in h.messages[-1]
     analysis = model.simulate(t_eval=np.array(times))
