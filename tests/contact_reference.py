@@ -893,9 +893,27 @@ def rocking_accumulation_time(p: RockingBlock, theta0: float) -> float:
     while rocking_amplitudes(p, theta0, n)[-1] > 1e-9 * p.alpha:
         n *= 2
     times = rocking_impact_times(p, theta0, n)
-    w_last = rocking_impact_speeds(p, theta0, n)[-1]
+    return float(times[-1] + rocking_tail(p, rocking_impact_speeds(p, theta0, n)[-1]))
+
+
+def rocking_tail(p: RockingBlock, w: float) -> float:
+    """The time the impacts after one at speed w (|theta'| before it) take to accumulate, in
+    the small-amplitude limit (a ball bouncing under p^2 sin(alpha), each flight r times the
+    one before): 2 w r / (p^2 sin(alpha) (1 - r)); relative error O(amplitude / alpha)."""
     r = p.restitution
-    return float(times[-1] + 2.0 * w_last * r / (p.p2 * math.sin(p.alpha) * (1.0 - r)))
+    return 2.0 * w * r / (p.p2 * math.sin(p.alpha) * (1.0 - r))
+
+
+def rocking_base_accumulation_time(p: RockingBlock, base: BasePulse, t_end: float,
+                                   mu: float) -> float:
+    """Where rocking_base_run's impacts accumulate: its rest starts at an impact whose speed
+    after it is below 1e-9 p; the flights left after it, the last one's r / (1 - r) times
+    (the table moves uniformly by then), are added."""
+    run = rocking_base_run(p, base, t_end, mu, mu)
+    impacts = [t for t, name in run.switches if name == "impact"]
+    assert run.switches[-1][1] == "rest" and base.accel(impacts[-1]) == 0.0
+    r = p.restitution
+    return impacts[-1] + (impacts[-1] - impacts[-2]) * r / (1.0 - r)
 
 
 def rocking_energy(p: RockingBlock, theta: float, thetad: float) -> float:
