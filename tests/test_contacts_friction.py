@@ -16,7 +16,7 @@ import nemc
 DATA = Path(__file__).parent / "data" / "friction"
 BALL = Ball()
 REST = ball_rest(BALL)
-ZENO = 1e-7  # friction.c.tmpl's CONTACT_ZENO: the impacts accumulate below this flight x (1 + t)
+ZENO = 1e-6  # friction.c.tmpl's CONTACT_ZENO: the impacts accumulate below this flight x (1 + t)
 
 
 @pytest.fixture(scope="module")
@@ -30,13 +30,17 @@ def test_the_spinning_ball_bounces_slides_and_rolls_as_the_closed_form_says(ball
     result = ball.simulate(method=method)
     assert result.success
     times, _ = result.events["floor.contact"]
-    np.testing.assert_allclose(times, ball_bounce_times(BALL, len(times)), rtol=0, atol=1e-11)
-    assert 0 < REST.t_inf - times[-1] <= ZENO * (1 + REST.t_inf) / (1 - BALL.e)
+    bounces = times[:-1]  # then the tail's one flight, landing at t_inf (the Zeno rule)
+    np.testing.assert_allclose(bounces, ball_bounce_times(BALL, len(bounces)), rtol=0,
+                               atol=1e-11)
+    assert times[-1] == pytest.approx(REST.t_inf, abs=1e-9)
+    assert ZENO * (1 + REST.t_inf) < REST.t_inf - bounces[-1]
     (rolls,), (state,) = result.events["floor.stick_slip"]
     assert rolls == pytest.approx(REST.t_roll, abs=1e-11)
     assert state[0] == pytest.approx(REST.x_roll, abs=1e-12)
-    # on the lasting contact: sliding (x'' = -mu g) from t_inf, then rolling; the early close
-    # changes nothing tangentially (the normal impulses it skips add up to m g times the time)
+    # on the lasting contact: sliding (x'' = -mu g) from t_inf, then rolling; the tail's flight
+    # changes nothing tangentially there (its launch's and landing's normal impulses add up to
+    # the bounces' it stands for, m v_k + m g T, and so do their sliding friction impulses)
     t, x, rate = result.t, result.y[0], result.y[1]
     since, sliding = t - REST.t_inf, t < REST.t_roll
     decel = BALL.mu * BALL.g
@@ -86,7 +90,7 @@ def test_a_ball_on_a_free_plate_keeps_the_momenta_through_impacts_and_lasting_co
     model = nemc.compile(Path(__file__).parent / "data" / "contacts" / "ball_on_free_plate.yaml")
     result = model.simulate(method=method)
     assert result.success
-    assert len(result.events["face.contact"][0]) > 20  # it bounced to rest,
+    assert len(result.events["face.contact"][0]) > 15  # it bounced to rest,
     assert np.any(result.outputs["face.active"] == 1.0)  # and the contact lasted
     assert len(result.events["face.stick_slip"][0]) >= 5  # sliding and sticking
     X, dX, Y, dY, A, dA, x, dx, y, dy, th, dth = result.y
