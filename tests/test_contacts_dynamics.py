@@ -45,7 +45,7 @@ def test_the_ball_bounces_where_the_closed_form_says_then_rests_from_t_inf(
     np.testing.assert_allclose(bounces, expected, rtol=0, atol=1e-10)
     # the last bounce flies the flights left as one (the Zeno rule: the one after next would
     # be shorter than ZENO (1 + t)), which lands, and the contact closes, at t_inf
-    assert times[-1] == pytest.approx(T_INF, abs=1e-9)
+    assert times[-1] == pytest.approx(T_INF, abs=1e-11)  # measured within 8e-13
     assert ZENO * (1 + T_INF) < T_INF - bounces[-1] <= ZENO * (1 + T_INF) / (1 - E)
     assert len(times) == 20
     y, rate = result.y[2], result.y[3]
@@ -58,6 +58,20 @@ def test_the_ball_bounces_where_the_closed_form_says_then_rests_from_t_inf(
     assert np.all(result.outputs["floor.Fn"][flying] == 0.0)
     assert np.all(result.outputs["floor.active"][flying] == 0.0)
     np.testing.assert_allclose(result.y[1], 0.3, rtol=1e-13)
+
+
+@pytest.mark.parametrize("e", [0.1, 0.9])
+def test_with_any_restitution_the_rest_starts_at_t_inf(ball, e: float) -> None:
+    """e = 0.1: the tail is flown where the flight after the next would be under the rule
+    (e T), e = 0.9: where the next would (its tail up to ten times that); both land at
+    t1 (1 + e) / (1 - e), the bounces before at the closed form's times."""
+    result = ball.simulate(params={"e": e}, t_span=(0.0, 40.0), t_eval=[0.0, 40.0])
+    assert result.success
+    times, _ = result.events["floor.contact"]
+    expected = T1 + 2 * T1 * np.concatenate(([0.0], np.cumsum(e ** np.arange(1, len(times) - 1))))
+    np.testing.assert_allclose(times[:-1], expected, rtol=0, atol=1e-10)
+    assert times[-1] == pytest.approx(T1 * (1 + e) / (1 - e), abs=1e-10)
+    assert result.y[2][-1] == R and result.y[3][-1] == 0.0
 
 
 def test_between_the_last_bounce_and_t_inf_the_ball_flies_one_parabola(ball) -> None:
