@@ -156,6 +156,14 @@ def ledge():
     return nemc.compile(EXAMPLE)
 
 
+def test_an_animation_draws_the_segment_between_its_ends(ledge) -> None:
+    from nemc.tools.animate import render_frame
+
+    _, ax = render_frame(ledge, 0.0, [-0.5, 0.0, 0.9, 0.0, 0.0, 0.0])
+    drawn = [np.column_stack(line.get_data()) for line in ax.lines]
+    assert any(d.shape == (2, 2) and np.allclose(d, [[-1, 0.5], [0, 0.5]]) for d in drawn)
+
+
 @pytest.mark.parametrize("method", METHODS)
 def test_the_ball_rolls_off_the_ledge_when_and_where_the_reference_says(ledge,
                                                                          method: str) -> None:
