@@ -13,6 +13,11 @@ line's point, the contact point c = p - radius n, and:
     normal speed   n . v_rel = dg/dt                        (v_rel: the point's body's material
     tangent speed  u . v_rel                                 point at c less the surface's there)
 
+With `surface.length` the surface is a segment from a along u, its ends corners (decision
+0042): where the point projects beyond an end (s = u . (p - a) <= 0 or >= length), the gap is
+|p - corner| - radius and n is along p - corner (`regions`); every expression below is then
+one Piecewise over the three regions, each computed within its own.
+
 The contact's force, n Fn + u Ft on the point's body at c and the opposite on the surface
 body (Fn >= 0 while the contact lasts, |Ft| <= mu Fn; decision 0041), does the virtual work
 Fn (n . v_rel) + Ft (u . v_rel): the rows of the Jacobian of the two speeds in the rates are
