@@ -26,6 +26,9 @@ at y = 0 below.
   at cos θ = (2 + (1 + k) v0² / (g r)) / (3 + k); frictionless (F = 0, any spin), at cos θ =
   (2 + v0² / (g r)) / 3.
   Slipping forward (the center ahead of the spin): F = -mu N, integrated to N = 0.
+- A point (radius 0) sliding on the ledge from x0 at speed v0, friction mu: x = x0 + v0 t -
+  mu g t² / 2 until x = 0 (t_e); a corner cannot turn a point, so it flies from there:
+  x = v_e (t - t_e), y = -g (t - t_e)² / 2 (v_e = v0 - mu g t_e).
 - Then it flies: from the center (r sin θ, h + r cos θ) at velocity v t, it lands on the floor
   (y = r) after the root τ of h + r cos θ - r - v sin θ τ - g τ² / 2 = 0.
 """
@@ -158,3 +161,17 @@ def timeline(p: Ledge = Ledge()) -> Timeline:
                     theta_slip=theta_slip, t_slip=t_slip, theta_leave=theta_leave,
                     t_leave=t_leave, speed_leave=speed,
                     t_land=t_leave + flight_time(p, theta_leave, speed))
+
+
+def point_off_edge(x0: float, v0: float, mu: float, g: float, t: np.ndarray
+                   ) -> tuple[float, np.ndarray, np.ndarray]:
+    """(t_e, x, y) of a point sliding from X0 at V0 with friction MU to the ledge's end at
+    x = 0 (reached at t_e, asserted), then flying: its place at the times T."""
+    a = mu * g
+    t_e = -x0 / v0 if a == 0 else (v0 - math.sqrt(v0 ** 2 + 2 * a * x0)) / a
+    v_e = v0 - a * t_e
+    assert v_e > 0, "it stops before the end"
+    flying = t > t_e
+    x = np.where(flying, v_e * (t - t_e), x0 + v0 * t - a * t ** 2 / 2)
+    y = np.where(flying, -g * (t - t_e) ** 2 / 2, 0.0)
+    return t_e, x, y

@@ -16,6 +16,7 @@ import sympy
 from ledge_reference import (
     Ledge,
     frictionless_leave_angle,
+    point_off_edge,
     rolling_leave_angle,
     rolling_speed,
     rolling_time,
@@ -34,6 +35,7 @@ from nemc.runtime.failures import ModelError
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "ball_off_ledge.yaml"
 CORNER = ROOT / "tests" / "data" / "contacts" / "disc_over_corner.yaml"
+POINT = ROOT / "tests" / "data" / "contacts" / "point_off_edge.yaml"
 METHODS = ("nemc.Vern9", "nemc.DOP853")
 X, XD, Y, YD, TH, THD = range(6)  # the state's layout: each coordinate, then its rate
 
@@ -266,3 +268,23 @@ def test_with_a_huge_mu_it_rolls_without_slip_to_the_rolling_closed_forms_angle(
     assert result.success
     (_, *_), (slips, *_) = result.events["edge.stick_slip"]
     assert math.atan2(slips[X], slips[Y]) == pytest.approx(rolling_leave_angle(p, v0), abs=1e-9)
+
+
+@pytest.mark.parametrize("method, tolerance", [("nemc.Vern9", 1e-9), ("RK45", 1e-9),
+                                               ("nemc.DOP853", 1e-6)])
+@pytest.mark.parametrize("mu", [0.0, 0.1])
+def test_a_point_sliding_past_the_end_leaves_there(method: str, tolerance: float,
+                                                   mu: float) -> None:
+    """A point (radius 0) on a corner has no normal: there the line's is taken, and past it
+    the corner's normal turns across the motion, so the contact opens at the end and the
+    point flies the parabola. nemc.DOP853 records a stick of about 1 µs at the corner first
+    (the slip, measured across the corner's normal, jumps to about 0) and ends 10⁻⁷ m off:
+    its looser bound here (decision 0042)."""
+    model = nemc.compile(POINT)
+    result = model.simulate(method=method, params={"mu": mu})
+    assert result.success
+    t_e, x, y = point_off_edge(-0.1, 0.5, mu, 9.81, result.t)
+    (leaves, *_), _ = result.events["edge.contact"]
+    assert leaves == pytest.approx(t_e, abs=tolerance)
+    np.testing.assert_allclose(result.y[X], x, rtol=0, atol=tolerance)
+    np.testing.assert_allclose(result.y[Y], y, rtol=0, atol=tolerance)

@@ -195,7 +195,7 @@ class Contact(Load):
         in ground axes: a line, one part (everywhere, its point a, its left normal n); a
         segment (decision 0042), its corner at `at` where s = u . (p - a) <= 0, its far end's
         where s >= length (each with its normal along p - corner: g = |p - corner| - radius),
-        and the line's between."""
+        and the line's between and where a point (radius 0) is on a corner (no normal there)."""
         surface = view.frame(self.surface)
         u, n = self.frame_vectors(surface)
         a = surface.point(self.at)
@@ -205,10 +205,10 @@ class Contact(Load):
         p = view.frame(self.point.body).point(self.point.xy)
         s = u[0] * (p[0] - a[0]) + u[1] * (p[1] - a[1])
         found = []
-        for where, corner in ((s <= 0, a), (s >= self.length, surface.point(self.end))):
+        for beyond, corner in ((s <= 0, a), (s >= self.length, surface.point(self.end))):
             d = (p[0] - corner[0], p[1] - corner[1])
-            norm = sympy.sqrt(d[0] ** 2 + d[1] ** 2)
-            found.append(Region(where, corner, (d[0] / norm, d[1] / norm)))
+            norm = sympy.sqrt(d[0] ** 2 + d[1] ** 2)  # 0: a point on the corner, the line's
+            found.append(Region(sympy.And(beyond, norm > 0), corner, (d[0] / norm, d[1] / norm)))
         return found + [line]
 
     def contact_point(self, view: LoadView, region: Region) -> V2:
