@@ -130,7 +130,7 @@ def test_on_a_moving_segment_the_gap_is_the_distance_to_its_part_and_the_speed_i
 
 def test_the_seeds_reach_every_part_of_the_segment() -> None:
     """The test above sees both corners and the line (else it could not fail there)."""
-    kin_free = {"before": 0, "after": 0, "along": 0}
+    seen = {"before": 0, "after": 0, "along": 0}
     mech = validate_text(MOVING, "moving.yaml")
     kin = Kinematics(mech)
     plate, disc = kin.frame("plate"), kin.frame("disc")
@@ -138,8 +138,8 @@ def test_the_seeds_reach_every_part_of_the_segment() -> None:
     p, a = disc.origin, plate.point((symbol("c"), symbol("d")))
     for seed in range(8):
         s = float((u[0] * (p[0] - a[0]) + u[1] * (p[1] - a[1])).xreplace(_values(seed)))
-        kin_free["before" if s <= 0 else "after" if s >= 0.5 else "along"] += 1
-    assert all(kin_free.values()), kin_free
+        seen["before" if s <= 0 else "after" if s >= 0.5 else "along"] += 1
+    assert all(seen.values()), seen
 
 
 def test_a_segment_is_drawn_between_its_ends() -> None:
