@@ -38,9 +38,10 @@ figures: $(STAMP)
 	$(BIN)/python docs/tutorials/blocks.py --figures docs/figures \
 	  $(foreach name,$(TUTORIALS),docs/tutorials/$(name).md)
 
-# Two workers (pytest-xdist), each taking whole test files (their module fixtures build once).
+# Two workers (pytest-xdist), each taking whole test files (their module fixtures build once);
+# the 15 slowest tests are listed at the end, to keep the run under about 10 minutes.
 test: $(STAMP) other-python
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=15
 
 # The tests marked slow (over 20 s each), left out of `make test`; CI runs them too.
 test-slow: $(STAMP)

@@ -35,12 +35,14 @@ class Drawing:
     discs: list[dict] = field(default_factory=list)  # {center, rim}: a rolling disc
     surfaces: list[dict] = field(default_factory=list)  # {at, axis, origin}: what it rolls on
     blades: list[dict] = field(default_factory=list)  # {at, axis}: a knife edge
+    segments: list[dict] = field(default_factory=list)  # {a, b}: a contact's surface with ends
 
     def metadata(self) -> dict:
         found = {"points": [name for name, _, _ in self.points], "bodies": self.bodies,
                  "coms": self.coms, "joints": self.joints, "springs": self.springs,
                  "traces": self.traces}
-        for key in ("discs", "surfaces", "blades"):  # only where a constraint draws them
+        # only where a constraint draws them
+        for key in ("discs", "surfaces", "blades", "segments"):
             if getattr(self, key):
                 found[key] = getattr(self, key)
         return found
@@ -109,7 +111,7 @@ def drawing(mech: m.Mechanism, locate: Locate | None = None) -> Drawing:
 
 def constraint_drawing(builder: _Builder, name: str, shown: ConstraintDrawing) -> None:
     """A constraint's discs (center and a rim point), surfaces and blades (a point and one
-    length unit along the axis from it)."""
+    length unit along the axis from it), and segments (their two ends)."""
     picture = builder.drawing
     for body, radius in shown.discs:
         picture.discs.append({"center": builder.point(f"{body}.origin", body, (0, 0)),
@@ -121,6 +123,9 @@ def constraint_drawing(builder: _Builder, name: str, shown: ConstraintDrawing) -
     for body, xy, axis in shown.blades:
         at, ahead = along(builder, name, body, xy, axis)
         picture.blades.append({"at": at, "axis": ahead})
+    for body, one, other in shown.segments:
+        picture.segments.append({"a": builder.point(f"{name}.at", body, one),
+                                 "b": builder.point(f"{name}.end", body, other)})
 
 
 def along(builder: _Builder, name: str, body: str, xy: m.Vec2, axis: m.Vec2) -> tuple[int, int]:

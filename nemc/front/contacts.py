@@ -14,8 +14,8 @@ from .fields import default_value, has_defaults
 from .parse import Node
 from .reader import Reader
 
-SHAPE = ("a mapping of contacts, NAME: {point, radius, surface: {body, at, axis}, restitution, "
-         "mu}")
+SHAPE = ("a mapping of contacts, NAME: {point, radius, surface: {body, at, axis, length}, "
+         "restitution, mu}")
 
 
 def read_contacts(ctx: Context, node: Node) -> tuple[Contact, ...]:

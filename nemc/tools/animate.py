@@ -239,6 +239,8 @@ class Artist:
                               for j in drawing["joints"] if j["sprung"]]
         self.surfaces = [ax.plot([], [], "-", color="#999999", lw=3, solid_capstyle="round",
                                  zorder=1)[0] for _ in drawing.get("surfaces", ())]
+        self.segments = [ax.plot([], [], "-", color="#999999", lw=3, solid_capstyle="butt",
+                                 zorder=1)[0] for _ in drawing.get("segments", ())]
         self.bodies = {body: self.body_artist(body) for body in drawing["bodies"]}
         self.discs = [self.disc_artist(disc) for disc in drawing.get("discs", ())]
         self.blades = [ax.plot([], [], "-", color=INK, lw=4, solid_capstyle="butt",
@@ -266,7 +268,8 @@ class Artist:
 
     def dynamic(self) -> list[Any]:
         """Every artist that moves (drawn over a fixed background, frame by frame)."""
-        return [*self.rails, *self.surfaces, *self.traces, *self.springs, *self.joint_springs,
+        return [*self.rails, *self.surfaces, *self.segments, *self.traces, *self.springs,
+                *self.joint_springs,
                 *self.bodies.values(), *(a for disc in self.discs for a in disc),
                 *self.blades, self.coms, self.pins, self.welds, self.sliders,
                 self.supports, self.anchor_marks, self.stamp]
@@ -315,6 +318,9 @@ class Artist:
             spoke.set_data([center[0], point[0]], [center[1], point[1]])
         for artist, surface in zip(self.surfaces, drawing.get("surfaces", ())):
             self.draw_rail(artist, surface, xy)
+        for artist, segment in zip(self.segments, drawing.get("segments", ())):
+            ends = np.array([xy[segment["a"]], xy[segment["b"]]])
+            artist.set_data(ends[:, 0], ends[:, 1])
         for artist, blade in zip(self.blades, drawing.get("blades", ())):
             at, ahead = xy[blade["at"]], xy[blade["axis"]]
             unit = (ahead - at) / max(math.hypot(*(ahead - at)), 1e-12)

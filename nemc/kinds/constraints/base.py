@@ -33,11 +33,13 @@ class ConstraintDrawing:
     """What a picture shows of a constraint beyond its bodies' outlines (nemc/derive/
     geometry.py): discs (body, radius: a circle around the body's origin, with a spoke to show
     it turn), surfaces (body, point, axis: a line a disc rolls on, drawn over the range it
-    travels, with the disc's body) and blades (body, point, axis: a short edge)."""
+    travels, with the disc's body), segments (body, one end, the other: a contact's surface
+    with ends) and blades (body, point, axis: a short edge)."""
 
     discs: tuple[tuple[str, Expr], ...] = ()
     surfaces: tuple[tuple[str, tuple[Expr, Expr], tuple[Expr, Expr], str], ...] = ()
     blades: tuple[tuple[str, tuple[Expr, Expr], tuple[Expr, Expr]], ...] = ()
+    segments: tuple[tuple[str, tuple[Expr, Expr], tuple[Expr, Expr]], ...] = ()
 
 
 @dataclass(frozen=True)
