@@ -24,7 +24,6 @@ plain rhs, the sensitivity system's call with no column, one, and all (sensitivi
 from __future__ import annotations
 
 import gc
-import statistics
 import sys
 import time
 from collections.abc import Callable
