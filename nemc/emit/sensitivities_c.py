@@ -172,11 +172,12 @@ def dense_programs(eqs: Equations, block: Block, printer: SymbolTablePrinter,
                    chunk_steps: int, callers: tuple[Caller, Caller],
                    columns: Callable[..., tuple[str, str] | None]
                    ) -> tuple[Printed, str, Printed] | None:
-    """The program's primal (written through CALLERS[0]'s macro), the lines forming the
-    Jacobian of its results by the seeds once (jacobian_tangent) and each column's dense
-    product (through CALLERS[1]'s macro): a tree's accelerations and drives, or a closed
-    loop's pieces. None where the programs are too long for one body or the tangent is not
-    linear in a form jacobian_tangent reads."""
+    """The program's primal (written through CALLERS[0]'s macro), the lines computed once per
+    call before the columns and each column's lines (through CALLERS[1]'s macro), as COLUMNS
+    prints them from the linear tangent: J formed once and a dense product per column
+    (jacobian_tangent: a tree's accelerations and drives), or the coefficients once and a
+    forward sweep per column (hoisted_tangent: a closed loop's pieces). None where the
+    programs are too long for one body or the tangent is not linear (linear_steps)."""
     programs = block.programs
     dynamics, tangent = programs["dynamics"], programs["sensitivities"]
     if max(dynamics.size, tangent.size) > chunk_steps:
