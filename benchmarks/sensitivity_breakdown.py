@@ -21,18 +21,30 @@ TIMER_C = r"""
 #include <stdint.h>
 #include <time.h>
 typedef int (*rhs_fn)(double, const double *, const double *, double *);
-double ns_per_call(uintptr_t address, int count, const double *y, const double *p, double *out)
+static double timed_calls(clockid_t clock, uintptr_t address, int count, const double *y,
+                          const double *p, double *out)
 {
     rhs_fn f = (rhs_fn)address;
     struct timespec start, end;
-    clock_gettime(CLOCK_MONOTONIC, &start);
+    clock_gettime(clock, &start);
     for (int i = 0; i < count; ++i)
         f(1e-9 * i, y, p, out);
-    clock_gettime(CLOCK_MONOTONIC, &end);
+    clock_gettime(clock, &end);
     return ((end.tv_sec - start.tv_sec) * 1e9 + (end.tv_nsec - start.tv_nsec)) / count;
+}
+double ns_per_call(uintptr_t address, int count, const double *y, const double *p, double *out)
+{
+    return timed_calls(CLOCK_MONOTONIC, address, count, y, p, out);
+}
+double cpu_ns_per_call(uintptr_t address, int count, const double *y, const double *p,
+                       double *out)
+{
+    return timed_calls(CLOCK_THREAD_CPUTIME_ID, address, count, y, p, out);
 }
 """
 TIMER_CDEF = ("double ns_per_call(uintptr_t address, int count, const double *y, "
+              "const double *p, double *out);\n"
+              "double cpu_ns_per_call(uintptr_t address, int count, const double *y, "
               "const double *p, double *out);")
 _timer: list[Any] = []
 
@@ -64,11 +76,13 @@ def address(build: Any, name: str) -> int:
         compiled.lib, compiled.prefix + name)))
 
 
-def call_loops(model: Any, names: list[str], count: int = 100_000
+def call_loops(model: Any, names: list[str], count: int = 100_000, cpu: bool = False
                ) -> dict[str, tuple[Any, int]]:
     """common.interleaved's contenders for one call's cost, each COUNT calls in the C loop:
     the plain rhs, the sensitivity system's with the NAMES' columns and with none (the
-    state's part and J alone)."""
+    state's part and J alone). CPU: each returns the loop's CPU time per call in ns (the
+    thread's clock: on a loaded machine, the time another process held the CPU left out)
+    instead of calling the loop (common.interleaved's wall-clock timing)."""
     from nemc.runtime.sensitivities import columns, sensitivity_build
 
     timer = call_timer()
@@ -88,7 +102,8 @@ def call_loops(model: Any, names: list[str], count: int = 100_000
 
     def loop(where: int, state: np.ndarray, params: np.ndarray) -> Any:
         held = (buffer("double[]", state), buffer("double[]", params), buffer("double[]", out))
-        return lambda: timer.lib.ns_per_call(where, count, *held)
+        timed = timer.lib.cpu_ns_per_call if cpu else timer.lib.ns_per_call
+        return lambda: timed(where, count, *held)
 
     return {name: (loop(*args), count) for name, args in arguments.items()}
 

@@ -195,6 +195,20 @@ def test_sensitivities_smoke_mode_writes_its_table(tmp_path: Path) -> None:
     assert (out / "sensitivities-latest.md").read_text().startswith("# Sensitivities")
 
 
+def test_loop_sensitivities_smoke_mode_writes_its_table(tmp_path: Path) -> None:
+    out = run_script("loop_sensitivities.py", tmp_path)
+    result = json.loads((out / "loop_sensitivities-latest.json").read_text())
+    (row,) = result["rows"]
+    assert row["example"] == "fourbar" and len(row["columns"]) == 5
+    for clock in ("wall", "cpu"):
+        assert row["times"]["plain"][clock]["median"] > 0
+        assert row["times"]["sensitivities"][clock]["median"] > 0
+    assert row["nfev"][1] > row["nfev"][0]  # the columns in the error control
+    assert row["error"] < 1e-8  # the columns against scipy's tight run of the same system
+    text = (out / "loop_sensitivities-latest.md").read_text()
+    assert text.startswith("# A closed loop's sensitivities")
+
+
 def test_friction_smoke_mode_compares_exact_friction_with_the_tanh_law(tmp_path: Path) -> None:
     out = run_script("friction.py", tmp_path)
     result = json.loads((out / "friction-latest.json").read_text())

@@ -7,13 +7,16 @@ linear tangent, and each sensitivity column a small dense product; a long progra
 runs forward once per column. At the scene's events, the columns' jump and the event times'
 sensitivities (templates/event_sensitivities.c.tmpl), from each event's partial derivatives.
 A closed loop's system is templates/loop_sensitivities.c.tmpl (the same sensitivity_rhs
-signature: its pieces' program once, their tangent per column, the index-1 equations'
-derivative solved), with loop_sensitivity_pieces for the runtime's start columns.
+signature: its pieces' program once, their tangent's coefficients once (hoisted_tangent: its
+many pieces would cost a reverse sweep each), then per column the tangent's forward sweep and
+the index-1 equations' derivative solved), with loop_sensitivity_pieces for the runtime's
+start columns.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 import sympy
 
@@ -84,9 +87,13 @@ def loop_sensitivities(eqs: Equations, block: Block, printer: SymbolTablePrinter
     primal, tangent = jacobian_programs(eqs, printer, programs["dynamics"],
                                         programs["sensitivities"], chunk_steps, units,
                                         (LOOP_PRIMAL, LOOP_TANGENT))
+    dense = dense_programs(eqs, block, printer, chunk_steps, (LOOP_PRIMAL, LOOP_TANGENT),
+                           hoisted_tangent)
+    rhs_primal, coefficients, rhs_tangent = dense or (primal, "", tangent)
     system = template("loop_sensitivities.c.tmpl").substitute(
         prefix=prefix, loop_sensitivity_parts=primal.functions + tangent.functions,
-        primal=primal.body, tangent=tangent.body,
+        primal=primal.body, tangent=tangent.body, rhs_primal=rhs_primal.body,
+        coefficients=coefficients, rhs_tangent=rhs_tangent.body,
         initial=body(printer, block, initial_rows(eqs, block)))
     if "sensitivity_outputs_tangent" not in programs:
         outputs = template("output_sensitivities_absent.c.tmpl").substitute(prefix=prefix)
@@ -147,24 +154,44 @@ def event_partials_case(eqs: Equations, block: Block, printer: SymbolTablePrinte
 def system_programs(eqs: Equations, block: Block, printer: SymbolTablePrinter,
                     chunk_steps: int, units: Units | None) -> tuple[Printed, str, Printed]:
     """The system's primal, what is computed once before the columns and each column's steps:
-    J formed once and a product per column (jacobian_tangent) where the programs are short
+    J formed once and a product per column (dense_programs) where the programs are short
     enough for one body, else the tangent as the Jacobian prints it (in parts), run forward
     for every column."""
+    dense = dense_programs(eqs, block, printer, chunk_steps, (PRIMAL, TANGENT),
+                           jacobian_tangent)
+    if dense is not None:
+        return dense
     programs = block.programs
-    dynamics, tangent = programs["dynamics"], programs["sensitivities"]
-    if max(dynamics.size, tangent.size) <= chunk_steps:
-        angles = angles_c(eqs, printer, dynamics, tangent)
-        assert angles.reader is not None
-        seeds = set(eqs.sensitivities.tangents.seeds.values()) if eqs.sensitivities else set()
-        dense = jacobian_tangent(angles.printer.with_names({}, order="none"), angles.reader,
-                                 seeds)
-        if dense is not None:
-            primal = Printed("", angles.prologue + program_body(angles.printer, angles.program,
-                                                                PRIMAL.writes))
-            return primal, dense[0], Printed("", dense[1])
-    primal, columns = jacobian_programs(eqs, printer, dynamics, tangent, chunk_steps, units,
+    primal, columns = jacobian_programs(eqs, printer, programs["dynamics"],
+                                        programs["sensitivities"], chunk_steps, units,
                                         (PRIMAL, TANGENT))
     return primal, "", columns
+
+
+def dense_programs(eqs: Equations, block: Block, printer: SymbolTablePrinter,
+                   chunk_steps: int, callers: tuple[Caller, Caller],
+                   columns: Callable[..., tuple[str, str] | None]
+                   ) -> tuple[Printed, str, Printed] | None:
+    """The program's primal (written through CALLERS[0]'s macro), the lines computed once per
+    call before the columns and each column's lines (through CALLERS[1]'s macro), as COLUMNS
+    prints them from the linear tangent: J formed once and a dense product per column
+    (jacobian_tangent: a tree's accelerations and drives), or the coefficients once and a
+    forward sweep per column (hoisted_tangent: a closed loop's pieces). None where the
+    programs are too long for one body or the tangent is not linear (linear_steps)."""
+    programs = block.programs
+    dynamics, tangent = programs["dynamics"], programs["sensitivities"]
+    if max(dynamics.size, tangent.size) > chunk_steps:
+        return None
+    angles = angles_c(eqs, printer, dynamics, tangent)
+    assert angles.reader is not None
+    seeds = set(eqs.sensitivities.tangents.seeds.values()) if eqs.sensitivities else set()
+    dense = columns(angles.printer.with_names({}, order="none"), angles.reader, seeds,
+                    callers[1].results[0])
+    if dense is None:
+        return None
+    primal = Printed("", angles.prologue + program_body(angles.printer, angles.program,
+                                                        callers[0].writes))
+    return primal, dense[0], Printed("", dense[1])
 
 
 def output_sensitivities(eqs: Equations, block: Block, printer: SymbolTablePrinter,
@@ -192,7 +219,11 @@ def output_sensitivities(eqs: Equations, block: Block, printer: SymbolTablePrint
 # rows), in one sweep per row, once per call; each column is then the dense product
 # DQDD = J [s_j; e_j], a few multiply-adds a row, where the forward tangent ran the whole
 # program again for every column (the double pendulum's 9 columns: 75 against 100 ns a call,
-# benchmarks/sensitivities.py's breakdown).
+# benchmarks/sensitivities.py's breakdown). A closed loop's tangent has many results (its
+# pieces: 21 on the four-bar), each row a reverse sweep: J cost more than the columns saved
+# (the four-bar's call without columns 159 -> 257 ns, the slider-crank's 5 columns' call 523 ->
+# 601 ns), so its steps' coefficients are named once and each column sweeps forward through
+# them (hoisted_tangent: 59 -> 52 ns a column; benchmarks/loop_sensitivities.py).
 
 Linear = dict[sympy.Symbol, sympy.Expr]  # tangent symbol -> its coefficient
 
@@ -253,11 +284,11 @@ class Constants:
                                        order="none")
 
 
-def jacobian_tangent(printer: SymbolTablePrinter, tangent: Program, seeds: set[sympy.Symbol]
-                     ) -> tuple[str, str] | None:
-    """The tangent as (the lines forming J before the loop over the columns; each column's
-    product DQDD = J [seed; seed_p]), or None where a step is not linear or the program has
-    guards (then printed as the Jacobian's tangent is, per column)."""
+def linear_steps(printer: SymbolTablePrinter, tangent: Program, seeds: set[sympy.Symbol]
+                 ) -> tuple[Constants, list[tuple[sympy.Symbol, Linear]], list[Linear]] | None:
+    """The tangent's steps and results as linear forms in the seeds and earlier steps, each
+    step's coefficient named once (Constants), or None where a step is not linear or the
+    program has guards (then printed as the Jacobian's tangent is, per column)."""
     if any(isinstance(step, Guard) for step in tangent.steps):
         return None
     tangents = frozenset(seeds | {name for name, _ in tangent.assignments()})
@@ -268,12 +299,45 @@ def jacobian_tangent(printer: SymbolTablePrinter, tangent: Program, seeds: set[s
         return None
     constants = Constants(printer)
     steps = [(name, {symbol: constants.named(coefficient) for symbol, coefficient in form.items()})
-             for name, form in steps]  # each coefficient computed once, for every row's sweep
+             for name, form in steps]  # each coefficient computed once, for every column
+    return constants, steps, results
+
+
+def jacobian_tangent(printer: SymbolTablePrinter, tangent: Program, seeds: set[sympy.Symbol],
+                     target: str = "DQDD") -> tuple[str, str] | None:
+    """The tangent as (the lines forming J before the loop over the columns; each column's
+    product TARGET = J [seed; seed_p], TARGET the results' macro), or None (linear_steps)."""
+    linear = linear_steps(printer, tangent, seeds)
+    if linear is None:
+        return None
+    constants, steps, results = linear
     rows = [jacobian_row(steps, result, constants) for result in results]
     inner = constants.names()
-    loop = [f"        DQDD({i}) = "
+    loop = [f"        {target}({i}) = "
             f"{inner.doprint(sympy.Add(*(entry * seed for seed, entry in row.items())))};"
             for i, row in enumerate(rows)]
+    return "\n".join(constants.lines), "\n".join(loop)
+
+
+def hoisted_tangent(printer: SymbolTablePrinter, tangent: Program, seeds: set[sympy.Symbol],
+                    target: str = "DQDD") -> tuple[str, str] | None:
+    """The tangent as (the lines naming each step's coefficients before the loop over the
+    columns; each column's forward sweep, every step a sum of coefficient x tangent into
+    TARGET), or None (linear_steps). Where the results are many (a closed loop's pieces) J's
+    rows cost a reverse sweep each: the forward sweep per column is then the cheaper."""
+    linear = linear_steps(printer, tangent, seeds)
+    if linear is None:
+        return None
+    constants, steps, results = linear
+    results = [{symbol: constants.named(c) for symbol, c in form.items()} for form in results]
+    names = {name: f"dv{k}" for k, (name, _) in enumerate(steps)}
+    inner = constants.names().with_names(names, order="none")
+
+    def text(form: Linear) -> str:
+        return inner.doprint(sympy.Add(*(c * symbol for symbol, c in form.items())))
+
+    loop = [f"        const double {names[name]} = {text(form)};" for name, form in steps]
+    loop += [f"        {target}({i}) = {text(form)};" for i, form in enumerate(results)]
     return "\n".join(constants.lines), "\n".join(loop)
 
 

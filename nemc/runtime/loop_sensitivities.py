@@ -59,53 +59,58 @@ def refused_entries(model: BuiltModel, names: tuple[str, ...], given: np.ndarray
 def pieces(build: BuiltModel, t: float, y: np.ndarray, p: np.ndarray, seed: np.ndarray,
            seed_p: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     """The loop's pieces at (t, y) and their derivative along (SEED, SEED_P), by meaning."""
+    at, moved = pieces_along(build, t, y, p, seed[:, None], seed_p[None, :])
+    return at, {name: value[0] for name, value in moved.items()}
+
+
+def pieces_along(build: BuiltModel, t: float, y: np.ndarray, p: np.ndarray, seeds: np.ndarray,
+                 seeds_p: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """The loop's pieces at (t, y) and their derivatives along each column j, (SEEDS[:, j],
+    SEEDS_P[j]), by meaning (a row per column)."""
     meta = build.metadata
     n, drives = len(build.coordinate_names), len(meta["drive_names"])
     m = len(meta["constraint_equations"])
     size = (m + 1) * (n + drives) + m * (n + 3)
-    acc, dacc = np.empty(size), np.empty(size)
+    acc, dacc = np.empty(size), np.empty((seeds.shape[1], size))
     compiled = build.compiled
     buffer = compiled.buffer
     call = compiled.function("loop_sensitivity_pieces")
     if call is None:
         raise ModelError("sensitivities: this package was built by an nemc without a closed "
                          "loop's sensitivities: compile it again (nemc compile --sensitivities)")
-    status = call(
-        float(t), buffer(np.ascontiguousarray(y)), buffer(p), buffer(np.ascontiguousarray(seed)),
-        buffer(np.ascontiguousarray(seed_p)), buffer(acc), buffer(dacc))
-    if status:
-        raise ModelError(f"sensitivities: the closed loop's pieces failed at the start "
-                         f"({compiled.status_cause(status)})")
+    at_y, at_p, out = buffer(np.ascontiguousarray(y)), buffer(p), buffer(acc)
+    for j in range(seeds.shape[1]):
+        status = call(float(t), at_y, at_p, buffer(np.ascontiguousarray(seeds[:, j])),
+                      buffer(np.ascontiguousarray(seeds_p[j])), out, buffer(dacc[j]))
+        if status:
+            raise ModelError(f"sensitivities: the closed loop's pieces failed at the start "
+                             f"({compiled.status_cause(status)})")
     layout = LoopPieces(n, drives, m, acc, dacc)
     return layout.split(acc), layout.split(dacc)
 
 
-def started(build: BuiltModel, spec: RunSpec, given: np.ndarray, start: np.ndarray,
-            direction: np.ndarray) -> np.ndarray:
-    """One column's start in the tangent space at the assembled state: START's given entries
-    kept, the solved coordinates then the solved rates solved (least squares)."""
+def start_columns(build: BuiltModel, spec: RunSpec, given: np.ndarray, starts: np.ndarray,
+                  directions: np.ndarray) -> np.ndarray:
+    """Every column's start (n_state x k) in the tangent space at the assembled state, from its
+    given start STARTS[:, j] (its given entries kept) and its direction DIRECTIONS[j]: the
+    solved coordinates then the solved rates, every column's in one least-squares solve."""
     t0, y0, p = spec.span[0], spec.state0, spec.p
-    s = np.where(given, start, 0.0)
+    s = np.where(given[:, None], starts, 0.0)
     solved_q = [i for i in range(y0.size // 2) if not given[2 * i]]
     solved_u = [i for i in range(y0.size // 2) if not given[2 * i + 1]]
-    at, moved = pieces(build, t0, y0, p, s, direction)
+    if not s.shape[1]:
+        return s
+    at, moved = pieces_along(build, t0, y0, p, s, directions)
     phi_q = at["phi_q"]
     if solved_q:
-        s[[2 * i for i in solved_q]] = np.linalg.lstsq(phi_q[:, solved_q], -moved["phi"],
+        s[[2 * i for i in solved_q]] = np.linalg.lstsq(phi_q[:, solved_q], -moved["phi"].T,
                                                        rcond=None)[0]
-    at, moved = pieces(build, t0, y0, p, s, direction)
-    rates = phi_q @ s[1::2] + moved["phi_q"] @ y0[1::2] + moved["phi_t"]
+        at, moved = pieces_along(build, t0, y0, p, s, directions)
+    rates = phi_q @ s[1::2] + (moved["phi_q"] @ y0[1::2] + moved["phi_t"]).T
     if solved_u:
         s[[2 * i + 1 for i in solved_u]] = np.linalg.lstsq(phi_q[:, solved_u], -rates,
                                                            rcond=None)[0]
     return s
-
-
-def start_columns(build: BuiltModel, spec: RunSpec, given: np.ndarray, starts: np.ndarray,
-                  directions: np.ndarray) -> np.ndarray:
-    """Every column's start (n_state x k) from its given start and its direction."""
-    return np.array([started(build, spec, given, starts[:, j], directions[j])
-                     for j in range(directions.shape[0])]).T.copy()
 
 
 def singular_noted(model: BuiltModel, result: SimulationResult) -> SimulationResult:
