@@ -18,7 +18,7 @@ import nemc
 ROOT = Path(__file__).parent.parent
 EXAMPLES = ROOT / "examples"
 DATA = Path(__file__).parent / "data" / "friction"
-METHODS = ["nemc.Vern9", "nemc.DOP853"]
+METHODS = ["nemc.Vern9", "nemc.DOP853", "DOP853", "RK45"]  # scipy's: nemc/runtime/account.py
 BALANCE = 1e-8  # the power balance's tolerance (J)
 
 
@@ -56,11 +56,12 @@ def test_the_power_balance_of_the_friction_and_contact_examples(example: str,
 
 
 @pytest.mark.parametrize("method", METHODS)
-def test_the_power_balance_holds_at_every_step_too(coulomb_block: nemc.Model,
-                                                   method: str) -> None:
-    """t_eval None: the account recorded at each step (and each impact) as the states are."""
-    result = coulomb_block.simulate(method=method, t_eval=None)
-    assert result.t.size > 10
+@pytest.mark.parametrize("example", ["coulomb_block", "ball_to_rest"])
+def test_the_power_balance_holds_at_every_step_too(example: str, method: str) -> None:
+    """t_eval "steps": the account recorded at each step (the state before and after each
+    impact) as the states are."""
+    result = nemc.compile(EXAMPLES / f"{example}.yaml").simulate(method=method, t_eval="steps")
+    assert 30 < result.t.size < 600  # the steps, not the scene's times
     assert balance_error(result) < BALANCE
 
 
