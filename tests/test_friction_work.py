@@ -110,6 +110,20 @@ def test_a_block_sliding_down_a_fixed_incline_does_minus_mu_n_d() -> None:
     assert balance_error(result) < BALANCE
 
 
+@pytest.mark.parametrize("method", METHODS)
+def test_the_power_balance_of_the_slider_crank_with_friction(method: str) -> None:
+    """examples/slider_crank_friction.yaml (a closed loop) with its motor off, the crank
+    thrown: the slider slips and sticks (243 stuck samples), the friction takes 10.9 J; the
+    balance to the run's error (rtol 1e-11: 1.6e-10 J)."""
+    model = nemc.compile(EXAMPLES / "slider_crank_friction.yaml")
+    result = model.simulate(method=method, params={"T0": 0.0}, rtol=1e-11, atol=1e-13,
+                            y0={"q1": math.pi / 3, "dot(q1)": 30.0})
+    assert result.success
+    assert np.any(result.outputs["S.stuck"] == 1.0)
+    assert result.outputs["S.friction_work"][-1] < -10.0
+    assert balance_error(result) < BALANCE
+
+
 def test_the_stick_slip_oscillators_dissipation_is_the_closed_forms() -> None:
     """tests/data/friction/stick_slip.yaml (tests/contact_reference.py's StickSlip): stuck
     until k x = mu_s m g, then n limit cycles, each dissipating mu_k m g (v slip_time + 2 D)."""
