@@ -86,17 +86,6 @@ class Friction:
                                      f"solved: {cause}")
         return y, p
 
-    @property
-    def account_names(self) -> tuple[str, ...]:
-        """The work account's outputs (account_outputs), in the items' order."""
-        names: list[str] = []
-        for name, law in zip(self.items, self.laws):
-            if law == COULOMB_LAW:
-                names.append(f"{name}.friction_work")
-            elif law == CONTACT_LAW:
-                names += [f"{name}.friction_work", f"{name}.impact_loss"]
-        return tuple(names)
-
     def account_outputs(self, work: np.ndarray) -> dict[str, np.ndarray]:
         """The work account as outputs, from each item's work up to each time (n_t, items;
         templates/run_control.c.tmpl): a joint's NAME.friction_work (its friction's work, <= 0
