@@ -8,11 +8,13 @@ read from the run's own parameter vector, where the generated C's impact adds it
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from .compiled import Compiled
+from .failures import IntegrationFailure
 
 _X, _W = np.polynomial.legendre.leggauss(7)
 NODES, WEIGHTS = (1 + _X) / 2, _W / 2  # on [0, 1]: exact to degree 13
@@ -29,8 +31,9 @@ def fractions(theta: float) -> np.ndarray:
 class Account:
     """One run's work account: each item's work so far, advanced segment by segment."""
 
-    def __init__(self, compiled: Compiled, p: np.ndarray, items: int):
-        self.compiled, self.p = compiled, p
+    def __init__(self, compiled: Compiled, p: np.ndarray, items: int,
+                 state_names: Sequence[str]):
+        self.compiled, self.p, self.state_names = compiled, p, state_names
         self.powers = compiled.function("friction_powers")
         self.work = np.zeros(items)
         self.rows: list[np.ndarray] = []  # the work at each returned time, segment by segment
@@ -41,9 +44,9 @@ class Account:
         buffer = self.compiled.buffer
         status = self.powers(t, buffer(np.ascontiguousarray(y, dtype=float)), buffer(self.p),
                              buffer(out))
-        if status:
-            raise RuntimeError(f"the friction's power at t = {t:g} failed: "
-                               f"{self.compiled.status_cause(status)}")
+        if status:  # the run ends there, its states so far kept (_Segments.run)
+            raise IntegrationFailure(t, y, status, self.state_names,
+                                     self.compiled.status_cause(status))
         return out
 
     def segment(self, sol: Any, times: np.ndarray) -> None:

@@ -40,7 +40,7 @@ def simulate_scipy(model: BuiltModel, spec: RunSpec) -> SimulationResult:
                 None if spec.times is None else np.asarray(spec.times, dtype=float), options,
                 model_events, spec.user_events, settings, flag,
                 functools.partial(SwitchingSegments, account=Account(
-                    model.compiled, p, len(model.friction.items)))
+                    model.compiled, p, len(model.friction.items), model.state_names))
                 if model.friction.present else None)
     except IntegrationFailure as failure:  # the Jacobian's, before the run
         return failed(failure, method, rtol, atol, model.parameters_at(p))
