@@ -105,13 +105,21 @@ def test_a_burst_is_the_tightest_run_of_consecutive_events() -> None:
     assert switches.tightest_bursts(events[:switches.CHATTER_COUNT - 1]) == ()
 
 
-def test_the_energy_balance_closes_where_friction_is_the_only_loss() -> None:
+def test_the_energy_balance_closes_where_friction_and_impacts_are_the_only_losses() -> None:
     """The Coulomb block on a joint spring (in the energy): the energy it loses is the friction's
-    work, to the Simpson integral's error; with the belt's driven spring (stick_slip, not in
-    the energy) the rest is that spring's work, not 0."""
+    work; the spinning ball (ball_to_rest): the impacts' losses and the friction's work, the
+    closed form's (tests/contact_reference.py); both to the run's error. With the belt's
+    driven spring (stick_slip, not in the energy) the rest is that spring's work, not 0."""
     block = compile_mechanism(EXAMPLES / "coulomb_block.yaml", True, energy=True).model
     balance = stress.energy_balance(block, block.scene["t_span"])
-    assert balance.change < -1.0 and abs(balance.rest) < 1e-7 * abs(balance.change)
+    assert balance.change < -1.0 and abs(balance.rest) < 1e-9 * abs(balance.change)
+    assert balance.impact_loss == 0.0
+    ball = compile_mechanism(EXAMPLES / "ball_to_rest.yaml", True, energy=True).model
+    balance = stress.energy_balance(ball, ball.scene["t_span"])
+    rest = ball_rest(Ball())
+    assert balance.impact_loss == pytest.approx(rest.impact_loss, rel=1e-10)
+    assert balance.friction_work == pytest.approx(rest.friction_work, rel=1e-10)
+    assert abs(balance.rest) < 1e-9 * abs(balance.change)
     belt = compile_mechanism(EXAMPLES / "stick_slip.yaml", True, energy=True).model
     assert abs(stress.energy_balance(belt, belt.scene["t_span"]).rest) > 1.0
 

@@ -42,6 +42,7 @@ def metadata(eqs: Equations, prefix: str) -> dict:
         "drive_names": [joint.name for joint in mech.driven],
         "load_outputs": load_outputs(mech),
         "friction": list(eqs.friction.names) if eqs.friction is not None else [],
+        "friction_laws": list(eqs.friction.laws) if eqs.friction is not None else [],
         "friction_rates": [2 * i + 1 for i in eqs.friction.rates]
         if eqs.friction is not None else [],  # the state entries of their joints' rates
         "constraint_equations": list(eqs.loops.owners) if eqs.loops is not None else [],

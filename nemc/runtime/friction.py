@@ -27,6 +27,7 @@ from .failures import IntegrationFailure, ModelError
 FRICTION_METHODS = ("nemc.Vern9", "nemc.DOP853")  # explicit, their events in C
 SCIPY_FRICTION_METHODS = ("RK45", "RK23", "DOP853")  # explicit, driven by scipy_switches.py
 FRICTION_METHOD = "nemc.Vern9"  # method "auto"'s choice with friction
+COULOMB_LAW, CONTACT_LAW, TANGENT_LAW = 0, 1, 2  # an item's law (friction.c.tmpl's)
 
 
 class Friction:
@@ -34,6 +35,7 @@ class Friction:
 
     def __init__(self, metadata: Mapping[str, Any], compiled: Compiled):
         self.items: tuple[str, ...] = tuple(metadata.get("friction", ()))
+        self.laws: tuple[int, ...] = tuple(metadata.get("friction_laws", ()))
         self.rates: list[int] = list(metadata.get("friction_rates", ()))
         self.present = bool(self.items)
         self.compiled = compiled
@@ -83,6 +85,23 @@ class Friction:
             raise IntegrationFailure(f"the friction at the start (t = {t0:g}) cannot be "
                                      f"solved: {cause}")
         return y, p
+
+    def account_outputs(self, work: np.ndarray) -> dict[str, np.ndarray]:
+        """The work account as outputs, from each item's work up to each time (n_t, items;
+        templates/run_control.c.tmpl): a joint's NAME.friction_work (its friction's work, <= 0
+        where it dissipates); a contact's NAME.friction_work (its friction's, in the lasting
+        contact and the impacts' tangent impulses; 0 without mu) and NAME.impact_loss (the
+        energy its normal impulses took, >= 0)."""
+        named: dict[str, np.ndarray] = {}
+        for k, (name, law) in enumerate(zip(self.items, self.laws)):
+            if law == COULOMB_LAW:
+                named[f"{name}.friction_work"] = work[:, k].copy()
+            elif law == CONTACT_LAW:
+                tangent = k + 1 < len(self.laws) and self.laws[k + 1] == TANGENT_LAW
+                named[f"{name}.friction_work"] = work[:, k + 1].copy() if tangent else \
+                    np.zeros(work.shape[0])
+                named[f"{name}.impact_loss"] = -work[:, k]
+        return named
 
     def inferring(self, p: np.ndarray) -> np.ndarray:
         """P with the modes read from the state (NaN): what a run's outputs are computed with,

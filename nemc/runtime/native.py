@@ -18,7 +18,7 @@ from .compiled import Compiled
 from .failures import IntegrationFailure, ModelError
 from .inputs import RunInputs
 from .outcome import RunSpec, ended_early, failed_after, gave_up, lazy_outputs
-from .results import SUCCESS_MESSAGE, SimulationResult
+from .results import SUCCESS_MESSAGE, SimulationResult, with_outputs
 
 
 def native_build(model: BuiltModel, method: str) -> BuiltModel:
@@ -99,6 +99,7 @@ def simulate_native(model: BuiltModel, spec: RunSpec, ending: list | None = None
     out = np.empty((max(n_eval, 0) + 1, n))
     run.y_eval = out_buffer = buffer(out)
     run.y_fail = out_buffer + max(n_eval, 0) * n
+    work = account_buffer(model, run, n_eval)
     has_events = bool(compiled.event_table)
     try:
         status = run_in_c(compiled, integrate, method_id, run, buffer(spec.state0),
@@ -106,10 +107,13 @@ def simulate_native(model: BuiltModel, spec: RunSpec, ending: list | None = None
         n_out = run.n_out
         if n_eval < 0:
             t, y = taken_steps(compiled, run)
+            work = taken_work(compiled, run) if work is not None else None
         elif n_out == n_eval:
             t, y = keep[0], out[:-1].T
         else:
             t, y = keep[0][:n_out], out[:n_out].T
+        if work is not None:
+            work = work[:n_out]
         events = taken_events(compiled, run) if has_events else {}
     finally:
         if n_eval < 0 or has_events:  # else the run malloc'ed nothing
@@ -129,11 +133,36 @@ def simulate_native(model: BuiltModel, spec: RunSpec, ending: list | None = None
                             events, (rtol, atol))
     else:
         message = native_message(model, spec, run, out[-1])
+    outputs = lazy_outputs(model, t, y, p, spec.inputs)
+    if work is not None and t.size:
+        outputs = with_outputs(outputs, model.friction.account_outputs(work))
     # positional, in the fields' order: keywords cost 0.4 us more (issue 19)
     return SimulationResult(
-        t, y, lazy_outputs(model, t, y, p, spec.inputs), run.nfev, run.njev, run.nlu, status,
+        t, y, outputs, run.nfev, run.njev, run.nlu, status,
         message,
         status >= 0, method, rtol, atol, model.parameters_at(p), events)
+
+
+def account_buffer(model: BuiltModel, run: Any, n_eval: int) -> np.ndarray | None:
+    """The work account's buffer (n_eval x items) set in RUN for a model with Coulomb
+    friction or contacts (templates/run_control.c.tmpl keeps each item's work at every
+    t_eval point; with n_eval -1 at every step, malloc'ed by the run), else None."""
+    if not model.friction.present:
+        return None
+    run.n_work = len(model.friction.items)
+    work = np.zeros((max(n_eval, 0), run.n_work))
+    if n_eval > 0:
+        run.work_eval = model.compiled.buffer(work)
+    return work
+
+
+def taken_work(compiled: Compiled, run: Any) -> np.ndarray:
+    """Copy the work account C malloc'ed with the step record (n_out x items)."""
+    count, m = run.n_out, run.n_work
+    if not count or not m or run.steps_work == compiled.ffi.NULL:
+        return np.zeros((count, m))
+    return np.frombuffer(compiled.ffi.buffer(run.steps_work, 8 * count * m),
+                         dtype=float).reshape(count, m).copy()
 
 
 def table_inputs(compiled: Compiled, run: Any, inputs: RunInputs, n_parameters: int

@@ -51,6 +51,19 @@ class LazyOutputs(Mapping[str, np.ndarray]):
 NO_OUTPUTS = LazyOutputs(dict)  # the outputs of a result without any (nothing to compute)
 
 
+def merged_outputs(outputs: Mapping[str, np.ndarray], more: Mapping[str, np.ndarray]
+                   ) -> dict[str, np.ndarray]:
+    """OUTPUTS (computed now, where lazy) followed by MORE."""
+    return {**outputs, **more}
+
+
+def with_outputs(outputs: Mapping[str, np.ndarray], more: Mapping[str, np.ndarray]
+                 ) -> LazyOutputs:
+    """OUTPUTS and then MORE (a run's own outputs: the work account), still computed when
+    first read."""
+    return LazyOutputs(merged_outputs, outputs, more)
+
+
 @dataclass
 class SimulationResult:
     """As scipy's OdeResult, plus the scene's outputs at every returned time (computed when

@@ -521,6 +521,7 @@ class ScipyOutcome:
     message: str
     events: dict[str, tuple[np.ndarray, np.ndarray]]
     ending: dict[str, Any] = field(default_factory=dict)  # Ending's fields, when it ended early
+    work: np.ndarray | None = None  # the work account at each time (friction, contacts)
 
 
 class _Segments:

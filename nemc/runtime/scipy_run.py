@@ -4,17 +4,19 @@ handed to it, under the same run settings and with the same messages as the nati
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from ..vocabulary import IMPLICIT_METHODS
 from . import runs
+from .account import Account
 from .built import BuiltModel
 from .failures import IntegrationFailure
 from .inputs import RunInputs
 from .outcome import RunSpec, ended_early, failed, failed_after, gave_up, lazy_outputs
-from .results import SimulationResult
+from .results import SimulationResult, with_outputs
 from .scipy_switches import SwitchingSegments
 
 
@@ -38,7 +40,9 @@ def simulate_scipy(model: BuiltModel, spec: RunSpec) -> SimulationResult:
                 solve_ivp, rhs, method, spec.span, spec.state0,
                 None if spec.times is None else np.asarray(spec.times, dtype=float), options,
                 model_events, spec.user_events, settings, flag,
-                SwitchingSegments if model.friction.present else None)
+                functools.partial(SwitchingSegments, account=Account(
+                    model.compiled, p, len(model.friction.items), model.state_names))
+                if model.friction.present else None)
     except IntegrationFailure as failure:  # the Jacobian's, before the run
         return failed(failure, method, rtol, atol, model.parameters_at(p))
     status, message = outcome.status, outcome.message
@@ -55,9 +59,11 @@ def simulate_scipy(model: BuiltModel, spec: RunSpec) -> SimulationResult:
         message = gave_up(model, message, *rhs.last, p)
     elif status == runs.REACHED_END and not math.isnan(control.stiff_from):
         message += runs.stiffness_note(control.stiff_from)
+    outputs = lazy_outputs(model, outcome.t, outcome.y, p, spec.inputs)
+    if outcome.work is not None and outcome.t.size:
+        outputs = with_outputs(outputs, model.friction.account_outputs(outcome.work))
     return SimulationResult(
-        t=outcome.t, y=outcome.y,
-        outputs=lazy_outputs(model, outcome.t, outcome.y, p, spec.inputs),
+        t=outcome.t, y=outcome.y, outputs=outputs,
         nfev=outcome.nfev, njev=outcome.njev, nlu=outcome.nlu, status=status,
         message=message, success=status >= 0, method=method, rtol=rtol, atol=atol,
         params=model.parameters_at(p), events=outcome.events,

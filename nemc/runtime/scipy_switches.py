@@ -13,6 +13,8 @@ switch event (NEMC_SWITCH), done around solve_ivp.
   and 3/4 (switch_inside): a mechanism at rest takes long steps over which a holding margin
   driven by a time-varying load may dip below 0 and come back. Found there, the step is taken
   again, ending at that sample, and solve_ivp's own search at the step's end locates the root.
+- The work account (account.py): each segment's steps on their dense output, each impact's
+  impulses' work after its law.
 """
 
 from __future__ import annotations
@@ -21,7 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from .runs import CHATTER_FRACTION, _Segments
+from .account import Account
+from .runs import CHATTER_FRACTION, ScipyOutcome, _Segments
 
 SWITCH_SAMPLES = 4  # as run_control.c.tmpl: also at 1/4, 1/2 and 3/4 of each step
 EPS = np.finfo(float).eps
@@ -31,8 +34,11 @@ class SwitchingSegments(_Segments):
     """_Segments with friction's switch events (action "switch") handled as the native
     drivers handle them."""
 
-    def __init__(self, *args: Any, **kwargs: Any):
+    def __init__(self, *args: Any, account: Account | None = None, **kwargs: Any):
         super().__init__(*args, **kwargs)
+        self.account = account
+        if account is not None:
+            self.options = {**self.options, "dense_output": True}
         events = self.model_events
         assert events is not None
         self.switches = [k for k, action in enumerate(events.actions) if action == "switch"]
@@ -47,6 +53,27 @@ class SwitchingSegments(_Segments):
             if until_side and self.direction * (until_side[0] - t) >= 0:
                 signs[i] = until_side[1]
         return signs
+
+    def segment(self, t0: float, t1: float, y0: np.ndarray, first: bool) -> Any:
+        """_Segments.segment, and the work account along it."""
+        sol = super().segment(t0, t1, y0, first)
+        if self.account is not None:
+            self.account.segment(sol, self.ts[-1])
+        return sol
+
+    def after_termination(self, sol: Any) -> tuple[float, np.ndarray] | ScipyOutcome:
+        """_Segments.after_termination, and the impacts' work added to the account."""
+        after = super().after_termination(sol)
+        if self.account is not None:
+            self.account.impacts()
+        return after
+
+    def outcome(self, status: int, message: str) -> ScipyOutcome:
+        """_Segments.outcome, with the work account at the returned times."""
+        done = super().outcome(status, message)
+        if self.account is not None:
+            done.work = self.account.along()
+        return done
 
     def inside(self, solver: Any, t_old: float) -> float | None:
         """The step just accepted (from t_old to solver.t): the length of the step to take

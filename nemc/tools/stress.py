@@ -6,7 +6,8 @@ horizon, sensitivity to the initial state (largest Lyapunov exponent), stiffness
 eigenvalues along the trajectory), conditioning of the mass matrix, and the error estimate of
 one run that `nemc simulate --error-estimate` prints. Every run goes through `Model.simulate`.
 With Coulomb friction or contacts the methods are nemc.Vern9 and nemc.DOP853, the reference
-nemc.Vern9, and the energy is a balance against the friction's work (`energy_balance`).
+nemc.Vern9, and the energy is a balance against the friction's work and the impacts' losses
+(`energy_balance`, from the run's outputs NAME.friction_work and NAME.impact_loss).
 """
 
 from __future__ import annotations
@@ -266,34 +267,35 @@ def drift_exponent(drifts: Sequence[Drift], method: str) -> float:
 
 @dataclass(frozen=True)
 class Balance:
-    """The energy balance of a run with friction: the change of energy.total over it, and the
-    work of the joints' friction (the integral of each JOINT.friction times its joint's rate);
-    the rest is the other loads' work (driven, time-dependent or damping loads, not in the
-    energy) and what the contacts take (impacts, their friction), which no output gives."""
+    """The energy balance of a run with friction or contacts: the change of energy.total over
+    it, the friction's work (every NAME.friction_work: the joints' and the contacts', <= 0)
+    and what the impacts took (every NAME.impact_loss, >= 0); the rest is the other loads'
+    work (driven, time-dependent or damping loads, not in the energy)."""
 
     change: float
     friction_work: float
+    impact_loss: float = 0.0
 
     @property
     def rest(self) -> float:
-        return self.change - self.friction_work
+        return self.change - self.friction_work + self.impact_loss
 
 
-def energy_balance(model: Model, span: Sequence[float], params: Params = None,
-                   samples: int = 20001) -> Balance:
-    """The balance over SPAN of a run of the reference's method at REFERENCE_RTOL, the friction
-    power integrated by Simpson's rule over SAMPLES times (its kinks at the switches cost
-    about 1e-8 of the work)."""
-    from scipy.integrate import simpson
-
-    times = np.linspace(span[0], span[1], samples)
-    run = model.simulate(tuple(span), method=reference_method(model), t_eval=times,
+def energy_balance(model: Model, span: Sequence[float], params: Params = None) -> Balance:
+    """The balance over SPAN of a run of the reference's method at REFERENCE_RTOL, from the
+    run's work account (its outputs NAME.friction_work and NAME.impact_loss at the end)."""
+    run = model.simulate(tuple(span), method=reference_method(model),
+                         t_eval=np.array([span[0], span[1]], dtype=float),
                          rtol=REFERENCE_RTOL, atol=REFERENCE_RTOL * 1e-2, params=params)
-    total = run.outputs["energy.total"]
-    power = sum((run.outputs[f"{joint}.friction"] * run.y[rate]
-                 for joint, rate in zip(model.friction.items, model.friction.rates)
-                 if f"{joint}.friction" in run.outputs), np.zeros(run.t.size))
-    return Balance(float(total[-1] - total[0]), float(simpson(power, x=run.t)))
+    outputs = run.outputs
+    total = outputs["energy.total"]
+
+    def summed(suffix: str) -> float:
+        return float(sum(values[-1] for name, values in outputs.items()
+                         if name.endswith(suffix)))
+
+    return Balance(float(total[-1] - total[0]), summed(".friction_work"),
+                   summed(".impact_loss"))
 
 
 # -- constraint drift (closed loops) ----------------------------------------------------------

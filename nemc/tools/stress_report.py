@@ -256,14 +256,14 @@ def energy_section(st: Study) -> list[str]:
         b = st.balance
         return ["## Energy balance", "",
                 f"Friction and impacts take energy, so there is no drift to measure; instead "
-                f"(a {s.reference_method(st.model)} run at rtol {g(s.REFERENCE_RTOL)}, the "
-                "friction power integrated by Simpson's rule over 20001 times):", "",
+                f"(a {s.reference_method(st.model)} run at rtol {g(s.REFERENCE_RTOL)}, its "
+                "work account: the outputs NAME.friction_work and NAME.impact_loss):", "",
                 f"- Energy change E(end) − E(0): {g(b.change, 8)}.",
-                f"- Work of the joints' friction (∫ JOINT.friction · its rate dt): "
+                f"- Work of the friction (joints' and contacts', every NAME.friction_work): "
                 f"{g(b.friction_work, 8)}.",
+                f"- Energy the impacts took (every NAME.impact_loss): {g(b.impact_loss, 8)}.",
                 f"- The rest, {g(b.rest, 3)}: the other loads' work (driven, time-dependent or "
-                "damping loads, not in the energy) and what the contacts take (impacts, their "
-                "friction), which no output gives; 0 to the integration's error where neither "
+                "damping loads, not in the energy); 0 to the integration's error where none "
                 "is present.", ""]
     if not st.conservative:
         return head + [
