@@ -2,9 +2,11 @@
 issue 50): the slider-crank with its friction on a prismatic constraint against the same
 mechanism with its friction on the tree's prismatic joint (examples/slider_crank_friction.yaml,
 a different tree and a different code path: the joint's rate and reaction rather than the
-constraint's sliding speed and multiplier); a block on an incline held by a prismatic or slot
-constraint against the closed forms (it slides up, stops and sticks or slides back; pushed from
-rest it breaks free), with the energy its friction takes; and bad items, one clear error each."""
+constraint's sliding speed and multiplier), and the spec's own slider-crank file against the
+event-driven reference of tests/contact_reference.py; a block on an incline held by a
+prismatic or slot constraint against the closed forms (it slides up, stops and sticks or
+slides back; pushed from rest it breaks free), with the energy its friction takes; and bad
+items, one clear error each."""
 
 from __future__ import annotations
 
@@ -13,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from contact_reference import SliderCrank, slider_crank_run
 
 import nemc
 from nemc.errors import InputError
@@ -96,6 +99,25 @@ def test_the_slider_crank_moves_alike_both_ways(crank_both_ways) -> None:
                                atol=1e-9 * 40)
     np.testing.assert_array_equal(guide.outputs["guide.stuck"], joint.outputs["S.stuck"])
     assert 0 < guide.outputs["guide.stuck"].sum() < len(guide.t)  # both modes are seen
+
+
+@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853"])
+def test_the_specs_slider_crank_on_its_guide_switches_as_the_reference(method: str) -> None:
+    """tests/data/friction/slider_crank_friction.yaml as the spec writes it (friction on the
+    prismatic constraint `guide`, absolute angles, a flywheel pushed in pulses): its six
+    switches (slip, stick, ..., the dead centre) and its state at 3 s as
+    tests/contact_reference.py's slider_crank_run (maximal coordinates, hand-derived) to 1e-9;
+    the energy's change the reference's motor work plus friction work."""
+    model = nemc.compile(HERE / "data" / "friction" / "slider_crank_friction.yaml")
+    result = model.simulate(t_eval=[0.0, 3.0], method=method)
+    assert result.success
+    reference = slider_crank_run(SliderCrank(), 3.0, np.pi / 3)
+    times, _ = result.events["guide.stick_slip"]
+    np.testing.assert_allclose(times, [t for t, _ in reference.switches], rtol=0, atol=1e-9)
+    index = [model.state_names.index(name) for name in ("q1", "dot(q1)")]
+    np.testing.assert_allclose(result.y[index, -1], reference.state(3.0), rtol=1e-9)
+    energy = result.outputs["energy.total"]
+    assert energy[-1] - energy[0] == pytest.approx(0.589905901708 - 0.635128975419, abs=1e-9)
 
 
 @pytest.mark.parametrize("kind", ["prismatic", "slot"])
