@@ -84,8 +84,8 @@ def test_the_slider_crank_switches_alike_both_ways(crank_both_ways) -> None:
 
 
 def test_the_slider_crank_moves_alike_both_ways(crank_both_ways) -> None:
-    """The crank's angle and rate, the slider's position, the friction force and the normal
-    force agree to 1e-9 (relative to the rate's and forces' scale)."""
+    """The crank's angle, the slider's position and the friction force agree to 1e-9, the
+    crank's rate (up to 57 rad/s) and the normal force (up to 40 N) to 1e-9 of their scale."""
     joint, guide = crank_both_ways
     r, length = 0.1, 0.35
     q1, q2 = guide.y[0], guide.y[2]
@@ -94,7 +94,7 @@ def test_the_slider_crank_moves_alike_both_ways(crank_both_ways) -> None:
     np.testing.assert_allclose(r * np.cos(q1) + length * np.cos(q1 + q2), joint.y[0],
                                rtol=0, atol=1e-9)
     np.testing.assert_allclose(guide.outputs["guide.friction"], joint.outputs["S.friction"],
-                               rtol=0, atol=1e-9 * 40)
+                               rtol=0, atol=1e-9)
     np.testing.assert_allclose(guide.outputs["guide.Fy"], joint.outputs["S.Fy"], rtol=0,
                                atol=1e-9 * 40)
     np.testing.assert_array_equal(guide.outputs["guide.stuck"], joint.outputs["S.stuck"])
