@@ -202,6 +202,22 @@ def test_scipys_explicit_method_runs_the_guide_too(tmp_path: Path) -> None:
     np.testing.assert_allclose(result.events["guide.stick_slip"][0], [stop], rtol=0, atol=1e-7)
 
 
+def test_an_ensemble_stops_each_block_where_its_closed_form_says(tmp_path: Path) -> None:
+    """simulate_many starts each run in its own mode: blocks launched up a gentle incline at
+    four speeds stop (and stick) at v0 / (g (sin + mu cos)), v0^2 / (2 g (sin + mu cos)) up."""
+    alpha = 0.3
+    speeds = np.array([0.5, 1.0, 1.5, 2.0])
+    starts = np.zeros((len(speeds), 6))
+    starts[:, 1], starts[:, 3] = speeds * math.cos(alpha), speeds * math.sin(alpha)
+    result = incline(tmp_path, "prismatic", alpha).simulate_many(starts, t_eval=[0.0, 1.5])
+    assert np.all(result.success)
+    deceleration = G * (math.sin(alpha) + MU * math.cos(alpha))
+    stops = result.event_times("guide.stick_slip")
+    np.testing.assert_allclose(np.concatenate(stops), speeds / deceleration, rtol=0, atol=1e-9)
+    ends = result.y[:, 0, -1] * math.cos(alpha) + result.y[:, 2, -1] * math.sin(alpha)
+    np.testing.assert_allclose(ends, speeds**2 / (2 * deceleration), rtol=0, atol=1e-9)
+
+
 BAD = """
 name: bad
 bodies:
