@@ -229,6 +229,7 @@ joints:
 constraints:
   guide: {type: slot, a: block.origin, b: {body: ground, at: [0, 0]}, axis: [1, 0]}
   pin: {type: revolute, a: arm.origin, b: block.origin}
+  blade: {type: knife_edge, at: block.origin, axis: [1, 0]}
 friction:
   - FIRST
   - ITEM
@@ -239,6 +240,8 @@ JOINT_ITEM = "{joint: A, mu: 0.2, radius: 0.01}"
 @pytest.mark.parametrize("item, key, message", [
     ("{constraint: pin, mu: 0.2}", "friction[1].constraint",
      "constraint 'pin' has no sliding direction"),
+    ("{constraint: blade, mu: 0.2}", "friction[1].constraint",
+     "constraint 'blade' has no sliding direction"),
     ("{constraint: guide, mu: 0.3}", "friction[1].constraint",
      "constraint 'guide' already has a friction item"),  # after FIRST's on it
     ("{constraint: track, mu: 0.3}", "friction[1].constraint", "no constraint named 'track'"),
@@ -259,4 +262,4 @@ def test_a_bad_friction_item_on_a_constraint_is_refused_at_its_line(
     with pytest.raises(InputError, match=message) as caught:
         nemc.compile(path)
     text = str(caught.value)
-    assert f"{path}:14:" in text and key in text, text
+    assert f"{path}:15:" in text and key in text, text
