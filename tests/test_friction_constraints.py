@@ -3,10 +3,10 @@ issue 50): the slider-crank with its friction on a prismatic constraint against 
 mechanism with its friction on the tree's prismatic joint (examples/slider_crank_friction.yaml,
 a different tree and a different code path: the joint's rate and reaction rather than the
 constraint's sliding speed and multiplier), and the spec's own slider-crank file against the
-event-driven reference of tests/contact_reference.py; a block on an incline held by a
-prismatic or slot constraint against the closed forms (it slides up, stops and sticks or
-slides back; pushed from rest it breaks free), with the energy its friction takes; and bad
-items, one clear error each."""
+event-driven reference of tests/contact_reference.py, as is a block on a driven, tilting
+guide; a block on an incline held by a prismatic or slot constraint against the closed forms
+(it slides up, stops and sticks or slides back; pushed from rest it breaks free), with the
+energy its friction takes; an ensemble; and bad items, one clear error each."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from contact_reference import SliderCrank, slider_crank_run
+from contact_reference import Incline, SliderCrank, incline_run, slider_crank_run
 
 import nemc
 from nemc.errors import InputError
@@ -118,6 +118,24 @@ def test_the_specs_slider_crank_on_its_guide_switches_as_the_reference(method: s
     np.testing.assert_allclose(result.y[index, -1], reference.state(3.0), rtol=1e-9)
     energy = result.outputs["energy.total"]
     assert energy[-1] - energy[0] == pytest.approx(0.589905901708 - 0.635128975419, abs=1e-9)
+
+
+@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853"])
+def test_a_block_on_a_tilting_guide_slips_as_the_reference(method: str) -> None:
+    """The guide turns (its incline driven): the block's slip instant and its position and
+    sliding speed along the incline at 4 s as tests/contact_reference.py's incline_run (its
+    normal force with the Coriolis term) to 1e-9."""
+    model = nemc.compile(HERE / "data" / "friction" / "block_incline_guide.yaml")
+    result = model.simulate(t_eval=[0.0, 4.0], method=method)
+    assert result.success
+    reference = incline_run(Incline(), 4.0)
+    times, _ = result.events["guide.stick_slip"]
+    np.testing.assert_allclose(times, [t for t, _ in reference.switches], rtol=0, atol=1e-9)
+    x, dx, y, dy = result.y[:4, -1]
+    angle = 0.2 + 0.1 * 4.0  # the incline's at 4 s
+    along_it = [x * math.cos(angle) + y * math.sin(angle),
+                dx * math.cos(angle) + dy * math.sin(angle)]
+    np.testing.assert_allclose(along_it, reference.state(4.0), rtol=1e-9)
 
 
 @pytest.mark.parametrize("kind", ["prismatic", "slot"])
