@@ -15,7 +15,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from contact_reference import Incline, SliderCrank, incline_run, slider_crank_run
+from contact_reference import (
+    Incline,
+    SliderCrank,
+    incline_friction_work,
+    incline_run,
+    slider_crank_run,
+)
 
 import nemc
 from nemc.errors import InputError
@@ -208,6 +214,21 @@ def test_a_block_pushed_from_rest_breaks_free_where_static_friction_ends(tmp_pat
     held = t < free
     np.testing.assert_allclose(result.outputs["guide.friction"][held],
                                M * G * math.sin(alpha) - c * t[held], rtol=0, atol=1e-9)
+
+
+def test_the_guides_friction_work_is_the_energy_it_takes(tmp_path: Path) -> None:
+    """The power balance (nemc stress's: NAME.friction times NAME.speed, Simpson's rule): the
+    block sliding up a steep incline and back loses exactly its friction's work (to 1e-8 of
+    it); on the tilting guide the friction's work is the reference's since the slip (the
+    drive's work is the rest)."""
+    from nemc.tools.stress import energy_balance
+
+    model = incline(tmp_path, "slot", 0.6)
+    balance = energy_balance(model, model.scene["t_span"])
+    assert balance.change < -10.0 and abs(balance.rest) < 1e-8 * abs(balance.change)
+    tilting = nemc.compile(HERE / "data" / "friction" / "block_incline_guide.yaml")
+    work = energy_balance(tilting, tilting.scene["t_span"]).friction_work
+    assert work == pytest.approx(incline_friction_work(Incline(), 4.0), abs=5e-8)
 
 
 def test_scipys_explicit_method_runs_the_guide_too(tmp_path: Path) -> None:

@@ -120,7 +120,8 @@ def friction_parameters(mech: m.Mechanism) -> tuple[tuple[sympy.Symbol, ...], tu
 def friction_outputs(mech: m.Mechanism, kin: Kinematics) -> list[tuple[str, sympy.Expr]]:
     """Each item's outputs: NAME.friction (the force or torque on the child; along a guide, on
     its sliding body) and NAME.stuck (1 while its joint is stuck, its rate exactly 0; a guide
-    while its sliding speed is within GUIDE_TOUCH of 0)."""
+    while its sliding speed is within GUIDE_TOUCH of 0); a guide's NAME.speed too (its sliding
+    speed, which no state entry is: the friction's power is NAME.friction times it)."""
     named: list[tuple[str, sympy.Expr]] = []
     for item in mech.frictions:
         if isinstance(item, Friction):
@@ -133,7 +134,8 @@ def friction_outputs(mech: m.Mechanism, kin: Kinematics) -> list[tuple[str, symp
         stuck = sympy.Piecewise((sympy.S.One, sympy.Abs(speed) <= GUIDE_TOUCH),
                                 (sympy.S.Zero, True))
         named += [(f"{guide.on_constraint}.friction", guide.symbol),
-                  (f"{guide.on_constraint}.stuck", stuck)]
+                  (f"{guide.on_constraint}.stuck", stuck),
+                  (f"{guide.on_constraint}.speed", speed)]
     for contact in mech.contacts:  # NAME.active: 1 while it lasts (its normal force > 0)
         active = sympy.Piecewise((sympy.S.One, contact.symbol > 0), (sympy.S.Zero, True))
         forces = (*contact.symbols, sympy.S.Zero)

@@ -267,7 +267,8 @@ def drift_exponent(drifts: Sequence[Drift], method: str) -> float:
 @dataclass(frozen=True)
 class Balance:
     """The energy balance of a run with friction: the change of energy.total over it, and the
-    work of the joints' friction (the integral of each JOINT.friction times its joint's rate);
+    work of the joints' friction (the integral of each JOINT.friction times its joint's rate;
+    along a constraint's guide, NAME.friction times NAME.speed);
     the rest is the other loads' work (driven, time-dependent or damping loads, not in the
     energy) and what the contacts take (impacts, their friction), which no output gives."""
 
@@ -293,6 +294,9 @@ def energy_balance(model: Model, span: Sequence[float], params: Params = None,
     power = sum((run.outputs[f"{joint}.friction"] * run.y[rate]
                  for joint, rate in zip(model.friction.items, model.friction.rates)
                  if f"{joint}.friction" in run.outputs), np.zeros(run.t.size))
+    power = power + sum((run.outputs[f"{guide}.friction"] * run.outputs[f"{guide}.speed"]
+                         for guide in model.friction.items if f"{guide}.speed" in run.outputs),
+                        np.zeros(run.t.size))  # along constraints' guides: their sliding speed
     return Balance(float(total[-1] - total[0]), float(simpson(power, x=run.t)))
 
 

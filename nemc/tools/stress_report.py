@@ -259,7 +259,8 @@ def energy_section(st: Study) -> list[str]:
                 f"(a {s.reference_method(st.model)} run at rtol {g(s.REFERENCE_RTOL)}, the "
                 "friction power integrated by Simpson's rule over 20001 times):", "",
                 f"- Energy change E(end) − E(0): {g(b.change, 8)}.",
-                f"- Work of the joints' friction (∫ JOINT.friction · its rate dt): "
+                f"- Work of the friction (∫ JOINT.friction · its rate dt, a guide's "
+                f"NAME.friction · NAME.speed): "
                 f"{g(b.friction_work, 8)}.",
                 f"- The rest, {g(b.rest, 3)}: the other loads' work (driven, time-dependent or "
                 "damping loads, not in the energy) and what the contacts take (impacts, their "
