@@ -187,11 +187,13 @@ class Compiled:
         return jacobian
 
     def model_events(self, p: np.ndarray,
-                     p_at: Callable[[float, np.ndarray], np.ndarray] | None = None
+                     p_at: Callable[[float, np.ndarray], np.ndarray] | None = None,
+                     p_after: Callable[[np.ndarray], None] | None = None
                      ) -> runs.ModelEvents | None:
         """The scene's events for scipy's methods at parameters p (or p_at(t, y), where inputs
         vary): the compiled functions (every event's value at (t, y); an impact law's new
-        state) and their table."""
+        state) and their table. P_AFTER, where inputs vary, is handed the parameter vector an
+        impact law ran with: a friction switch writes its new mode there (the run keeps it)."""
         table = self.event_table
         if not table:
             return None
@@ -210,10 +212,12 @@ class Compiled:
 
         def impact(k: int, t: float, y: np.ndarray) -> np.ndarray:
             new = np.array(y, dtype=np.float64)
-            at = p_buffer if p_at is None else buffer(p_at(t, new))
-            status = c_impact(k, t, buffer(new), at)
+            p_now = None if p_at is None else p_at(t, new)
+            status = c_impact(k, t, buffer(new), p_buffer if p_now is None else buffer(p_now))
             if status:
                 raise IntegrationFailure(t, y, status, names, cause(status))
+            if p_after is not None and p_now is not None:
+                p_after(p_now)
             return new
 
         return runs.ModelEvents(tuple(e["name"] for e in table),

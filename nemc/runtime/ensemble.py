@@ -123,7 +123,6 @@ def run_ensemble(model: BuiltModel, call: EnsembleCall, span: tuple[float, float
         ps = np.ascontiguousarray(model.loops.started_runs(span[0], y0s, ps))
         y0s = model.loops.assembled_runs(span[0], y0s, given, ps)
     if model.friction.present:  # each run its own parameter row: its modes
-        model.friction.refuse_varying_inputs(tables is not None)
         y0s, ps = model.friction.started_runs(span[0], y0s, ps)
     settings = checked_settings(model.scene, span, call.max_step, call.tstops, call.max_steps)
     if tables is not None:  # every step lands on the tables' samples

@@ -93,15 +93,6 @@ class Friction:
         p[len(p) - len(self.items):] = np.nan
         return p
 
-    def refuse_varying_inputs(self, varying: bool) -> None:
-        """Refuse inputs that vary along a run (tables, functions) with friction: each run's
-        modes live in its parameter vector, which those rebuild as the run goes."""
-        if self.present and varying:
-            raise ModelError("inputs given as tables or functions are not supported with "
-                             "Coulomb friction yet (each run keeps its friction modes in its "
-                             "parameter vector, which such inputs rebuild at each step); give "
-                             "inputs as numbers")
-
     def held(self, raw: np.ndarray, projected: np.ndarray) -> np.ndarray:
         """PROJECTED (a closed loop's states brought onto its constraints: one run's
         (n_state, n_t), or an ensemble's (k, n_t, n_state) with the state last) with each stuck

@@ -87,6 +87,12 @@ class RunInputs:
             p[index] = call_input(function, t, y)
         return p
 
+    def keep(self, p: np.ndarray) -> None:
+        """Keep what an event wrote into P, a vector `at` made (a friction switch's mode in
+        the run's parameter tail) as the run's own: later `at`s start from it. The inputs'
+        own places are set anew by every `at`."""
+        self.p[:] = p
+
 
 class InputLayout:
     """Where each input's law lives in the parameter vector (model.json's "inputs")."""

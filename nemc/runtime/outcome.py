@@ -51,6 +51,7 @@ def lazy_outputs(model: BuiltModel, t: np.ndarray, y: np.ndarray, p: np.ndarray,
         return NO_OUTPUTS
     p = model.friction.inferring(p)  # each point's friction mode from its state
     if inputs is not None:
+        inputs = replace(inputs, p=model.friction.inferring(inputs.p))
         return LazyOutputs(outputs_along, model, t, y, inputs)
     return LazyOutputs(model.compiled.outputs_at, t, y, p)  # p: never written to
 

@@ -28,7 +28,8 @@ def simulate_scipy(model: BuiltModel, spec: RunSpec) -> SimulationResult:
         model_events = model.compiled.model_events(p)
     else:  # inputs that vary (a table, a function): p at each (t, y)
         rhs = varying_rhs(model, spec.inputs)
-        model_events = model.compiled.model_events(p, spec.inputs.at)
+        model_events = model.compiled.model_events(
+            p, spec.inputs.at, spec.inputs.keep if model.friction.present else None)
     try:
         jac = integrator_jacobian(model, p) if method in IMPLICIT_METHODS else None
         options = {"rtol": rtol, "atol": atol, **({"jac": jac} if jac is not None else {})}

@@ -110,11 +110,10 @@ def integrate(model: BuiltModel, spec: RunSpec) -> SimulationResult:
         return integrate_auto(model, spec)
     model.friction.check_method(method)
     if model.friction.present:  # the run's own parameters: its modes, which switches write
-        model.friction.refuse_varying_inputs(spec.inputs is not None and bool(
-            spec.inputs.tables or spec.inputs.callables))
         state0, p = model.friction.started(spec.span[0], spec.state0, spec.p)
+        inputs = spec.inputs if spec.inputs is None else replace(spec.inputs, p=p)
         spec = RunSpec(method, spec.span, state0, spec.times, spec.rtol, spec.atol, p,
-                       spec.settings, spec.user_events, spec.inputs)
+                       spec.settings, spec.user_events, inputs)
     if method in NATIVE_METHODS and spec.inputs is not None and spec.inputs.callables:
         raise ModelError(f"an input given as a Python function runs with scipy's methods "
                          f"({', '.join(SCIPY_METHODS)}): {method} runs in C, where inputs are "
