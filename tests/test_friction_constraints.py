@@ -231,6 +231,22 @@ def test_the_guides_friction_work_is_the_energy_it_takes(tmp_path: Path) -> None
     assert work == pytest.approx(incline_friction_work(Incline(), 4.0), abs=5e-8)
 
 
+def test_the_outputs_and_the_switch_count_take_the_states_at_the_switches(crank_both_ways
+                                                                          ) -> None:
+    """At the state just before a dead centre's switch the guide's speed is about 0, which
+    reads as stuck, but no force can hold a slider there (the kinematics set its sliding
+    acceleration): the outputs read it slipping instead. nemc stress counts the guide's events
+    as one kind (the joint's: one slip, six reversals through the dead centres)."""
+    from nemc.tools.switches import count_switches
+
+    model = nemc.compile(HERE / "data" / "friction" / "slider_crank_guide_friction.yaml")
+    _, guide = crank_both_ways
+    times, states = guide.events["guide.stick_slip"]
+    for t, y in zip(times, states):
+        assert np.isfinite(model.outputs(float(t), y)["guide.friction"])
+    assert count_switches(model, guide).counts == {"guide": {"guide stick/slip": 7}}
+
+
 def test_scipys_explicit_method_runs_the_guide_too(tmp_path: Path) -> None:
     """RK45 (the switch applied around solve_ivp) stops the block where the closed form says."""
     alpha, v0 = 0.3, 1.5
