@@ -187,7 +187,7 @@ def test_bad_friction_items_are_refused_with_their_line(tmp_path: Path, item: st
     ("slide: {type: prismatic, parent: ground, child: block, coordinate: x, motion: t}",
      "{joint: slide, mu: 0.2}", "is driven"),
     ("slide: {type: prismatic, parent: ground, child: block, coordinate: x}",
-     "{constraint: guide, mu: 0.2}", "friction on a constraint"),
+     "{constraint: guide, mu: 0.2}", "no constraint named 'guide'"),
     ("slide: {type: prismatic, parent: ground, child: block, coordinate: x}",
      "{joint: slide, mu: 0.2}\ncontacts:\n  floor: {point: block.origin, surface: {body: "
      "ground}}", "contacts together with `friction` items are not built yet"),

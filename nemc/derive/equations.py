@@ -248,7 +248,7 @@ def derive(mech: m.Mechanism) -> Equations:
         outputs=tuple((name, runtime(expr)) for name, expr in
                       derive_outputs(mech, kin, dict(zip((j.name for j in mech.driven), drives)),
                                      multipliers_by_constraint(mech, multipliers))
-                      + friction_outputs(mech)),
+                      + friction_outputs(mech, kin)),
         checks=checks,
         check_strict=check_strict,
         initial_state=initial_state(mech, runtime),

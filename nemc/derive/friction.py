@@ -8,6 +8,11 @@ coordinates, rates, accelerations (the reaction's Newton-Euler balance) and para
 state holds the mode: a stuck joint's rate is exactly 0 (decision 0039), so the outputs
 NAME.stuck and NAME.friction and the switching events follow from the state alone.
 
+Friction along a slot or prismatic constraint (nemc/kinds/guide_friction.py) is an item after
+the joints' (law GUIDE): its terms mu N, mu_static N, the sliding speed and its rate, N the
+constraint's normal multiplier; the state says its mode only within GUIDE_TOUCH (its speed is
+not a coordinate's rate, which a stuck joint keeps at exactly 0).
+
 Contacts (format v3 `contacts`; nemc/kinds/contact.py, decision 0041) are items too, after the
 friction items: each one's normal force an unknown, its terms restitution, gap, normal speed
 and normal acceleration, its outputs NAME.Fn, NAME.Ft, NAME.active and its event NAME.contact.
@@ -23,13 +28,16 @@ import sympy
 
 from ..front import mechanism as m
 from ..kinds.friction import Friction
+from ..kinds.guide_friction import GuideFriction
 from .kinematics import Kinematics, applied_loads
 from .outputs import constraint_loads, joint_reaction
 
 TERMS = 4  # per item: mu, mu_static, the normal force's x and y (magnitude: their norm); per
 #            contact: restitution, gap, normal speed, normal acceleration (nemc/kinds/contact.py)
-COULOMB, CONTACT, CONTACT_TANGENT = 0, 1, 2  # an item's law: friction across a joint, a
-#                                              contact's normal force, its friction (`mu`)
+COULOMB, CONTACT, CONTACT_TANGENT, GUIDE = 0, 1, 2, 3  # an item's law: friction across a
+#   joint, a contact's normal force, its friction (`mu`), friction along a constraint's guide
+GUIDE_TOUCH = 1e-9  # outside a run, a guide whose sliding speed is this small is stuck (C's
+#                     CONTACT_TOUCH)
 
 
 @dataclass(frozen=True)
@@ -58,7 +66,8 @@ def friction_equations(mech: m.Mechanism, kin: Kinematics,
     """The friction items' equations, or None without any. MULTIPLIERS: each loop
     constraint's (its reaction is a load on the bodies a joint's reaction balances)."""
     items = [item for item in mech.frictions if isinstance(item, Friction)]
-    if not items and not mech.contacts:
+    guides = _guides(mech)
+    if not items and not guides and not mech.contacts:
         return None
     loads = applied_loads(mech, kin)
     constraint_loads(mech, kin, multipliers, loads)
@@ -72,8 +81,12 @@ def friction_equations(mech: m.Mechanism, kin: Kinematics,
         assert normal is not None  # the front end refused the others
         terms += [runtime(term) for term in item.terms(normal, joint.friction_lever)]
         coordinates.append(mech.coordinates.index(joint.coordinates[0]))
-    laws = [COULOMB] * len(items)
-    forces = [item.symbol for item in items]
+    laws = [COULOMB] * len(items) + [GUIDE] * len(guides)
+    forces = [item.symbol for item in items] + [guide.symbol for guide in guides]
+    for guide in guides:
+        terms += [runtime(term) for term in guide.terms(kin, kin.rate,
+                                                        multipliers[guide.on_constraint])]
+        names.append(guide.on_constraint)
     for contact in mech.contacts:
         terms += [runtime(term) for term in contact.terms(kin, kin.rate)]
         forces += contact.symbols
@@ -84,22 +97,31 @@ def friction_equations(mech: m.Mechanism, kin: Kinematics,
                              terms=tuple(terms), laws=tuple(laws))
 
 
+def _guides(mech: m.Mechanism) -> list[GuideFriction]:
+    """The friction items along constraints' guides, in the `friction` list's order."""
+    return [item for item in mech.frictions if isinstance(item, GuideFriction)]
+
+
 def friction_parameters(mech: m.Mechanism) -> tuple[tuple[sympy.Symbol, ...], tuple[float, ...]]:
     """The last runtime parameters, and their defaults: each item's force (0: no friction
     where a call outside friction.c.tmpl's solver reads it), then each item's mode (NaN: read
     from the state; a run sets them at its start and each switch writes its item's)."""
     items = [item for item in mech.frictions if isinstance(item, Friction)]
-    forces = tuple(item.symbol for item in items) + tuple(
+    guides = _guides(mech)
+    forces = tuple(item.symbol for item in items) + tuple(g.symbol for g in guides) + tuple(
         force for contact in mech.contacts for force in contact.symbols)
     modes = tuple(m.symbol(f"mode({item.on_joint})") for item in items) + tuple(
+        m.symbol(f"mode({guide.on_constraint})") for guide in guides) + tuple(
         m.symbol(f"mode({force.name})") for contact in mech.contacts
         for force in contact.symbols)
     return forces + modes, (0.0,) * len(forces) + (math.nan,) * len(modes)
 
 
-def friction_outputs(mech: m.Mechanism) -> list[tuple[str, sympy.Expr]]:
-    """Each item's outputs: NAME.friction (the force or torque on the child) and NAME.stuck
-    (1 while its joint is stuck, its rate exactly 0)."""
+def friction_outputs(mech: m.Mechanism, kin: Kinematics) -> list[tuple[str, sympy.Expr]]:
+    """Each item's outputs: NAME.friction (the force or torque on the child; along a guide, on
+    its sliding body) and NAME.stuck (1 while its joint is stuck, its rate exactly 0; a guide
+    while its sliding speed is within GUIDE_TOUCH of 0); a guide's NAME.speed too (its sliding
+    speed, which no state entry is: the friction's power is NAME.friction times it)."""
     named: list[tuple[str, sympy.Expr]] = []
     for item in mech.frictions:
         if isinstance(item, Friction):
@@ -107,6 +129,13 @@ def friction_outputs(mech: m.Mechanism) -> list[tuple[str, sympy.Expr]]:
             rate = m.rate_symbol(mech.joint(name).coordinates[0])
             stuck = sympy.Piecewise((sympy.S.One, sympy.Eq(rate, 0)), (sympy.S.Zero, True))
             named += [(f"{name}.friction", item.symbol), (f"{name}.stuck", stuck)]
+    for guide in _guides(mech):
+        speed = guide.sliding_speed(kin, kin.rate)
+        stuck = sympy.Piecewise((sympy.S.One, sympy.Abs(speed) <= GUIDE_TOUCH),
+                                (sympy.S.Zero, True))
+        named += [(f"{guide.on_constraint}.friction", guide.symbol),
+                  (f"{guide.on_constraint}.stuck", stuck),
+                  (f"{guide.on_constraint}.speed", speed)]
     for contact in mech.contacts:  # NAME.active: 1 while it lasts (its normal force > 0)
         active = sympy.Piecewise((sympy.S.One, contact.symbol > 0), (sympy.S.Zero, True))
         forces = (*contact.symbols, sympy.S.Zero)
@@ -121,6 +150,8 @@ def friction_events(mech: m.Mechanism) -> tuple[m.Event, ...]:
     return tuple(m.Event(name=f"{item.on_joint}.stick_slip", when=sympy.S.Zero,
                          direction="both", action="switch", loc=item.location)
                  for item in mech.frictions if isinstance(item, Friction)) + tuple(
+        m.Event(name=f"{guide.on_constraint}.stick_slip", when=sympy.S.Zero, direction="both",
+                action="switch", loc=guide.location) for guide in _guides(mech)) + tuple(
         m.Event(name=f"{contact.name}.{which}", when=sympy.S.Zero, direction=direction,
                 action="switch", loc=contact.location) for contact in mech.contacts
         for which, direction in (("contact", "falling"), ("stick_slip", "both"))[
@@ -132,7 +163,7 @@ def friction_checks(mech: m.Mechanism, runtime: Callable[[object], sympy.Expr]
     """(key path, expression, strict) of what each item needs of the run's parameters."""
     found = []
     for k, item in enumerate(mech.frictions):
-        if isinstance(item, Friction):
+        if isinstance(item, (Friction, GuideFriction)):
             found += [(f"friction.{k}.{key}", runtime(expr), strict)
                       for key, expr, strict in item.checks()]
     for contact in mech.contacts:

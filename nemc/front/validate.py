@@ -85,7 +85,7 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
     check_carried(ctx)
     constraints = read_constraints(ctx, root["constraints"]) if "constraints" in root else ()
     loads, load_names = read_loads(ctx, root["loads"]) if "loads" in root else ((), ())
-    frictions = read_friction(ctx, root["friction"]) if "friction" in root else ()
+    frictions = read_friction(ctx, root["friction"], constraints) if "friction" in root else ()
     contacts = read_contacts(ctx, root["contacts"]) if "contacts" in root else ()
     check_contact_method(ctx, contacts, root.get("simulation"))
     outputs = read_outputs(ctx, root["outputs"]) if "outputs" in root else Outputs()

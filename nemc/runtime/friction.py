@@ -22,12 +22,12 @@ from typing import Any
 import numpy as np
 
 from .compiled import Compiled
-from .failures import IntegrationFailure, ModelError
+from .failures import ModelError
 
 FRICTION_METHODS = ("nemc.Vern9", "nemc.DOP853")  # explicit, their events in C
 SCIPY_FRICTION_METHODS = ("RK45", "RK23", "DOP853")  # explicit, driven by scipy_switches.py
 FRICTION_METHOD = "nemc.Vern9"  # method "auto"'s choice with friction
-COULOMB_LAW, CONTACT_LAW, TANGENT_LAW = 0, 1, 2  # an item's law (friction.c.tmpl's)
+COULOMB_LAW, CONTACT_LAW, TANGENT_LAW, GUIDE_LAW = 0, 1, 2, 3  # an item's law (friction.c.tmpl's)
 
 
 class Friction:
@@ -82,19 +82,19 @@ class Friction:
         status = self.compiled.function("friction_start")(t0, buffer(y), buffer(p))
         if status:
             cause = self.compiled.status_cause(status)
-            raise IntegrationFailure(f"the friction at the start (t = {t0:g}) cannot be "
-                                     f"solved: {cause}")
+            raise ModelError(f"the friction at the start (t = {t0:g}) cannot be solved: "
+                             f"{cause or f'status {status}'}")
         return y, p
 
     def account_outputs(self, work: np.ndarray) -> dict[str, np.ndarray]:
         """The work account as outputs, from each item's work up to each time (n_t, items;
-        templates/run_control.c.tmpl): a joint's NAME.friction_work (its friction's work, <= 0
-        where it dissipates); a contact's NAME.friction_work (its friction's, in the lasting
-        contact and the impacts' tangent impulses; 0 without mu) and NAME.impact_loss (the
-        energy its normal impulses took, >= 0)."""
+        templates/run_control.c.tmpl): a joint's or a guide's NAME.friction_work (its
+        friction's work, <= 0 where it dissipates); a contact's NAME.friction_work (its
+        friction's, in the lasting contact and the impacts' tangent impulses; 0 without mu) and
+        NAME.impact_loss (the energy its normal impulses took)."""
         named: dict[str, np.ndarray] = {}
         for k, (name, law) in enumerate(zip(self.items, self.laws)):
-            if law == COULOMB_LAW:
+            if law in (COULOMB_LAW, GUIDE_LAW):
                 named[f"{name}.friction_work"] = work[:, k].copy()
             elif law == CONTACT_LAW:
                 tangent = k + 1 < len(self.laws) and self.laws[k + 1] == TANGENT_LAW

@@ -81,8 +81,9 @@ def samples(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     first = np.cumsum(pieces) - pieces
     fraction = (np.arange(len(interval)) - first[interval]) / pieces[interval]
     times = t[interval] + fraction * (t[interval + 1] - t[interval])
-    states = hermite_between(t, y, interval, times)
-    exact = fraction == 0  # the run's own states, as they are
+    with np.errstate(divide="ignore", invalid="ignore"):  # a switch's repeated time: an
+        states = hermite_between(t, y, interval, times)  # interval of length 0, its one
+    exact = fraction == 0  # point the run's own state: the run's own states, as they are
     states[:, exact] = y[:, interval[exact]]
     return np.append(times, t[-1]), np.concatenate([states, y[:, -1:]], axis=1)
 

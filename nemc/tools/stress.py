@@ -268,7 +268,8 @@ def drift_exponent(drifts: Sequence[Drift], method: str) -> float:
 @dataclass(frozen=True)
 class Balance:
     """The energy balance of a run with friction or contacts: the change of energy.total over
-    it, the friction's work (every NAME.friction_work: the joints' and the contacts', <= 0)
+    it, the friction's work (every NAME.friction_work: the joints', the guides' and the
+    contacts', <= 0)
     and what the impacts took (every NAME.impact_loss, >= 0); the rest is the other loads'
     work (driven, time-dependent or damping loads, not in the energy)."""
 

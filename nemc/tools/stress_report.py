@@ -259,7 +259,8 @@ def energy_section(st: Study) -> list[str]:
                 f"(a {s.reference_method(st.model)} run at rtol {g(s.REFERENCE_RTOL)}, its "
                 "work account: the outputs NAME.friction_work and NAME.impact_loss):", "",
                 f"- Energy change E(end) − E(0): {g(b.change, 8)}.",
-                f"- Work of the friction (joints' and contacts', every NAME.friction_work): "
+                f"- Work of the friction (joints', guides' and contacts', every "
+                f"NAME.friction_work): "
                 f"{g(b.friction_work, 8)}.",
                 f"- Energy the impacts took (every NAME.impact_loss): {g(b.impact_loss, 8)}.",
                 f"- The rest, {g(b.rest, 3)}: the other loads' work (driven, time-dependent or "

@@ -13,7 +13,10 @@ run's last state's) give the mode after it. Counted across each event:
   0 -> 1 (a plastic impact, or the accumulation rule's); release: 1 -> 0 (its normal force
   reaching 0, or lifted by another contact's impulse);
 - a contact's own friction (`NAME.stick_slip`) has no mode output: its events are counted as
-  one kind, "contact stick/slip".
+  one kind, "contact stick/slip";
+- friction along a constraint's guide (its outputs NAME.stuck and NAME.speed): the state at a
+  switch says no mode (its sliding speed is about 0 on both sides of it), so its events are
+  counted as one kind, "guide stick/slip".
 
 Chattering: an event chatters where CHATTER_COUNT of its consecutive occurrences fall within
 CHATTER_FRACTION of the run's length (impacts accumulating, a stick lasting nanoseconds).
@@ -30,7 +33,8 @@ from ..runtime.model import Model, SimulationResult
 
 CHATTER_COUNT = 5  # consecutive occurrences of one event ...
 CHATTER_FRACTION = 1e-3  # ... within this share of the run's length: chattering
-KINDS = ("stick", "slip", "reversal", "impact", "closing", "release", "contact stick/slip")
+KINDS = ("stick", "slip", "reversal", "impact", "closing", "release", "contact stick/slip",
+         "guide stick/slip")
 
 
 @dataclass(frozen=True)
@@ -63,9 +67,18 @@ class Switching:
 
 
 def mode_names(model: Model) -> dict[str, str]:
-    """Each item's mode output: joint J -> 'J.stuck', contact C -> 'C.active'."""
+    """Each item's mode output: joint J -> 'J.stuck', contact C -> 'C.active' (a guide's
+    'G.stuck' left out: guide_items)."""
     names = [n for n in model.output_names if n.endswith((".stuck", ".active"))]
-    return {n.rsplit(".", 1)[0]: n for n in names}
+    guides = guide_items(model)
+    return {n.rsplit(".", 1)[0]: n for n in names if n.rsplit(".", 1)[0] not in guides}
+
+
+def guide_items(model: Model) -> set[str]:
+    """The friction items along constraints' guides: those with NAME.stuck and NAME.speed."""
+    names = set(model.output_names)
+    return {n.rsplit(".", 1)[0] for n in names
+            if n.endswith(".stuck") and n.removesuffix(".stuck") + ".speed" in names}
 
 
 def ordered_events(result: SimulationResult) -> list[tuple[float, str, np.ndarray]]:
@@ -91,9 +104,14 @@ def count_switches(model: Model, result: SimulationResult,
     before = [modes_at(model, t, y, names, params) for t, _, y in events]
     final = modes_at(model, float(result.t[-1]), result.y[:, -1], names, params)
     counts: dict[str, dict[str, int]] = {item: dict.fromkeys(KINDS, 0) for item in names}
+    guides = guide_items(model)
+    counts.update({item: dict.fromkeys(KINDS, 0) for item in guides})
     for k, (_, name, _) in enumerate(events):
         after = before[k + 1] if k + 1 < len(events) else final
-        add_switches(counts, joints, name, before[k], after)
+        if name.rsplit(".", 1)[0] in guides:
+            counts[name.rsplit(".", 1)[0]]["guide stick/slip"] += 1
+        else:
+            add_switches(counts, joints, name, before[k], after)
     length = abs(float(result.t[-1] - result.t[0]))
     return Switching({i: {k: n for k, n in c.items() if n} for i, c in counts.items()},
                      tightest_bursts(events), CHATTER_FRACTION * length)

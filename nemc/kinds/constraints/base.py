@@ -50,6 +50,7 @@ class Constraint:
     keys: ClassVar[tuple[str, ...]] = ()  # its YAML keys besides type
     required: ClassVar[tuple[str, ...]] = ()  # those of its keys it cannot do without
     equations_count: ClassVar[int]  # how many equations it adds
+    slides: ClassVar[bool] = False  # it has a sliding direction friction can act along
 
     name: str
     loc: Loc
@@ -89,6 +90,20 @@ class Constraint:
     def drawing(self) -> ConstraintDrawing:
         """What a picture shows of it besides the bodies (nothing: its points are theirs)."""
         return ConstraintDrawing()
+
+    def sliding(self, view: LoadView) -> tuple[V2, Expr] | None:
+        """Coulomb friction along it (format v3 `friction: [{constraint: NAME}]`): its guide's
+        direction (ground axes) and the sliding position along it, whose rate is the relative
+        velocity friction opposes; None: it has no sliding direction (friction refused)."""
+        return None
+
+    def sliding_normal(self, multipliers: list[Expr]) -> Expr:
+        """The normal force (signed) the guide's friction multiplies, from its multipliers."""
+        raise NotImplementedError
+
+    def sliding_act(self, view: LoadView, sink: LoadSink, force: Expr) -> None:
+        """A friction FORCE along the guide: on the sliding body, the opposite on the guide's."""
+        raise NotImplementedError
 
 
 @dataclass(frozen=True)

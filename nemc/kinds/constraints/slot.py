@@ -19,7 +19,7 @@ from ..spatial import V2, scale, unit
 from .base import PointPair
 
 if TYPE_CHECKING:
-    from ..contract import Reader
+    from ..contract import LoadSink, LoadView, Reader
 
 
 @dataclass(frozen=True)
@@ -27,6 +27,7 @@ class Slot(PointPair):
     type: ClassVar[str] = "slot"
     keys: ClassVar[tuple[str, ...]] = ("a", "b", "axis")
     equations_count: ClassVar[int] = 1
+    slides: ClassVar[bool] = True
 
     axis: tuple[sympy.Expr, sympy.Expr] = (sympy.S.One, sympy.S.Zero)  # in body(b)'s frame
 
@@ -49,6 +50,27 @@ class Slot(PointPair):
     def force(self, a: Frame, b: Frame, multipliers: list[sympy.Expr]
               ) -> tuple[V2, sympy.Expr]:
         return scale(self.normal(b), multipliers[0]), sympy.S.Zero  # type: ignore[return-value]
+
+    def sliding(self, view: LoadView) -> tuple[V2, sympy.Expr]:
+        """The line's direction u (ground axes) and the sliding position u . (p_a - p_b), whose
+        rate is a's velocity relative to the point of b under it, along u."""
+        a, b = view.frame(self.a.body), view.frame(self.b.body)
+        ux, uy = unit(self.axis)
+        u, d = b.rotate((ux, uy)), self.separation(a, b)
+        return u, u[0] * d[0] + u[1] * d[1]
+
+    def sliding_normal(self, multipliers: list[sympy.Expr]) -> sympy.Expr:
+        """The normal force: the first multiplier (lambda n, n a unit vector)."""
+        return multipliers[0]
+
+    def sliding_act(self, view: LoadView, sink: LoadSink, force: sympy.Expr) -> None:
+        """FORCE u on body(a) at point a, -FORCE u on body(b) at the point of b under a."""
+        a, b = view.frame(self.a.body), view.frame(self.b.body)
+        u, _ = self.sliding(view)
+        along = (force * u[0], force * u[1])
+        at = a.point(self.a.xy)
+        sink.force(self.a.body, self.a.xy, along, at=at)
+        sink.force(self.b.body, self.contact_on_b(a, b), (-along[0], -along[1]), at=at)
 
     def contact_on_b(self, a: Frame, b: Frame) -> tuple[sympy.Expr, sympy.Expr]:
         """The point of body(b) under a, in b's frame: b's point plus the separation."""
