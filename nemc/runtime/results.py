@@ -172,6 +172,9 @@ class EnsembleResult:
     event_t: np.ndarray = field(default_factory=lambda: np.empty((0, 0)))  # (k, max_events)
     event_which: np.ndarray = field(default_factory=lambda: np.empty((0, 0), dtype=np.intc))
     event_count: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=int))  # (k,)
+    # simulate_many(sensitivities=...): name -> (k, n_state, n_t) ("y0": (k, n_state, n_state,
+    # n_t)); [r] is run r's, as its single run's res.sensitivities[name]
+    sensitivities: Mapping[str, np.ndarray] = field(default_factory=dict)
 
     def event_times(self, name: str) -> list[np.ndarray]:
         """Each run's times of event NAME (the first max_events events of each run)."""

@@ -1,0 +1,235 @@
+"""Sensitivities in ensembles (simulate_many(..., sensitivities=[...])): each member's
+variational equations integrated with its state as one system in the same error control, as a
+single run's (sensitivities.py), the members one after the other in one C call of the system's
+drivers (templates/system.c.tmpl's nemc_system_integrate_many: nemc_drivers.c's ensemble loop
+at the system's size, threads sharing its counter), no Python per member while they run.
+
+Not in SIMD lanes: the lanes are nemc.Taylor's (templates/batch.c.tmpl), which has no
+variational equations; the other native methods' ensembles already run one member after the
+other (decision 0035's amendment "Ensembles"). Each member's columns start as its single run's:
+unit vectors for initial values, d y0 / d p at its own parameters where the scene's initial
+state is used. Refused by name: nemc.Taylor, closed loops, Coulomb friction and contacts (the
+build's own refusal), inputs as Python functions (ensembles run in C)."""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+
+from ..vocabulary import (
+    AUTO,
+    AUTO_VERN9_BELOW_RTOL,
+    IMPLICIT_METHODS,
+    NATIVE_METHODS,
+    TAYLOR_METHODS,
+)
+from . import runs
+from . import sensitivities as variational
+from .built import DEFAULT_T_SPAN, BuiltModel
+from .checks import (
+    checked_max_events,
+    checked_span,
+    checked_threads,
+    native_tolerances,
+    within_budget,
+)
+from .ensemble import EnsembleCall, ensemble_inputs, run_threads
+from .failures import ModelError
+from .native import new_run, table_inputs
+from .results import EnsembleResult
+from .simulation import checked_settings, run_times, tolerances, with_tstops
+
+PREFIX = "simulate_many with sensitivities"
+
+
+def simulate_many_sensitivities(model: BuiltModel, call: EnsembleCall, names: Any
+                                ) -> EnsembleResult:
+    """The ensemble of CALL with the sensitivities of NAMES: res.sensitivities[name][r] is
+    member r's d y(t) / d name, as its single run's res.sensitivities[name]."""
+    names = variational.requested(names)
+    refuse_unsupported(model, call)
+    span = checked_span(model.scene["t_span"] or DEFAULT_T_SPAN if call.t_span is None
+                        else call.t_span)
+    rtol, atol = tolerances(model.scene, call.rtol, call.atol)
+    method = system_method(model, call.method, rtol)
+    build = variational.sensitivity_build(model)
+    if method == variational.NATIVE_RADAU:
+        build = variational.radau_build(build)
+    if span[0] == span[1]:
+        raise ModelError(f"{PREFIX}: t_span is empty (t0 == t1): nothing to integrate")
+    ps, y0s, tables = ensemble_inputs(model, call.y0s, call.params, call.inputs)
+    k = len(y0s)
+    ps = np.ascontiguousarray(np.broadcast_to(ps, (k, ps.shape[1])))
+    starts, system_ps, cols = member_columns(model, build, names, ps, y0s,
+                                             given=call.y0s is not None)
+    return run_members(model, build, call, span, method, (rtol, atol),
+                       (starts, system_ps, tables), cols)
+
+
+def refuse_unsupported(model: BuiltModel, call: EnsembleCall) -> None:
+    """What an ensemble's sensitivities cannot do, refused by name before anything is built."""
+    if not model.state_names:
+        raise ModelError(f"{PREFIX}: this mechanism has no degree of freedom left by its "
+                         "drives (a kinematic analysis)")
+    if isinstance(call.method, str) and call.method in TAYLOR_METHODS:
+        raise ModelError(f"{PREFIX}: {call.method} does not integrate the variational "
+                         f"equations (nor do its SIMD lanes): "
+                         f"{', '.join(variational.SYSTEM_METHODS)} do")
+    if model.has_loops:
+        raise ModelError(f"{PREFIX}: a closed loop's members are not supported (each would "
+                         "start from its own assembly and its columns' tangent space): use "
+                         "simulate(..., sensitivities=...) for each member")
+    if model.system_drivers is None:
+        raise ModelError(f"{PREFIX} need nemc to build the native integrators for the "
+                         "sensitivity system: this standalone package has none (use "
+                         "simulate(..., sensitivities=...) with scipy's methods)")
+
+
+def system_method(model: BuiltModel, method: Any, rtol: float) -> str:
+    """The native method that runs the members' systems: the one asked for (one of the
+    system's drivers'), or for None and "auto" the scene's where the drivers run it,
+    nemc.Radau for an implicit scene, else nemc.Vern9 below rtol 1e-4 and nemc.DOP853 above
+    (a single run's "auto" with sensitivities)."""
+    if method is None or (isinstance(method, str) and method == AUTO):
+        scene = model.scene["method"]
+        if method is None and scene in variational.SYSTEM_METHODS:
+            return scene
+        if method is None and scene in IMPLICIT_METHODS:
+            return variational.NATIVE_RADAU
+        return "nemc.Vern9" if rtol < AUTO_VERN9_BELOW_RTOL else "nemc.DOP853"
+    if not isinstance(method, str) or method not in NATIVE_METHODS:
+        got = repr(method) if isinstance(method, str) else type(method).__name__
+        raise ModelError(f"{PREFIX}: method must be one of "
+                         f"{', '.join(variational.SYSTEM_METHODS)} or auto, got {got}")
+    if method not in variational.SYSTEM_METHODS:
+        raise ModelError(f"{PREFIX}: {method} does not integrate the variational equations: "
+                         f"{', '.join(variational.SYSTEM_METHODS)} do")
+    return method
+
+
+def member_columns(model: BuiltModel, build: BuiltModel, names: tuple[str, ...],
+                   ps: np.ndarray, y0s: np.ndarray, given: bool
+                   ) -> tuple[np.ndarray, np.ndarray, variational.Columns]:
+    """Each member's system start [y0 | s_0(t0) | ...] (k x n_state (1 + columns)) and
+    parameters [p | count | directions] (k rows), and the columns' layout (the first
+    member's: the directions and slices are the same for all). GIVEN: y0s were given (they do
+    not move with the parameters), else each member's columns start at d y0 / d p at its own
+    parameters."""
+    within_budget(f"{PREFIX} of {len(y0s)} runs", len(y0s) * model.n_state * (
+        1 + len(names) * max(model.n_state, 1)))
+    starts, system_ps, first = [], [], None
+    for y0, p in zip(y0s, ps):
+        tangent = None if given else variational.initial_tangent(build, p)
+        cols = variational.columns(model, names, p, tangent)
+        first = first or cols
+        starts.append(np.concatenate([y0, cols.start.T.ravel()]))
+        system_ps.append(cols.parameters(p))
+    assert first is not None
+    return (np.ascontiguousarray(starts, dtype=float),
+            np.ascontiguousarray(system_ps, dtype=float), first)
+
+
+def run_members(model: BuiltModel, build: BuiltModel, call: EnsembleCall,
+                span: tuple[float, float], method: str, tols: tuple[float, float],
+                members: tuple[np.ndarray, np.ndarray, Any],
+                cols: variational.Columns) -> EnsembleResult:
+    """The members' systems in one C call per thread (nemc_system_integrate_many), split into
+    the states and the columns."""
+    starts, system_ps, tables = members
+    k, size = len(starts), starts.shape[1]
+    drivers = variational.system_drivers(model.system_drivers, size)
+    times = run_times(model.scene, span, call.t_eval, size)
+    times = np.array(sorted(set(span), reverse=span[1] < span[0]) if times is None else times,
+                     dtype=float)
+    within_budget(f"{PREFIX} of {k} runs at {len(times)} times", k * len(times) * size)
+    settings = checked_settings(model.scene, span, call.max_step, call.tstops, call.max_steps)
+    if tables is not None:  # every step lands on the tables' samples
+        settings = with_tstops(settings, tables.tstops, span)
+    rtol, atol = native_tolerances(*tols)
+    run, keep = new_run(drivers, span, times, rtol, atol, settings)
+    if tables is not None:
+        keep.append(table_inputs(drivers, run, tables, system_ps.shape[1]))
+    capacity = checked_max_events(call.max_events)
+    run.event_capacity = capacity
+    out = MemberArrays(k, len(times), size, capacity)
+    integrate = members_call(model, build, drivers, method)
+    f = drivers.ffi.from_buffer
+    arguments = (run, k, f("double[]", starts), f("double[]", system_ps), system_ps.shape[1],
+                 *out.buffers(f))
+    run.next_run = next_run = drivers.ffi.new("long *")
+    threads = checked_threads(call.threads)
+    workers = max(1, min(threads or os.cpu_count() or 1, k))
+    with runs.interrupt_flag(drivers.ffi.new(drivers.int_pointer)) as flag:
+        run.interrupt = flag
+        run_threads(lambda: integrate(*arguments), workers, lambda: next_run[0], k,
+                    runs.Progress(f"{model.name}: runs", k) if call.progress is not False
+                    else None, call.progress)
+    return ensemble_result(model, keep[0], out, method, (rtol, atol), cols)
+
+
+class MemberArrays:
+    """The ensemble's output arrays, as nemc_integrate_many fills them: the systems' states at
+    t_eval (k x n_t x size), statuses, counts (k x 4), the events kept (k x capacity)."""
+
+    def __init__(self, k: int, n_t: int, size: int, capacity: int):
+        self.z = np.empty((k, n_t, size))
+        self.statuses = np.empty(k, dtype=np.intc)
+        self.counts = np.zeros((k, 4), dtype=np.int_)
+        self.event_t = np.full((k, max(capacity, 1)), np.nan)
+        self.event_which = np.full((k, max(capacity, 1)), -1, dtype=np.intc)
+        self.event_counts = np.zeros(k, dtype=np.int_)
+        self.capacity = capacity
+
+    def buffers(self, f: Any) -> tuple:
+        return (f("double[]", self.z), f("int[]", self.statuses), f("long[]", self.counts),
+                f("double[]", self.event_t), f("int[]", self.event_which),
+                f("long[]", self.event_counts))
+
+
+def members_call(model: BuiltModel, build: BuiltModel, drivers: Any, method: str) -> Any:
+    """nemc_system_integrate_many bound to the build's system and events: a function of the
+    run's settings, the members and the output arrays."""
+    table = model.compiled.event_table
+    ints = drivers.ffi.typeof("int[]")
+    directions = np.array([runs.DIRECTIONS[e["direction"]] for e in table] or [0],
+                          dtype=np.intc)
+    actions = np.array([variational.ACTIONS[e["action"]] for e in table] or [0],
+                       dtype=np.intc)
+    null = drivers.ffi.NULL
+    rhs = drivers.function(build, "sensitivity_rhs")
+    events = drivers.function(build, "events") if table else null
+    impact = drivers.function(build, "sensitivity_impact", "nemc_system_impact_fn") \
+        if table else null
+    jacobian, block = (drivers.function(build, "jacobian"), build.n_state) \
+        if method == variational.NATIVE_RADAU else (null, 0)
+    method_id = getattr(drivers.lib, "NEMC_" + method.split(".")[1].upper())
+    kept = (drivers.ffi.from_buffer(ints, directions), drivers.ffi.from_buffer(ints, actions))
+
+    def integrate(*arguments: Any) -> int:
+        return drivers.lib.nemc_system_integrate_many(
+            method_id, rhs, jacobian, block, len(table), *kept, events, impact, *arguments)
+
+    return integrate
+
+
+def ensemble_result(model: BuiltModel, t: np.ndarray, out: MemberArrays, method: str,
+                    tols: tuple[float, float], cols: variational.Columns) -> EnsembleResult:
+    """The EnsembleResult of the members' states, with res.sensitivities[name]: (k, n_state,
+    n_t) ("y0": (k, n_state, n_state, n_t)), NaN after a member stopped."""
+    n = model.n_state
+    z = out.z.transpose(0, 2, 1)  # k x size x n_t
+    by_column = z[:, n:].reshape(len(z), cols.count, n, -1)  # k x columns x n_state x n_t
+    sensitivities = {name: np.ascontiguousarray(
+        by_column[:, where].transpose(0, 2, 1, 3) if name == variational.INITIAL_VALUES
+        else by_column[:, where.start]) for name, where in cols.slices.items()}
+    capacity = out.capacity
+    return EnsembleResult(
+        t=t, y=np.ascontiguousarray(z[:, :n]), status=out.statuses.astype(int),
+        success=out.statuses >= 0, nfev=out.counts[:, 0].copy(),
+        njev=out.counts[:, 1].copy(), nlu=out.counts[:, 2].copy(), method=method,
+        rtol=tols[0], atol=tols[1],
+        event_names=tuple(e["name"] for e in model.metadata.get("events") or []),
+        event_t=out.event_t[:, :capacity], event_which=out.event_which[:, :capacity],
+        event_count=out.event_counts, sensitivities=sensitivities)
