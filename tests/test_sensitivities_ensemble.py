@@ -169,6 +169,20 @@ def test_members_share_an_input_table() -> None:
             assert np.array_equal(many.sensitivities[name][r], single.sensitivities[name])
 
 
+def test_the_default_method_is_a_single_runs(double_pendulum) -> None:
+    """method None: the scene's RK45 is not native, so "auto"'s rule for sensitivities:
+    nemc.Vern9 below rtol 1e-4, nemc.DOP853 above; an implicit scene's is nemc.Radau."""
+    params = {"m2": [1.0, 1.1]}
+    for rtol, method in ((1e-8, "nemc.Vern9"), (1e-3, "nemc.DOP853")):
+        many = double_pendulum.simulate_many(params=params, t_span=(0, 0.5), rtol=rtol,
+                                             sensitivities=["g"])
+        assert many.method == method
+    arm = nemc.compile(EXAMPLES / "two_link_robot_arm.yaml")
+    many = arm.simulate_many(params={arm.parameter_names[0]: [1.0, 1.2]}, t_span=(0, 0.2),
+                             sensitivities=[arm.parameter_names[0]])
+    assert many.method == "nemc.Radau" and np.all(many.success)
+
+
 def test_what_ensembles_cannot_differentiate_is_refused_by_name(double_pendulum) -> None:
     with pytest.raises(ModelError, match="nemc.Taylor does not integrate the variational "
                                          "equations \\(nor do its SIMD lanes\\)"):
@@ -180,6 +194,8 @@ def test_what_ensembles_cannot_differentiate_is_refused_by_name(double_pendulum)
                                       method="RK45")
     with pytest.raises(ModelError, match="unknown name 'gg'; did you mean 'g'"):
         double_pendulum.simulate_many(params={"m2": [1.0, 1.1]}, sensitivities=["gg"])
+    with pytest.raises(ModelError, match="t_span is empty"):
+        double_pendulum.simulate_many(t_span=(1.0, 1.0), sensitivities=["g"])
     with pytest.raises(ModelError, match="simulate_many runs in C: .*not Python functions"):
         nemc.compile(EXAMPLES / "cart_pole.yaml").simulate_many(
             inputs={"F": lambda t, y: 0.0}, sensitivities=["y0"])
