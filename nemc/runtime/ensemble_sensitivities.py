@@ -8,11 +8,14 @@ Not in SIMD lanes: the lanes are nemc.Taylor's (templates/batch.c.tmpl), which h
 variational equations; the other native methods' ensembles already run one member after the
 other (decision 0035's amendment "Ensembles"). Each member's columns start as its single run's:
 unit vectors for initial values, d y0 / d p at its own parameters where the scene's initial
-state is used. Refused by name: nemc.Taylor, closed loops, Coulomb friction and contacts (the
-build's own refusal), inputs as Python functions (ensembles run in C)."""
+state is used, a closed loop's in its own assembled state's tangent space
+(loop_sensitivities.py). Refused by name: nemc.Taylor, Coulomb friction and contacts (the
+build's own refusal), what a closed loop's single run refuses, inputs as Python functions
+(ensembles run in C)."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from typing import Any
 
@@ -25,6 +28,7 @@ from ..vocabulary import (
     NATIVE_METHODS,
     TAYLOR_METHODS,
 )
+from . import loop_sensitivities as closed
 from . import runs
 from . import sensitivities as variational
 from .built import DEFAULT_T_SPAN, BuiltModel
@@ -62,8 +66,11 @@ def simulate_many_sensitivities(model: BuiltModel, call: EnsembleCall, names: An
     ps, y0s, tables = ensemble_inputs(model, call.y0s, call.params, call.inputs)
     k = len(y0s)
     ps = np.ascontiguousarray(np.broadcast_to(ps, (k, ps.shape[1])))
-    starts, system_ps, cols = member_columns(model, build, names, ps, y0s,
-                                             given=call.y0s is not None)
+    loop = None
+    if model.has_loops:  # each run from its assembled state, its columns in its tangent space
+        y0s, loop = assembled_runs(model, names, call.y0s, span[0], y0s, ps)
+    starts, system_ps, cols = member_columns(model, build, names, (ps, y0s),
+                                             call.y0s is not None, (span[0], loop))
     return run_members(model, build, call, span, method, (rtol, atol),
                        (starts, system_ps, tables), cols)
 
@@ -77,10 +84,6 @@ def refuse_unsupported(model: BuiltModel, call: EnsembleCall) -> None:
         raise ModelError(f"{PREFIX}: {call.method} does not integrate the variational "
                          f"equations (nor do its SIMD lanes): "
                          f"{', '.join(variational.SYSTEM_METHODS)} do")
-    if model.has_loops:
-        raise ModelError(f"{PREFIX}: a closed loop's members are not supported (each would "
-                         "start from its own assembly and its columns' tangent space): use "
-                         "simulate(..., sensitivities=...) for each member")
     if model.system_drivers is None:
         raise ModelError(f"{PREFIX} need nemc to build the native integrators for the "
                          "sensitivity system: this standalone package has none (use "
@@ -109,20 +112,37 @@ def system_method(model: BuiltModel, method: Any, rtol: float) -> str:
     return method
 
 
+def assembled_runs(model: BuiltModel, names: tuple[str, ...], given_y0s: Any, t0: float,
+                   y0s: np.ndarray, ps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A closed loop's runs' initial states assembled as simulate_many assembles them, and the
+    mask of the entries given (the others solved: no column, refused by name as simulate
+    refuses them)."""
+    given = model.loops.given_mask(given_y0s)
+    closed.refused_entries(model, names, given)
+    return model.loops.assembled_runs(t0, y0s, given, ps), given
+
+
 def member_columns(model: BuiltModel, build: BuiltModel, names: tuple[str, ...],
-                   ps: np.ndarray, y0s: np.ndarray, given: bool
+                   runs_at: tuple[np.ndarray, np.ndarray], given: bool,
+                   loop: tuple[float, np.ndarray | None]
                    ) -> tuple[np.ndarray, np.ndarray, variational.Columns]:
     """Each member's system start [y0 | s_0(t0) | ...] (k x n_state (1 + columns)) and
     parameters [p | count | directions] (k rows), and the columns' layout (the first
-    member's: the directions and slices are the same for all). GIVEN: y0s were given (they do
-    not move with the parameters), else each member's columns start at d y0 / d p at its own
-    parameters."""
+    member's: the directions and slices are the same for all). RUNS_AT: the parameter rows and
+    initial states. GIVEN: y0s were given (they do not move with the parameters), else each
+    member's columns start at d y0 / d p at its own parameters. LOOP: t0 and a closed loop's
+    given mask (None for a tree): the columns then start in each run's tangent space."""
+    ps, y0s = runs_at
+    t0, loop_given = loop
     within_budget(f"{PREFIX} of {len(y0s)} runs", len(y0s) * model.n_state * (
         1 + len(names) * max(model.n_state, 1)))
     starts, system_ps, first = [], [], None
     for y0, p in zip(y0s, ps):
         tangent = None if given else variational.initial_tangent(build, p)
         cols = variational.columns(model, names, p, tangent)
+        if loop_given is not None:
+            cols = dataclasses.replace(cols, start=closed.start_columns_at(
+                build, (t0, y0, p), loop_given, cols.start, cols.directions))
         first = first or cols
         starts.append(np.concatenate([y0, cols.start.T.ravel()]))
         system_ps.append(cols.parameters(p))
@@ -154,6 +174,7 @@ def run_members(model: BuiltModel, build: BuiltModel, call: EnsembleCall,
     capacity = checked_max_events(call.max_events)
     run.event_capacity = capacity
     out = MemberArrays(k, len(times), size, capacity)
+    out.parameters = system_ps
     integrate = members_call(model, build, drivers, method)
     f = drivers.ffi.from_buffer
     arguments = (run, k, f("double[]", starts), f("double[]", system_ps), system_ps.shape[1],
@@ -181,6 +202,7 @@ class MemberArrays:
         self.event_which = np.full((k, max(capacity, 1)), -1, dtype=np.intc)
         self.event_counts = np.zeros(k, dtype=np.int_)
         self.capacity = capacity
+        self.parameters = np.empty((k, 0))  # the members' system parameters
 
     def buffers(self, f: Any) -> tuple:
         return (f("double[]", self.z), f("int[]", self.statuses), f("long[]", self.counts),
@@ -219,6 +241,9 @@ def ensemble_result(model: BuiltModel, t: np.ndarray, out: MemberArrays, method:
     """The EnsembleResult of the members' states, with res.sensitivities[name]: (k, n_state,
     n_t) ("y0": (k, n_state, n_state, n_t)), NaN after a member stopped."""
     n = model.n_state
+    if model.has_loops:  # as simulate_many's: the states brought onto the constraints
+        ps = out.parameters[:, :cols.directions.shape[1]]
+        out.z[:, :, :n] = model.loops.projected_runs(t, out.z[:, :, :n], ps)
     z = out.z.transpose(0, 2, 1)  # k x size x n_t
     by_column = z[:, n:].reshape(len(z), cols.count, n, -1)  # k x columns x n_state x n_t
     sensitivities = {name: np.ascontiguousarray(

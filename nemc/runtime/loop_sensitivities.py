@@ -80,11 +80,11 @@ def pieces(build: BuiltModel, t: float, y: np.ndarray, p: np.ndarray, seed: np.n
     return layout.split(acc), layout.split(dacc)
 
 
-def started(build: BuiltModel, spec: RunSpec, given: np.ndarray, start: np.ndarray,
-            direction: np.ndarray) -> np.ndarray:
-    """One column's start in the tangent space at the assembled state: START's given entries
-    kept, the solved coordinates then the solved rates solved (least squares)."""
-    t0, y0, p = spec.span[0], spec.state0, spec.p
+def started(build: BuiltModel, at: tuple[float, np.ndarray, np.ndarray], given: np.ndarray,
+            start: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """One column's start in the tangent space at the assembled state AT (t0, y0, p): START's
+    given entries kept, the solved coordinates then the solved rates solved (least squares)."""
+    t0, y0, p = at
     s = np.where(given, start, 0.0)
     solved_q = [i for i in range(y0.size // 2) if not given[2 * i]]
     solved_u = [i for i in range(y0.size // 2) if not given[2 * i + 1]]
@@ -104,7 +104,15 @@ def started(build: BuiltModel, spec: RunSpec, given: np.ndarray, start: np.ndarr
 def start_columns(build: BuiltModel, spec: RunSpec, given: np.ndarray, starts: np.ndarray,
                   directions: np.ndarray) -> np.ndarray:
     """Every column's start (n_state x k) from its given start and its direction."""
-    return np.array([started(build, spec, given, starts[:, j], directions[j])
+    return start_columns_at(build, (spec.span[0], spec.state0, spec.p), given, starts,
+                            directions)
+
+
+def start_columns_at(build: BuiltModel, at: tuple[float, np.ndarray, np.ndarray],
+                     given: np.ndarray, starts: np.ndarray, directions: np.ndarray
+                     ) -> np.ndarray:
+    """start_columns at the assembled state AT (t0, y0, p): an ensemble's run's."""
+    return np.array([started(build, at, given, starts[:, j], directions[j])
                      for j in range(directions.shape[0])]).T.copy()
 
 

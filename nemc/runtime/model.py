@@ -160,8 +160,8 @@ class Model(BuiltModel):
         its state in the same error control (nemc.DOP853, nemc.Vern9, nemc.Radau; default as
         simulate's: nemc.Vern9 below rtol 1e-4, else nemc.DOP853, or the scene's native or
         implicit method), the runs one after the other in C, never in lanes;
-        res.sensitivities[name][r] is run r's d y(t) / d name, as its single run's. Refused:
-        nemc.Taylor, closed loops, friction and contacts."""
+        res.sensitivities[name][r] is run r's d y(t) / d name, as its single run's (a closed
+        loop's run from its own assembly). Refused: nemc.Taylor, friction and contacts."""
         call = ensemble.EnsembleCall(y0s, params, t_span, t_eval, method, rtol, atol, threads,
                                      max_step, tstops, max_steps, max_events, progress, lanes,
                                      inputs)
