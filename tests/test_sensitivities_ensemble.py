@@ -215,7 +215,16 @@ def test_the_default_method_is_a_single_runs(double_pendulum) -> None:
     assert many.method == "nemc.Radau" and np.all(many.success)
 
 
-def test_what_ensembles_cannot_differentiate_is_refused_by_name(double_pendulum) -> None:
+def test_what_ensembles_cannot_differentiate_is_refused_by_name(double_pendulum,
+                                                                tmp_path: Path) -> None:
+    scene_taylor = tmp_path / "taylor_scene.yaml"
+    scene_taylor.write_text(DAMPED_PENDULUM.replace("name: damped_pendulum_many",
+                                                    "name: taylor_scene").replace(
+        "  t_eval: {step: 0.5}", "  t_eval: {step: 0.5}\n  method: nemc.Taylor"))
+    with pytest.raises(ModelError, match="nemc.Taylor does not integrate the variational "
+                                         "equations \\(nor do its SIMD lanes\\)"):
+        nemc.compile(scene_taylor).simulate_many(params={"c": [0.3, 0.4]},
+                                                 sensitivities=["c"])
     with pytest.raises(ModelError, match="nemc.Taylor does not integrate the variational "
                                          "equations \\(nor do its SIMD lanes\\)"):
         double_pendulum.simulate_many(params={"m2": [1.0, 1.1]}, sensitivities=["g"],

@@ -80,10 +80,6 @@ def refuse_unsupported(model: BuiltModel, call: EnsembleCall) -> None:
     if not model.state_names:
         raise ModelError(f"{PREFIX}: this mechanism has no degree of freedom left by its "
                          "drives (a kinematic analysis)")
-    if isinstance(call.method, str) and call.method in TAYLOR_METHODS:
-        raise ModelError(f"{PREFIX}: {call.method} does not integrate the variational "
-                         f"equations (nor do its SIMD lanes): "
-                         f"{', '.join(variational.SYSTEM_METHODS)} do")
     if model.system_drivers is None:
         raise ModelError(f"{PREFIX} need nemc to build the native integrators for the "
                          "sensitivity system: this standalone package has none (use "
@@ -92,23 +88,23 @@ def refuse_unsupported(model: BuiltModel, call: EnsembleCall) -> None:
 
 def system_method(model: BuiltModel, method: Any, rtol: float) -> str:
     """The native method that runs the members' systems: the one asked for (one of the
-    system's drivers'), or for None and "auto" the scene's where the drivers run it,
-    nemc.Radau for an implicit scene, else nemc.Vern9 below rtol 1e-4 and nemc.DOP853 above
-    (a single run's "auto" with sensitivities)."""
-    if method is None or (isinstance(method, str) and method == AUTO):
+    system's drivers'); for None the scene's native method (simulate_many's default; nemc.Taylor
+    refused), nemc.Radau for an implicit scene, else as "auto": nemc.Vern9 below rtol 1e-4 and
+    nemc.DOP853 above (a single run's "auto" with sensitivities)."""
+    if method is None:
         scene = model.scene["method"]
-        if method is None and scene in variational.SYSTEM_METHODS:
-            return scene
-        if method is None and scene in IMPLICIT_METHODS:
-            return variational.NATIVE_RADAU
+        method = scene if scene in NATIVE_METHODS else \
+            variational.NATIVE_RADAU if scene in IMPLICIT_METHODS else AUTO
+    if isinstance(method, str) and method == AUTO:
         return "nemc.Vern9" if rtol < AUTO_VERN9_BELOW_RTOL else "nemc.DOP853"
     if not isinstance(method, str) or method not in NATIVE_METHODS:
         got = repr(method) if isinstance(method, str) else type(method).__name__
         raise ModelError(f"{PREFIX}: method must be one of "
                          f"{', '.join(variational.SYSTEM_METHODS)} or auto, got {got}")
     if method not in variational.SYSTEM_METHODS:
-        raise ModelError(f"{PREFIX}: {method} does not integrate the variational equations: "
-                         f"{', '.join(variational.SYSTEM_METHODS)} do")
+        lanes = " (nor do its SIMD lanes)" if method in TAYLOR_METHODS else ""
+        raise ModelError(f"{PREFIX}: {method} does not integrate the variational "
+                         f"equations{lanes}: {', '.join(variational.SYSTEM_METHODS)} do")
     return method
 
 

@@ -157,9 +157,9 @@ class Model(BuiltModel):
         inputs: as simulate's, each input's value also run by run (an array of k numbers);
         tables and feedbacks shared; no Python functions (the runs are in C).
         sensitivities: as simulate's names; each run's variational equations integrated with
-        its state in the same error control (nemc.DOP853, nemc.Vern9, nemc.Radau; default as
-        simulate's: nemc.Vern9 below rtol 1e-4, else nemc.DOP853, or the scene's native or
-        implicit method), the runs one after the other in C, never in lanes;
+        its state in the same error control (nemc.DOP853, nemc.Vern9, nemc.Radau; default the
+        scene's native method, nemc.Radau for an implicit scene, else nemc.Vern9 below rtol
+        1e-4 and nemc.DOP853 above), the runs one after the other in C, never in lanes;
         res.sensitivities[name][r] is run r's d y(t) / d name, as its single run's (a closed
         loop's run from its own assembly). Refused: nemc.Taylor, friction and contacts."""
         call = ensemble.EnsembleCall(y0s, params, t_span, t_eval, method, rtol, atol, threads,
