@@ -201,6 +201,20 @@ def test_closed_loop_members_are_their_single_runs() -> None:
         fourbar.simulate_many(starts, sensitivities=["q2"], **run)
 
 
+def test_a_member_that_ends_early_has_nan_columns_after(double_pendulum) -> None:
+    """A step budget that stops the members part way: each member's status is its single
+    run's, its columns its single run's where it reached, NaN after."""
+    run = {"t_span": (0.0, 20.0), "t_eval": np.linspace(0.0, 20.0, 11), "method": "nemc.DOP853",
+           "rtol": 1e-10, "atol": 1e-12, "max_steps": 300}
+    many = double_pendulum.simulate_many(params={"m2": [0.9, 1.1]}, sensitivities=["g"], **run)
+    for r, m2 in enumerate((0.9, 1.1)):
+        single = double_pendulum.simulate(params={"m2": m2}, sensitivities=["g"], **run)
+        reached = single.t.size
+        assert not single.success and many.status[r] == single.status and 0 < reached < 11
+        assert np.array_equal(many.sensitivities["g"][r][:, :reached], single.sensitivities["g"])
+        assert np.all(np.isnan(many.sensitivities["g"][r][:, reached:]))
+
+
 def test_the_default_method_is_a_single_runs(double_pendulum) -> None:
     """method None: the scene's RK45 is not native, so "auto"'s rule for sensitivities:
     nemc.Vern9 below rtol 1e-4, nemc.DOP853 above; an implicit scene's is nemc.Radau."""

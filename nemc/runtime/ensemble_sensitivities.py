@@ -156,20 +156,9 @@ def run_members(model: BuiltModel, build: BuiltModel, call: EnsembleCall,
     starts, system_ps, tables = members
     k, size = len(starts), starts.shape[1]
     drivers = variational.system_drivers(model.system_drivers, size)
-    times = run_times(model.scene, span, call.t_eval, size)
-    times = np.array(sorted(set(span), reverse=span[1] < span[0]) if times is None else times,
-                     dtype=float)
-    within_budget(f"{PREFIX} of {k} runs at {len(times)} times", k * len(times) * size)
-    settings = checked_settings(model.scene, span, call.max_step, call.tstops, call.max_steps)
-    if tables is not None:  # every step lands on the tables' samples
-        settings = with_tstops(settings, tables.tstops, span)
-    rtol, atol = native_tolerances(*tols)
-    run, keep = new_run(drivers, span, times, rtol, atol, settings)
-    if tables is not None:
-        keep.append(table_inputs(drivers, run, tables, system_ps.shape[1]))
-    capacity = checked_max_events(call.max_events)
-    run.event_capacity = capacity
-    out = MemberArrays(k, len(times), size, capacity)
+    run, keep = members_run(model, drivers, call, span, tols, (k, size, system_ps.shape[1]),
+                            tables)
+    out = MemberArrays(k, len(keep[0]), size, int(run.event_capacity))
     out.parameters = system_ps
     integrate = members_call(model, build, drivers, method)
     f = drivers.ffi.from_buffer
@@ -183,7 +172,29 @@ def run_members(model: BuiltModel, build: BuiltModel, call: EnsembleCall,
         run_threads(lambda: integrate(*arguments), workers, lambda: next_run[0], k,
                     runs.Progress(f"{model.name}: runs", k) if call.progress is not False
                     else None, call.progress)
-    return ensemble_result(model, keep[0], out, method, (rtol, atol), cols)
+    return ensemble_result(model, keep[0], out, method, (run.rtol, run.atol), cols)
+
+
+def members_run(model: BuiltModel, drivers: Any, call: EnsembleCall, span: tuple[float, float],
+                tols: tuple[float, float], sizes: tuple[int, int, int], tables: Any
+                ) -> tuple[Any, list]:
+    """The settings every member runs with (a nemc_run: times, tolerances, max_step, tstops,
+    budget, the input tables, the events kept) and the arrays it points into (the times
+    first). SIZES: the members, the system's states and its parameters."""
+    k, size, n_parameters = sizes
+    times = run_times(model.scene, span, call.t_eval, size)
+    times = np.array(sorted(set(span), reverse=span[1] < span[0]) if times is None else times,
+                     dtype=float)
+    within_budget(f"{PREFIX} of {k} runs at {len(times)} times", k * len(times) * size)
+    settings = checked_settings(model.scene, span, call.max_step, call.tstops, call.max_steps)
+    if tables is not None:  # every step lands on the tables' samples
+        settings = with_tstops(settings, tables.tstops, span)
+    rtol, atol = native_tolerances(*tols)
+    run, keep = new_run(drivers, span, times, rtol, atol, settings)
+    if tables is not None:
+        keep.append(table_inputs(drivers, run, tables, n_parameters))
+    run.event_capacity = checked_max_events(call.max_events)
+    return run, keep
 
 
 class MemberArrays:
