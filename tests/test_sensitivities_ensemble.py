@@ -135,7 +135,8 @@ def test_each_member_starts_at_its_own_initial_tangent(damped) -> None:
 
 def test_impacts_jump_every_members_columns() -> None:
     """The bouncing ball's members (e and the drop height per member) through their bounces:
-    each member's columns (which jump at every impact) are its single run's."""
+    each member's columns (which jump at every impact) and its event times' sensitivities are
+    its single run's."""
     ball = nemc.compile(EXAMPLES / "bouncing_ball.yaml")
     restitution = np.array([0.75, 0.8, 0.85])  # at rest after 2.6 s and more
     heights = np.array([1.0, 1.05, 1.2])
@@ -150,6 +151,10 @@ def test_impacts_jump_every_members_columns() -> None:
         assert many.event_count[r] == sum(len(t) for t, _ in single.events.values())
         for name in ("e", "g", "y"):
             assert np.array_equal(many.sensitivities[name][r], single.sensitivities[name])
+            for event in ("bounce", "apex"):  # the event times' own
+                assert np.array_equal(many.event_sensitivities[event][name][r],
+                                      single.event_sensitivities[event][name])
+    assert many.event_sensitivities["bounce"]["e"][2].shape == many.event_times("bounce")[2].shape
 
 
 def test_members_share_an_input_table() -> None:
@@ -227,6 +232,29 @@ def test_the_default_method_is_a_single_runs(double_pendulum) -> None:
     many = arm.simulate_many(params={arm.parameter_names[0]: [1.0, 1.2]}, t_span=(0, 0.2),
                              sensitivities=[arm.parameter_names[0]])
     assert many.method == "nemc.Radau" and np.all(many.success)
+
+
+def test_event_times_sensitivities_under_an_input_table(tmp_path: Path) -> None:
+    """The damped pendulum pushed by a table of T (shared), c per member, an event where it
+    swings through the vertical: each member's event times' sensitivities (taken at the table's
+    law of the event's segment) are its single run's."""
+    path = tmp_path / "pushed_pendulum.yaml"
+    path.write_text(DAMPED_PENDULUM.replace("name: damped_pendulum_many", "name: pushed")
+                    .replace("loads:\n", "inputs: {T: 0}\nloads:\n  - {torque: T, body: rod}\n")
+                    + "  events:\n    down: {when: theta, direction: falling}\n")
+    model = nemc.compile(path)
+    table = ([0.0, 1.0, 2.0, 4.0], [0.0, 2.0, -1.0, 0.5])
+    damping = np.array([0.3, 0.4, 0.5])
+    run = {"method": "nemc.Vern9", "rtol": 1e-10, "atol": 1e-12}
+    many = model.simulate_many(params={"c": damping}, inputs={"T": table},
+                               sensitivities=["T", "c", "theta"], **run)
+    assert np.all(many.event_count >= 1)
+    for r in range(3):
+        single = model.simulate(params={"c": damping[r]}, inputs={"T": table},
+                                sensitivities=["T", "c", "theta"], **run)
+        for name in ("T", "c", "theta"):
+            assert np.array_equal(many.event_sensitivities["down"][name][r],
+                                  single.event_sensitivities["down"][name])
 
 
 def test_what_ensembles_cannot_differentiate_is_refused_by_name(double_pendulum,

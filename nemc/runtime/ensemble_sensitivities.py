@@ -1,8 +1,9 @@
 """Sensitivities in ensembles (simulate_many(..., sensitivities=[...])): each member's
 variational equations integrated with its state as one system in the same error control, as a
 single run's (sensitivities.py), the members one after the other in one C call of the system's
-drivers (templates/system.c.tmpl's nemc_system_integrate_many: nemc_drivers.c's ensemble loop
-at the system's size, threads sharing its counter), no Python per member while they run.
+drivers (templates/system.c.tmpl's nemc_system_integrate_many: runs taken as nemc_drivers.c's
+ensembles take them, at the system's size, threads sharing the counter), no Python per member
+while they run; after, the event times' sensitivities from the states kept before each event.
 
 Not in SIMD lanes: the lanes are nemc.Taylor's (templates/batch.c.tmpl), which has no
 variational equations; the other native methods' ensembles already run one member after the
@@ -41,6 +42,7 @@ from .checks import (
 )
 from .ensemble import EnsembleCall, ensemble_inputs, run_threads
 from .failures import ModelError
+from .inputs import segment_law
 from .native import new_run, table_inputs
 from .results import EnsembleResult
 from .simulation import checked_settings, run_times, tolerances, with_tstops
@@ -174,7 +176,9 @@ def run_members(model: BuiltModel, build: BuiltModel, call: EnsembleCall,
         run_threads(lambda: integrate(*arguments), workers, lambda: next_run[0], k,
                     runs.Progress(f"{model.name}: runs", k) if call.progress is not False
                     else None, call.progress)
-    return ensemble_result(model, keep[0], out, method, (run.rtol, run.atol), cols)
+    result = ensemble_result(model, keep[0], out, method, (run.rtol, run.atol), cols)
+    result.event_sensitivities = member_event_sensitivities(build, out, cols, tables)
+    return result
 
 
 def members_run(model: BuiltModel, drivers: Any, call: EnsembleCall, span: tuple[float, float],
@@ -209,6 +213,7 @@ class MemberArrays:
         self.counts = np.zeros((k, 4), dtype=np.int_)
         self.event_t = np.full((k, max(capacity, 1)), np.nan)
         self.event_which = np.full((k, max(capacity, 1)), -1, dtype=np.intc)
+        self.event_y = np.full((k, max(capacity, 1), size), np.nan)  # the states before
         self.event_counts = np.zeros(k, dtype=np.int_)
         self.capacity = capacity
         self.parameters = np.empty((k, 0))  # the members' system parameters
@@ -216,6 +221,7 @@ class MemberArrays:
     def buffers(self, f: Any) -> tuple:
         return (f("double[]", self.z), f("int[]", self.statuses), f("long[]", self.counts),
                 f("double[]", self.event_t), f("int[]", self.event_which),
+                f("double[]", self.event_y),
                 f("long[]", self.event_counts))
 
 
@@ -267,3 +273,43 @@ def ensemble_result(model: BuiltModel, t: np.ndarray, out: MemberArrays, method:
         event_names=tuple(e["name"] for e in model.metadata.get("events") or []),
         event_t=out.event_t[:, :capacity], event_which=out.event_which[:, :capacity],
         event_count=out.event_counts, sensitivities=sensitivities)
+
+
+def member_event_sensitivities(build: BuiltModel, out: MemberArrays, cols: variational.Columns,
+                               tables: Any) -> dict[str, dict[str, list[np.ndarray]]]:
+    """Each scene event's times' sensitivities in each member (its events kept: the first
+    max_events), from the system's states recorded before each (C event_time_sensitivities,
+    as a single run's): event -> name -> k arrays, (count,) ("y0": (n_state, count)); NaN where
+    the C refuses a state."""
+    table = build.compiled.event_table
+    call, buffer = build.compiled.function("event_time_sensitivities"), build.compiled.buffer
+    found: dict[str, dict[str, list[np.ndarray]]] = {
+        event["name"]: {name: [] for name in cols.slices} for event in table}
+    for r in range(len(out.z)) if table else ():
+        kept = min(int(out.event_counts[r]), out.capacity)
+        dtau = np.empty((kept, cols.count))
+        for i in range(kept):
+            t = float(out.event_t[r, i])
+            p = member_parameters(out.parameters[r], tables, t)
+            if call(int(out.event_which[r, i]), t, buffer(out.event_y[r, i]), buffer(p),
+                    buffer(dtau[i])):
+                dtau[i] = np.nan
+        which = out.event_which[r, :kept]
+        for index, event in enumerate(table):
+            rows = dtau[which == index]
+            for name, where in cols.slices.items():
+                found[event["name"]][name].append(
+                    rows[:, where].T.copy() if name == variational.INITIAL_VALUES
+                    else rows[:, where.start].copy())
+    return found
+
+
+def member_parameters(system_p: np.ndarray, tables: Any, t: float) -> np.ndarray:
+    """A member's system parameters at t: with the input tables' laws for the segment from t
+    (as RunInputs.at sets them in a single run's)."""
+    if tables is None:
+        return system_p
+    p = system_p.copy()
+    for index, table in tables.tables:
+        p[index: index + 3] = segment_law(table, t)
+    return p
