@@ -93,6 +93,7 @@ bench: $(PEERS_STAMP)
 	$(BIN)/python benchmarks/plant.py
 	$(BIN)/python benchmarks/sensitivities.py
 	$(BIN)/python benchmarks/loop_sensitivities.py
+	$(BIN)/python benchmarks/ensemble_sensitivities.py
 	$(BIN)/python benchmarks/friction.py
 	$(BIN)/python benchmarks/fitting.py
 

@@ -209,6 +209,17 @@ def test_loop_sensitivities_smoke_mode_writes_its_table(tmp_path: Path) -> None:
     assert text.startswith("# A closed loop's sensitivities")
 
 
+def test_ensemble_sensitivities_smoke_mode_writes_its_table(tmp_path: Path) -> None:
+    out = run_script("ensemble_sensitivities.py", tmp_path)
+    result = json.loads((out / "ensemble_sensitivities-latest.json").read_text())
+    assert set(result["times"]) == {"simulate_many with sensitivities",
+                                    "single runs with sensitivities", "simulate_many plain"}
+    assert result["largest_difference_from_single_runs"] < 1e-12
+    assert all(r["median"] > 0 for r in result["ratios"])
+    assert (out / "ensemble_sensitivities-latest.md").read_text().startswith(
+        "# Sensitivities in ensembles")
+
+
 def test_friction_smoke_mode_compares_exact_friction_with_the_tanh_law(tmp_path: Path) -> None:
     out = run_script("friction.py", tmp_path)
     result = json.loads((out / "friction-latest.json").read_text())

@@ -91,10 +91,20 @@ def pieces_along(build: BuiltModel, t: float, y: np.ndarray, p: np.ndarray, seed
 
 def start_columns(build: BuiltModel, spec: RunSpec, given: np.ndarray, starts: np.ndarray,
                   directions: np.ndarray) -> np.ndarray:
-    """Every column's start (n_state x k) in the tangent space at the assembled state, from its
-    given start STARTS[:, j] (its given entries kept) and its direction DIRECTIONS[j]: the
-    solved coordinates then the solved rates, every column's in one least-squares solve."""
-    t0, y0, p = spec.span[0], spec.state0, spec.p
+    """Every column's start (n_state x k) from its given start and its direction, at the run's
+    assembled start."""
+    return start_columns_at(build, (spec.span[0], spec.state0, spec.p), given, starts,
+                            directions)
+
+
+def start_columns_at(build: BuiltModel, at: tuple[float, np.ndarray, np.ndarray],
+                     given: np.ndarray, starts: np.ndarray, directions: np.ndarray
+                     ) -> np.ndarray:
+    """Every column's start (n_state x k) in the tangent space at the assembled state AT (t0,
+    y0, p; an ensemble's run's own), from its given start STARTS[:, j] (its given entries
+    kept) and its direction DIRECTIONS[j]: the solved coordinates then the solved rates, every
+    column's in one least-squares solve."""
+    t0, y0, p = at
     s = np.where(given[:, None], starts, 0.0)
     solved_q = [i for i in range(y0.size // 2) if not given[2 * i]]
     solved_u = [i for i in range(y0.size // 2) if not given[2 * i + 1]]

@@ -35,7 +35,7 @@ from ..vocabulary import (  # noqa: F401 (re-exported: the runtime's public name
     auto_method,
     auto_takes_taylor,
 )
-from . import ensemble, fmu, plant, runs, simulation
+from . import ensemble, ensemble_sensitivities, fmu, plant, runs, simulation
 from . import sensitivities as variational
 from .auto import checked_auto_choice
 from .built import DEFAULT_T_SPAN, BuiltModel  # noqa: F401 (re-exported)
@@ -132,6 +132,7 @@ class Model(BuiltModel):
         progress: bool | None = None,
         lanes: bool = True,
         inputs: Any = None,
+        sensitivities: Sequence[str] | None = None,
     ) -> EnsembleResult:
         """Integrate an ensemble with a native method, the loop over runs in C.
 
@@ -154,10 +155,19 @@ class Model(BuiltModel):
         results to the last bit as one run after the other (lanes=False); the other methods
         always run one after the other.
         inputs: as simulate's, each input's value also run by run (an array of k numbers);
-        tables and feedbacks shared; no Python functions (the runs are in C)."""
-        return ensemble.simulate_many(self, ensemble.EnsembleCall(
-            y0s, params, t_span, t_eval, method, rtol, atol, threads, max_step, tstops,
-            max_steps, max_events, progress, lanes, inputs))
+        tables and feedbacks shared; no Python functions (the runs are in C).
+        sensitivities: as simulate's names; each run's variational equations integrated with
+        its state in the same error control (nemc.DOP853, nemc.Vern9, nemc.Radau; default the
+        scene's native method, nemc.Radau for an implicit scene, else nemc.Vern9 below rtol
+        1e-4 and nemc.DOP853 above), the runs one after the other in C, never in lanes;
+        res.sensitivities[name][r] is run r's d y(t) / d name, as its single run's (a closed
+        loop's run from its own assembly). Refused: nemc.Taylor, friction and contacts."""
+        call = ensemble.EnsembleCall(y0s, params, t_span, t_eval, method, rtol, atol, threads,
+                                     max_step, tstops, max_steps, max_events, progress, lanes,
+                                     inputs)
+        if sensitivities is not None:
+            return ensemble_sensitivities.simulate_many_sensitivities(self, call, sensitivities)
+        return ensemble.simulate_many(self, call)
 
     def auto_method(self, span: Sequence[float], y0: Any, rtol: float,
                     params: Any = None, runs: int = 1) -> str:

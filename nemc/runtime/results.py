@@ -88,6 +88,9 @@ class SimulationResult:
     # simulate(..., sensitivities=[...])'s: name -> d y(t) / d name, (n_state, n_t) ("y0":
     # (n_state, n_state, n_t)); and the outputs': name -> output -> (n_t,) ("y0": (n_state, n_t))
     sensitivities: Mapping[str, np.ndarray] = field(default_factory=dict)
+    # and the event times' own: event -> name -> k arrays, as event_times (each run's kept
+    # events), (count,) ("y0": (n_state, count)) each
+    event_sensitivities: Mapping[str, Mapping[str, list]] = field(default_factory=dict)
     output_sensitivities: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
     # and the scene's events' times': event -> name -> d t_event / d name, (k,) for the k times
     # the event fired ("y0": (n_state, k))
@@ -185,6 +188,12 @@ class EnsembleResult:
     event_t: np.ndarray = field(default_factory=lambda: np.empty((0, 0)))  # (k, max_events)
     event_which: np.ndarray = field(default_factory=lambda: np.empty((0, 0), dtype=np.intc))
     event_count: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=int))  # (k,)
+    # simulate_many(sensitivities=...): name -> (k, n_state, n_t) ("y0": (k, n_state, n_state,
+    # n_t)); [r] is run r's, as its single run's res.sensitivities[name]
+    sensitivities: Mapping[str, np.ndarray] = field(default_factory=dict)
+    # and the event times' own: event -> name -> k arrays, as event_times (each run's kept
+    # events), (count,) ("y0": (n_state, count)) each
+    event_sensitivities: Mapping[str, Mapping[str, list]] = field(default_factory=dict)
 
     def event_times(self, name: str) -> list[np.ndarray]:
         """Each run's times of event NAME (the first max_events events of each run)."""
