@@ -31,6 +31,7 @@ STIFF_FRACTION = 0.01  # a stiff run stops when the rest would take over this x 
 NSTIFF = 1000  # scipy's methods: test every NSTIFF steps, and every step once one is positive
 CHATTER_FRACTION = 1e-9  # the chattering window, x |t_end - t0|: after an impact its event
 # is not looked at for one window; impacts of one event closer than two windows chatter
+SWITCH_WINDOW = 1e-7  # a mode switch's window at most this x (1 + |t|) (run_control.c.tmpl)
 DIRECTIONS = {"rising": 1, "falling": -1, "both": 0}
 # The statuses of a run: the C enum nemc_status (templates/model.h.tmpl), the same for scipy's
 # methods. scipy's own: 1 a terminal event, 0 the end, -1 it gave up.
@@ -180,9 +181,12 @@ def ending_message(end: Ending) -> str:
                 "follow; raise max_steps (0: no budget) to go on")
     if end.status == CHATTERING:
         window = 2 * CHATTER_FRACTION * abs(end.span[1] - end.span[0])
+        rule = f"{2 * CHATTER_FRACTION:g} of the run's interval"
+        capped = 2 * SWITCH_WINDOW * (1 + abs(end.t))
+        if end.event and end.event.endswith((".contact", ".stick_slip")) and capped < window:
+            window, rule = capped, f"a mode switch's: {2 * SWITCH_WINDOW:g} (1 + |t|)"
         return (f"event {end.event!r} chatters {at}: two impacts {end.interval:.2g} apart (within "
-                f"{window:.2g}, {2 * CHATTER_FRACTION:g} of the run's interval): they accumulate "
-                "there (a body "
+                f"{window:.2g}, {rule}): they accumulate there (a body "
                 "coming to rest on a surface, or a law that does not separate, e.g. restitution "
                 f"0); the run stops. End t_span before t = {end.t:.6g}, or model the contact")
     raise ValueError(f"no message for status {end.status}")
@@ -550,6 +554,10 @@ class _Segments:
         self.ys: list[np.ndarray] = []
         self.counts = np.zeros(3, dtype=int)
 
+    def chatter_window(self, k: int, t: float) -> float:
+        """Event k's chattering window at t: CHATTER_FRACTION of the run's length."""
+        return CHATTER_FRACTION * abs(self.span[1] - self.span[0])
+
     # -- the event functions of one segment --
 
     def model_event(self, k: int) -> Callable:
@@ -680,8 +688,7 @@ class _Segments:
         for k in enders:
             y = self.model_events.impact(k, t_end, y)  # type: ignore[union-attr]
             last = self.last_impact.get(k)
-            if last is not None and abs(t_end - last) <= 2 * CHATTER_FRACTION * abs(
-                    self.span[1] - self.span[0]):
+            if last is not None and abs(t_end - last) <= 2 * self.chatter_window(k, t_end):
                 outcome = self.outcome(CHATTERING, ending_message(Ending(
                     CHATTERING, t_end, self.span, self.control.steps, "", 0, y,
                     event=self.names[k], interval=abs(t_end - last))))

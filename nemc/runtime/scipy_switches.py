@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from .account import Account
-from .runs import CHATTER_FRACTION, ScipyOutcome, _Segments
+from .runs import SWITCH_WINDOW, ScipyOutcome, _Segments
 
 SWITCH_SAMPLES = 4  # as run_control.c.tmpl: also at 1/4, 1/2 and 3/4 of each step
 EPS = np.finfo(float).eps
@@ -43,6 +43,14 @@ class SwitchingSegments(_Segments):
         assert events is not None
         self.switches = [k for k, action in enumerate(events.actions) if action == "switch"]
         self.control.inside = self.inside
+
+    def chatter_window(self, k: int, t: float) -> float:
+        """A mode switch's window at most SWITCH_WINDOW (1 + |t|), as run_control.c.tmpl's:
+        a long run does not take the impacts the accumulation rule closes for chattering."""
+        window = super().chatter_window(k, t)
+        if k in self.switches:
+            return min(window, SWITCH_WINDOW * (1 + abs(t)))
+        return window
 
     def signs(self, t: float, y: np.ndarray) -> np.ndarray:
         """The switch events' signs at (t, y) as solve_ivp sees them (a cooldown's side)."""
@@ -104,7 +112,7 @@ class SwitchingSegments(_Segments):
             return refire
         h = 1e-7 * (abs(t) + abs(self.span[1] - self.span[0])) * self.direction
         now, later = self.event_values_ahead(t, y, h)
-        window = CHATTER_FRACTION * abs(self.span[1] - self.span[0])
+        window = self.chatter_window(self.switches[0], t)
         directions = self.model_events.directions  # type: ignore[union-attr]
         for k in self.switches:
             change = later[k] - now[k]
