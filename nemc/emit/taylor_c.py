@@ -17,10 +17,13 @@ from ..derive.taylor import (
     LANES,
     SCALAR,
     TAYLOR_MAX_ORDER,
+    ColumnSeriesCode,
     Dialect,
     SeriesCode,
     TaylorUnsupported,
+    column_series_code,
     series_code,
+    taylor_tangent,
 )
 from ..front import mechanism as m
 from .c_text import SymbolTablePrinter
@@ -193,7 +196,64 @@ def taylor_section(eqs: Equations, printer: SymbolTablePrinter, fma: bool = Fals
         min_exponent=repr(TAYLOR_MIN_EXPONENT), margin=repr(TAYLOR_MARGIN),
         **step_cost_fields(step_costs(code, 2 * eqs.n)),
         **coefficient_fields(eqs, code, list(code.constants), SCALAR))
-    return TaylorC(source, None)
+    return TaylorC(source + sensitivity_section(eqs, printer), None)
+
+
+def sensitivity_section(eqs: Equations, printer: SymbolTablePrinter) -> str:
+    """nemc.Taylor's run of the sensitivity system (templates/taylor_sensitivities.c.tmpl) in
+    builds with the variational equations too, else "" (the entry point then says
+    NEMC_NO_TAYLOR: templates/integrators_entry.c.tmpl)."""
+    sens = eqs.sensitivities
+    if sens is None or eqs.taylor is None or eqs.loops is not None:
+        return ""
+    seeds = sens.tangents.seeds  # state entry or parameter -> its tangent's symbol
+    rows = taylor_rows(eqs)
+    column_rows = {seeds[symbol]: "s" + rows[symbol]  # sxq<i>, sxdq<i>
+                   for symbol in (*eqs.coordinates, *eqs.speeds)}
+    tangent = taylor_tangent(eqs.taylor, seeds)
+    names = {seeds[p]: f"seed_p[{k}]" for k, p in enumerate(eqs.parameters)}  # a direction
+    names.update({name: name.name for name, _ in tangent.assignments()})
+    code = column_series_code(eqs.taylor, tangent, eqs.coordinates, eqs.speeds, rows,
+                              column_rows, m.TIME, series_printer(printer.with_names(names)))
+    return template("taylor_sensitivities.c.tmpl").substitute(**column_fields(eqs, code))
+
+
+def column_fields(eqs: Equations, code: ColumnSeriesCode) -> dict[str, object]:
+    """templates/taylor_sensitivities.c.tmpl's fields: the state's program at order k as
+    taylor.c.tmpl's, the constants either loop reads, and a column's rows, constants and
+    lines."""
+    state = code.state
+    read = set(re.findall(r"\b\w+\b", "\n".join(state.loop + code.loop)))
+    names = [name for name in state.constant_names if name in read]
+    column_read = set(re.findall(r"\b\w+\b", "\n".join(code.loop)))
+    column_names = [name for name in code.constant_names if name in column_read]
+    column_state = [line for i in range(eqs.n) for line in (
+        f"double *sxq{i} = TAYLOR_ROW(xs, STATE_Q({i}));",
+        f"double *sxdq{i} = TAYLOR_ROW(xs, STATE_DQ({i}));")]
+    return dict(
+        n_series=max(state.n_series, 1), n_column_series=max(code.n_series, 1),
+        n_column_constants=max(len(column_names), 1),
+        declarations=block_lines(taylor_declarations(eqs) + list(state.declarations), "    "),
+        constant_names=block_lines([f"const double {name} = constants[{j}];"
+                                    for j, name in enumerate(names)], "    "),
+        loop=block_lines(state.loop, "    "),
+        column_declarations=block_lines(column_state + list(code.declarations), " " * 8),
+        column_constant_names=block_lines([f"const double {name} = cs[{j}];"
+                                           for j, name in enumerate(column_names)], " " * 8),
+        column_loop=block_lines(code.loop, " " * 8),
+        constants=block_lines(state.constants, "    "),
+        constant_array=block_lines([constant_array(names)], "    "),
+        column_constants=block_lines(code.constants, " " * 8),
+        column_store=block_lines([f"cs[{j}] = {name};" for j, name in enumerate(column_names)],
+                                 " " * 8),
+        start=block_lines(state.start, "    "))
+
+
+def constant_array(names: list[str]) -> str:
+    """The array of the parameter-only values NAMES a loop over the orders reads."""
+    if not names:
+        return "const double *constants = NULL;"
+    return f"const double constants[{len(names)}] = {{{', '.join(names)}}};"
 
 
 def scalar_constants(code: SeriesCode) -> str:

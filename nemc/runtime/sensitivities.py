@@ -52,8 +52,8 @@ from .results import LazyOutputs, SimulationResult
 INITIAL_VALUES = "y0"  # the name asking for d y(t) / d y0, every initial value at once
 SCIPY_DEFAULT = "DOP853"  # "auto" where the native drivers cannot run (a standalone package,
 #                           events= callables): scipy's DOP853
-SYSTEM_METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Radau")  # the native methods that take it
 NATIVE_RADAU = "nemc.Radau"  # its Newton matrix's diagonal blocks: the build's J_y
+NATIVE_TAYLOR = "nemc.Taylor"  # the build's own series of the system (its part "taylor")
 ACTIONS = {"record": 0, "stop": 1, "impact": 2}  # enum nemc_event_action
 
 
@@ -169,6 +169,23 @@ def radau_build(build: BuiltModel) -> BuiltModel:
     return variant
 
 
+def taylor_build(model: BuiltModel, build: BuiltModel) -> BuiltModel:
+    """The sensitivity build with the part "taylor" too (the series of the state and of its
+    columns: templates/taylor_sensitivities.c.tmpl), compiled on first need, or a refusal
+    saying why this model has no nemc.Taylor."""
+    why = model.metadata.get("taylor_unavailable")
+    if why:
+        raise ModelError(f"sensitivities with {NATIVE_TAYLOR}: {why}")
+    variant = build.compiled_with("taylor")
+    why = variant.metadata.get("taylor_unavailable")
+    if why:
+        raise ModelError(f"sensitivities with {NATIVE_TAYLOR}: {why}")
+    if not (variant.has_part("taylor") and variant.has_part("sensitivities")):
+        raise ModelError(f"sensitivities with {NATIVE_TAYLOR} need its series, and this build "
+                         "has none: compile it with nemc (taylor=True), or use nemc.Vern9")
+    return variant
+
+
 def checked_spec(model: BuiltModel, spec: RunSpec) -> RunSpec:
     """The run's plan with its method for sensitivities: scipy's (DOP853 for none or "auto");
     what cannot have sensitivities refused by name."""
@@ -182,10 +199,6 @@ def checked_spec(model: BuiltModel, spec: RunSpec) -> RunSpec:
             return spec.but(method=SCIPY_DEFAULT)
         return spec.but(method="nemc.Vern9" if spec.rtol < AUTO_VERN9_BELOW_RTOL
                         else "nemc.DOP853")
-    if method in NATIVE_METHODS and method not in SYSTEM_METHODS:
-        raise ModelError(f"sensitivities: {method} does not integrate the variational equations"
-                         f" yet: {', '.join(SYSTEM_METHODS)} or scipy's methods "
-                         f"({', '.join(SCIPY_METHODS)}) do")
     if method in NATIVE_METHODS and spec.user_events:
         raise ModelError(f"events= callables need one of scipy's methods: {method} runs in C")
     if method in NATIVE_METHODS and model.system_drivers is None:
@@ -209,6 +222,8 @@ def simulate_sensitivities(model: BuiltModel, spec: RunSpec, names: Any,
                          "--sensitivities)")
     if spec.method == NATIVE_RADAU:
         build = radau_build(build)
+    if spec.method == NATIVE_TAYLOR:
+        build = taylor_build(model, build)
     tangent = None if y0_given else initial_tangent(build, spec.p)
     if model.has_loops:  # the start assembled, the columns in its tangent space
         spec, given = closed.assembled_spec(model, spec, y0)
@@ -423,9 +438,12 @@ def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
                            if table else drivers.ffi.NULL)
     jacobian, block = newton_block(drivers, build, spec)
 
+    taylor = (drivers.function(build, "sensitivity_taylor", "nemc_system_taylor_fn")
+              if spec.method == NATIVE_TAYLOR else drivers.ffi.NULL)
+
     def integrate(method: int, run: Any, y0: Any, p: Any) -> int:
         return drivers.lib.nemc_system_integrate(
-            method, rhs, jacobian, block, len(table),
+            method, rhs, jacobian, block, taylor, len(table),
             drivers.ffi.from_buffer(ints, directions), drivers.ffi.from_buffer(ints, actions),
             events, impact, run, y0, p)
 
