@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import sympy
 
-from .program import Guard, Program
-from .tangent import tangent_program
+from .program import Guard, Program, ProgramBuilder
+from .tangent import NotLinear, jacobian_row, linear_form, tangent_program
 
 # highest order the generated code supports: rows of TAYLOR_STRIDE = TAYLOR_MAX_ORDER + 1
 TAYLOR_MAX_ORDER = 40
@@ -594,6 +594,31 @@ def taylor_tangent(program: Program, seeds: Mapping[sympy.Symbol, sympy.Symbol])
     the program (column_series_code), it gives the Taylor coefficients of ds/dt from the
     state's and the column's: the column's series is the tangent of the state's."""
     return tangent_program(program, seeds, "tds")
+
+
+def taylor_jacobian(program: Program, seeds: Mapping[sympy.Symbol, sympy.Symbol]
+                    ) -> tuple[Program, Program] | None:
+    """The columns' derivative through the accelerations' Jacobian J = [J_y | J_p], whose
+    entries are functions of the state alone, the same for every column: (the program with J's
+    entries as more steps, reverse accumulation of its tangent as
+    templates/sensitivities.c.tmpl's dense product does; the columns' program, no steps, each
+    result the row sum J_i [s; e] of J's entries times the seeds). In Taylor arithmetic a
+    column then costs a Cauchy sum per entry of J_y that is not constant (J_p's, times the
+    column's constant direction, no sum), where the forward tangent (taylor_tangent) costs
+    about two per product of the program. None where a tangent step is not linear in the
+    seeds."""
+    tangent = taylor_tangent(program, seeds)
+    tangents = frozenset({*seeds.values(), *(name for name, _ in tangent.assignments())})
+    try:
+        steps = [(name, linear_form(expr, tangents)) for name, expr in tangent.assignments()]
+        results = [linear_form(result, tangents) for result in tangent.results]
+    except NotLinear:
+        return None
+    builder = ProgramBuilder("tj")
+    rows = [jacobian_row(steps, result, builder.let) for result in results]
+    entries = builder.finish([entry for row in rows for entry in row.values()])
+    sums = tuple(sympy.Add(*(entry * seed for seed, entry in row.items())) for row in rows)
+    return (Program(program.steps + entries.steps, program.results), Program((), sums))
 
 
 @dataclass(frozen=True)
