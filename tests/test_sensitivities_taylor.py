@@ -73,6 +73,30 @@ def test_the_double_pendulum_matches_vern9s_variational_equations(double_pendulu
     assert ours.nfev > 0 and ours.t.size == t_eval.size
 
 
+def test_the_forward_tangent_gives_the_same_columns(double_pendulum, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """The other derivative of the program: built with the forward tangent per column (what a
+    program whose tangent is not linear in its seeds gets: taylor_jacobian None), in a cache
+    of its own, the same columns as the Jacobian's build and nemc.Vern9's over [0, 10]."""
+    import nemc.emit.taylor_c as taylor_c
+
+    monkeypatch.setenv("NEMC_CACHE", str(tmp_path))
+    monkeypatch.setattr(taylor_c, "taylor_jacobian", lambda program, seeds: None)
+    forward = compile_mechanism(EXAMPLES / "double_pendulum.yaml", taylor=True,
+                                sensitivities=True)
+    source = (forward.package / "double_pendulum.c").read_text()
+    assert "tds" in source and "tj0" not in source  # the tangent's steps, no J entries
+    t_eval = np.linspace(0.0, 10.0, 21)
+    run = {"method": "nemc.Taylor", "rtol": 1e-10, "atol": 1e-12, "t_eval": t_eval,
+           "sensitivities": NAMES}
+    ours = forward.model.simulate((0, 10), **run)
+    dense = double_pendulum.simulate((0, 10), **run)
+    reference = double_pendulum.simulate((0, 10), method="nemc.Vern9", rtol=1e-12, atol=1e-14,
+                                         t_eval=t_eval, sensitivities=NAMES)
+    assert relative_error(columns(ours), columns(reference)) < 1e-8
+    assert relative_error(columns(ours), columns(dense)) < 1e-8
+
+
 def central_differences(model, name: str, t_eval: np.ndarray, h: float) -> np.ndarray:
     """d y(t) / d NAME by central differences of plain nemc.Vern9 runs at rtol 1e-13."""
     ends = []
@@ -155,11 +179,13 @@ def test_a_closed_loop_is_refused_by_name() -> None:
 
 def test_the_columns_series_compile_warning_free(tmp_path: Path) -> None:
     """The build with nemc.Taylor and the variational equations compiles under -Wall -Wextra
-    -Werror, with the columns' coefficients in it."""
+    -Werror, with the columns' coefficients in it (the forward tangent's build: the test
+    above compiles it with the build's own flags, -Wall -Wextra)."""
     package = compile_mechanism(EXAMPLES / "double_pendulum.yaml", taylor=True,
                                 sensitivities=True).package
     source = package / "double_pendulum.c"
     assert "taylor_sensitivity_coefficient_k" in source.read_text()
+    assert "tj0" in source.read_text()  # the Jacobian's entries: the cheaper route here
     done = subprocess.run(["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror",
                            *package_c_flags(source), "-c", str(source), "-o",
                            str(tmp_path / "x.o")], capture_output=True, text=True)
