@@ -10,17 +10,18 @@ column). The columns' start: the unit vectors for initial values, d y0 / d p for
 when the scene's initial state is used (its values may be expressions of parameters), else 0.
 
 The system runs with nemc.DOP853, nemc.Vern9, nemc.Radau and nemc.Taylor (the drivers compiled
-for the system's size once, kept in the cache: nemc/build/systems.py; the model's events located
-on the state's entries) or with scipy's methods, the implicit ones with the block-diagonal Jacobian
-diag(J_y, ..., J_y) (the Newton iteration's, the second derivatives left out); nemc.Radau (the
-build then with the part "jacobian" as well) takes J_y as the diagonal block of its Newton
-matrix and the columns' coupling by differences (templates/radau.c.tmpl); nemc.Taylor (the
-build then with the part "taylor" as well) is the model's own run of the system, handed to the
-drivers as a pointer: each column's Taylor coefficients the tangent of the state's, one
-expansion of the whole system, its order and step from all of it
-(templates/taylor_sensitivities.c.tmpl). At the scene's impact events the columns jump (the build's `sensitivity_impact`, applied where the run applies the
-law: by the native drivers in C, by scipy's runs through the same C), and every event's time has
-its own sensitivities (`event_time_sensitivities` at the states recorded before each event:
+for the system's size once, kept in the cache: nemc/build/systems.py; the model's events
+located on the state's entries) or with scipy's methods, the implicit ones with the
+block-diagonal Jacobian diag(J_y, ..., J_y) (the Newton iteration's, the second derivatives
+left out); nemc.Radau (the build then with the part "jacobian" as well) takes J_y as the
+diagonal block of its Newton matrix and the columns' coupling by differences
+(templates/radau.c.tmpl); nemc.Taylor (the build then with the part "taylor" as well) is the
+model's own run of the system, handed to the drivers as a pointer: each column's Taylor
+coefficients the tangent of the state's, one expansion of the whole system, its order and step
+from all of it (templates/taylor_sensitivities.c.tmpl). At the scene's impact events the
+columns jump (the build's `sensitivity_impact`, applied where the run applies the law: by the
+native drivers in C, by scipy's runs through the same C), and every event's time has its own
+sensitivities (`event_time_sensitivities` at the states recorded before each event:
 res.event_sensitivities). A closed loop's run starts from its assembled state with its
 columns in the constraints' tangent space (loop_sensitivities.py); inputs given as Python
 functions are refused by name, and so is nemc.Taylor where the model has none (a closed loop).
