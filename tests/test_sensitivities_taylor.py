@@ -2,7 +2,8 @@
 state's (templates/taylor_sensitivities.c.tmpl), against independent paths: the double
 pendulum's 9 columns against nemc.Vern9's variational equations at a tighter tolerance and
 against central differences of tight plain runs; a linear damped oscillator's columns against
-the derivatives of its closed form (sympy); the bouncing ball's through its impacts is
+the derivatives of its closed form (sympy); an input table's and located events' against
+scipy's and nemc.Vern9's; the bouncing ball's through its impacts is
 tests/test_event_sensitivities.py's closed form, run with nemc.Taylor too. What nemc.Taylor
 cannot run is refused by name."""
 
@@ -168,6 +169,38 @@ def test_the_columns_error_follows_the_tolerance(double_pendulum) -> None:
         sensitivities=NAMES)), columns(reference)) for rtol in (1e-6, 1e-10)]
     assert errors[0] < 1e-4 and errors[1] < 1e-8
     assert errors[1] < errors[0] / 1000
+
+
+PUSHED = OSCILLATOR.replace("name: torsion_oscillator", "name: pushed_oscillator").replace(
+    "gravity:", "inputs: {T: 0}\ngravity:").replace("- c*dot(theta)", "- c*dot(theta) + T")
+
+
+def test_a_table_input_and_located_events(tmp_path: Path) -> None:
+    """An input table's segments (each a new expansion with its law) and the scene's located
+    events (their times' sensitivities from the states recorded before them): against scipy's
+    DOP853 at rtol 1e-12 and nemc.Vern9's at 1e-12."""
+    path = tmp_path / "pushed_oscillator.yaml"
+    path.write_text(PUSHED)
+    model = nemc.compile(path)
+    table = ([0, 1, 2, 4], [0.0, 2.0, -1.0, 0.5])
+    names = ["T", "c", "y0"]
+    ours = model.simulate(inputs={"T": table}, sensitivities=names, rtol=1e-11, atol=1e-13,
+                          method="nemc.Taylor")
+    scipy = model.simulate(inputs={"T": table}, sensitivities=names, rtol=1e-12, atol=1e-14,
+                           method="DOP853", t_eval=ours.t)
+    assert ours.success and ours.t.size > 2, ours.message
+    for name in names:
+        assert relative_error(ours.sensitivities[name], scipy.sensitivities[name]) < 1e-9, name
+    events = nemc.compile(EXAMPLES / "double_pendulum_events.yaml")
+    run = {"sensitivities": ["m2", "y0"], "rtol": 1e-11, "atol": 1e-13}
+    ours = events.simulate((0, 4), method="nemc.Taylor", **run)
+    reference = events.simulate((0, 4), method="nemc.Vern9", **{**run, "rtol": 1e-12,
+                                                                   "atol": 1e-14})
+    assert set(ours.event_sensitivities) == {"tip_low", "tip_up", "swing"}
+    for name, times in ours.events.items():
+        assert times[0].size == reference.events[name][0].size > 0, name
+        assert relative_error(ours.event_sensitivities[name]["m2"],
+                              reference.event_sensitivities[name]["m2"]) < 1e-9, name
 
 
 def test_a_closed_loop_is_refused_by_name() -> None:
