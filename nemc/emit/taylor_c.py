@@ -30,6 +30,7 @@ from ..front import mechanism as m
 from .c_text import SymbolTablePrinter
 from .math_kernels import taylor_math
 from .optimize import rewrite
+from .parts import CHUNK_STEPS
 from .printing import template
 
 # Taylor loops of at most this many lines are also written out for order 0 alone, where the
@@ -214,9 +215,10 @@ def column_code(eqs: Equations, printer: SymbolTablePrinter) -> ColumnSeriesCode
     """The columns' coefficients by the cheaper of two derivatives of nemc.Taylor's program
     for as many columns as the state has entries and the model parameters: its forward tangent
     per column (taylor_tangent) or its Jacobian's entries once an order and their products
-    with each column (taylor_jacobian). The double pendulum's: the state's 13 Cauchy sums an
-    order and 19.5 a column, or 56.5 (J's 18 entries too) and 8 a column; with 9 columns 188.5
-    and 128.5, its runs 5.9 and 4.2 ms (benchmarks/sensitivities.py's case)."""
+    with each column (taylor_jacobian, on programs of at most CHUNK_STEPS steps). The double
+    pendulum's: the state's 13 Cauchy sums an order and 19.5 a column, or 56.5 (J's 18
+    entries too) and 8 a column; with 9 columns 188.5 and 128.5, its runs 5.9 and 4.2 ms
+    (benchmarks/sensitivities.py's case)."""
     assert eqs.sensitivities is not None and eqs.taylor is not None
     seeds = eqs.sensitivities.tangents.seeds  # state entry or parameter -> its tangent's symbol
     rows = taylor_rows(eqs)
@@ -224,7 +226,9 @@ def column_code(eqs: Equations, printer: SymbolTablePrinter) -> ColumnSeriesCode
                    for symbol in (*eqs.coordinates, *eqs.speeds)}
     names = {seeds[p]: f"seed_p[{k}]" for k, p in enumerate(eqs.parameters)}  # a direction
     candidates = [(eqs.taylor, taylor_tangent(eqs.taylor, seeds))]
-    dense = taylor_jacobian(eqs.taylor, seeds)
+    # J's reverse sweeps cost a row of results times the program's steps each, in sympy: on
+    # programs short enough for one body, as the other methods' dense product (sensitivities_c)
+    dense = taylor_jacobian(eqs.taylor, seeds) if eqs.taylor.size <= CHUNK_STEPS else None
     if dense is not None:
         candidates.append(dense)
     for program, tangent in candidates:
