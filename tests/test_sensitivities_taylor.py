@@ -3,9 +3,9 @@ state's (templates/taylor_sensitivities.c.tmpl), against independent paths: the 
 pendulum's 9 columns against nemc.Vern9's variational equations at a tighter tolerance and
 against central differences of tight plain runs; a linear damped oscillator's columns against
 the derivatives of its closed form (sympy); an input table's and located events' against
-scipy's and nemc.Vern9's; the bouncing ball's through its impacts is
-tests/test_event_sensitivities.py's closed form, run with nemc.Taylor too. What nemc.Taylor
-cannot run is refused by name."""
+scipy's and nemc.Vern9's, and Kapitza's driven pivot's (time in the equations); the bouncing
+ball's through its impacts is tests/test_event_sensitivities.py's closed form, run with
+nemc.Taylor too. What nemc.Taylor cannot run is refused by name."""
 
 from __future__ import annotations
 
@@ -201,6 +201,21 @@ def test_a_table_input_and_located_events(tmp_path: Path) -> None:
         assert times[0].size == reference.events[name][0].size > 0, name
         assert relative_error(ours.event_sensitivities[name]["m2"],
                               reference.event_sensitivities[name]["m2"]) < 1e-9, name
+
+
+def test_time_in_the_equations() -> None:
+    """Kapitza's pendulum, its pivot driven by A sin(W t) (the time's series in the columns'
+    recurrences too): against nemc.Vern9's sensitivities at rtol 1e-12 (m is left out: the
+    motion does not depend on it, its column is rounding)."""
+    model = nemc.compile(EXAMPLES / "kapitza.yaml")
+    names = ["y0", "L", "A", "W", "g"]
+    ours = model.simulate((0, 3), method="nemc.Taylor", rtol=1e-11, atol=1e-13,
+                          sensitivities=names)
+    reference = model.simulate((0, 3), method="nemc.Vern9", rtol=1e-12, atol=1e-14,
+                               sensitivities=names, t_eval=ours.t)
+    assert ours.success, ours.message
+    for name in names:
+        assert relative_error(ours.sensitivities[name], reference.sensitivities[name]) < 1e-9
 
 
 def test_a_closed_loop_is_refused_by_name() -> None:

@@ -360,14 +360,10 @@ def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
     writer = written_program(program, coordinates, speeds, rows, time, scalar, dialect)
     kept = rows_read_back(writer.rows, writer.loop)
     local = frozenset(writer.rows) - set(kept)
-    # the time's series, filled before the loop over the orders (its row is declared for the
-    # loop's body too); lines are relative to the block they sit in: "    " marks one more level
     start: tuple[str, ...] = ()
     if writer.uses_time:
         kept.append("tt")
-        start = ("{", "    " + row_declaration("tt", len(kept) - 1, dialect), "    tt[0] = t;",
-                 "    for (int j = 1; j <= order; ++j)",
-                 f"        tt[j] = {dialect.broadcast('j == 1 ? 1.0 : 0.0')};", "}")
+        start = time_start(len(kept) - 1, dialect)
     return SeriesCode(len(kept), tuple(row_declaration(name, j, dialect)
                                        for j, name in enumerate(kept)),
                       tuple(writer.constants), tuple(writer.constant_names), start,
@@ -418,6 +414,15 @@ def next_coefficients(writer: SeriesWriter, pairs: Sequence[tuple[str, str]],
                  else writer.coefficient(result))
         writer.loop.append(f"{q_row}[k + 1] = {dq_row}[k] * (1.0 / (k + 1));")
         writer.loop.append(f"{dq_row}[k + 1] = {value} * (1.0 / (k + 1));")
+
+
+def time_start(j: int, dialect: Dialect) -> tuple[str, ...]:
+    """The time's series in row j, filled before the loop over the orders (its row is declared
+    for the loop's body too); lines are relative to the block they sit in: "    " marks one
+    more level."""
+    return ("{", "    " + row_declaration("tt", j, dialect), "    tt[0] = t;",
+            "    for (int j = 1; j <= order; ++j)",
+            f"        tt[j] = {dialect.broadcast('j == 1 ? 1.0 : 0.0')};", "}")
 
 
 def row_declaration(name: str, j: int, dialect: Dialect) -> str:
@@ -656,9 +661,9 @@ def column_series_code(program: Program, tangent: Program, coordinates: Sequence
     writer.series.update(column_rows)
     writer.varying.update(column_rows)
     written_steps(writer, tangent)
-    seeds = list(column_rows.values())
+    column = list(column_rows.values())
     n = len(coordinates)
-    next_coefficients(writer, list(zip(seeds[:n], seeds[n:])), tangent.results)
+    next_coefficients(writer, list(zip(column[:n], column[n:])), tangent.results)
     kept = rows_read_back(writer.rows, writer.loop)
     local = frozenset(writer.rows) - set(kept)
     own = set(writer.rows[:split_rows])
@@ -667,9 +672,7 @@ def column_series_code(program: Program, tangent: Program, coordinates: Sequence
     start: tuple[str, ...] = ()
     if writer.uses_time:
         state_kept.append("tt")
-        start = ("{", "    " + row_declaration("tt", len(state_kept) - 1, SCALAR),
-                 "    tt[0] = t;", "    for (int j = 1; j <= order; ++j)",
-                 "        tt[j] = j == 1 ? 1.0 : 0.0;", "}")
+        start = time_start(len(state_kept) - 1, SCALAR)
     state_loop, column_loop = writer.loop[:split_loop], writer.loop[split_loop:]
     state = SeriesCode(
         len(state_kept), tuple(row_declaration(name, j, SCALAR)
