@@ -17,8 +17,8 @@ left out); nemc.Radau (the build then with the part "jacobian" as well) takes J_
 diagonal block of its Newton matrix and the columns' coupling by differences
 (templates/radau.c.tmpl); nemc.Taylor (the build then with the part "taylor" as well) is the
 model's own run of the system, handed to the drivers as a pointer: each column's Taylor
-coefficients the tangent of the state's, one expansion of the whole system, its order and step
-from all of it (templates/taylor_sensitivities.c.tmpl). At the scene's impact events the
+coefficients the tangent of the state's, one expansion of the whole system, its step size from
+all of it (templates/taylor_sensitivities.c.tmpl). At the scene's impact events the
 columns jump (the build's `sensitivity_impact`, applied where the run applies the law: by the
 native drivers in C, by scipy's runs through the same C), and every event's time has its own
 sensitivities (`event_time_sensitivities` at the states recorded before each event:
