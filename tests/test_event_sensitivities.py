@@ -75,7 +75,7 @@ def relative_error(ours: np.ndarray, reference: np.ndarray) -> float:
     return float(np.abs(ours - reference).max() / max(np.abs(reference).max(), 1e-300))
 
 
-@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853", "DOP853"])
+@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853", "nemc.Taylor", "DOP853"])
 def test_bounces_match_the_closed_form(ball, method: str) -> None:
     """Over six bounces: the bounce times' sensitivities and the state's, y and dot(y), at
     times between the bounces, to the closed form's derivatives."""

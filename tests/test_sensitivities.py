@@ -362,11 +362,9 @@ def test_a_table_input_runs_natively_too(tmp_path: Path) -> None:
         assert relative_error(native.sensitivities[name], scipy.sensitivities[name]) < 1e-7
 
 
-def test_what_has_no_sensitivities_yet_is_refused_by_name(damped) -> None:
-    with pytest.raises(ModelError, match="nemc.Taylor does not integrate the variational"):
-        damped.simulate(sensitivities=["c"], method="nemc.Taylor")
-    # a closed loop's refusals (its solved entries, what decision 0035's amendment leaves
-    # out): tests/test_loop_sensitivities.py
+# What has no sensitivities is refused by name: a closed loop's refusals (its solved entries,
+# what decision 0035's amendment leaves out) in tests/test_loop_sensitivities.py, nemc.Taylor's
+# (a closed loop) in tests/test_sensitivities_taylor.py.
 
 
 def test_long_programs_in_parts_give_the_same_sensitivities(double_pendulum) -> None:

@@ -11,7 +11,7 @@ sin(w) was computed), so the tangents call no extra functions.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import sympy
 from sympy.core.basic import _args_sortkey
@@ -186,3 +186,53 @@ def derivative_by_diff(expr: sympy.Expr, tangent: Mapping[sympy.Symbol, sympy.Ex
     return sympy.Add(*(
         from_real_derivatives(sympy.diff(real, symbol)).xreplace(known) * tangent[symbol]
         for symbol in expr.free_symbols if symbol in tangent))
+
+
+# ---- the tangent's linear form, and the Jacobian by reverse accumulation -------------------
+# (templates/sensitivities.c.tmpl's dense product, nemc.Taylor's columns: derive/taylor.py)
+
+Linear = dict[sympy.Symbol, sympy.Expr]  # tangent symbol -> its coefficient
+
+
+class NotLinear(Exception):
+    """A tangent step that is not a sum of coefficient x tangent (then printed as it is)."""
+
+
+def linear_form(expr: sympy.Expr, tangents: frozenset[sympy.Symbol]) -> Linear:
+    """EXPR as {tangent: coefficient}, the coefficients free of TANGENTS."""
+    expr = sympy.sympify(expr)
+    if expr in tangents:
+        return {expr: sympy.S.One}
+    if not (expr.free_symbols & tangents):
+        if expr == 0:
+            return {}
+        raise NotLinear(expr)
+    if expr.is_Add:
+        total: Linear = {}
+        for term in expr.args:
+            for symbol, coefficient in linear_form(term, tangents).items():
+                total[symbol] = total.get(symbol, sympy.S.Zero) + coefficient
+        return total
+    if expr.is_Mul:
+        varying = [f for f in expr.args if f.free_symbols & tangents]
+        if len(varying) != 1:
+            raise NotLinear(expr)
+        scale = sympy.Mul(*(f for f in expr.args if f is not varying[0]))
+        return {symbol: scale * coefficient
+                for symbol, coefficient in linear_form(varying[0], tangents).items()}
+    raise NotLinear(expr)
+
+
+def jacobian_row(steps: list[tuple[sympy.Symbol, Linear]], result: Linear,
+                 named: Callable[[sympy.Expr], sympy.Expr]) -> Linear:
+    """RESULT's derivative by each seed, its row of J: its adjoint carried back through
+    STEPS, each step's adjoint named once complete (it is then read by earlier steps)."""
+    adjoint: dict[sympy.Expr, sympy.Expr] = dict(result)
+    for name, form in reversed(steps):
+        weight = adjoint.pop(name, None)
+        if weight is None:
+            continue
+        weight = named(weight)
+        for symbol, coefficient in form.items():
+            adjoint[symbol] = adjoint.get(symbol, sympy.S.Zero) + weight * coefficient
+    return {seed: named(value) for seed, value in adjoint.items() if value != 0}

@@ -24,7 +24,8 @@ from dataclasses import dataclass
 
 import sympy
 
-from .program import Guard, Program
+from .program import Guard, Program, ProgramBuilder
+from .tangent import NotLinear, jacobian_row, linear_form, tangent_program
 
 # highest order the generated code supports: rows of TAYLOR_STRIDE = TAYLOR_MAX_ORDER + 1
 TAYLOR_MAX_ORDER = 40
@@ -359,14 +360,10 @@ def series_code(program: Program, coordinates: Sequence[sympy.Symbol],
     writer = written_program(program, coordinates, speeds, rows, time, scalar, dialect)
     kept = rows_read_back(writer.rows, writer.loop)
     local = frozenset(writer.rows) - set(kept)
-    # the time's series, filled before the loop over the orders (its row is declared for the
-    # loop's body too); lines are relative to the block they sit in: "    " marks one more level
     start: tuple[str, ...] = ()
     if writer.uses_time:
         kept.append("tt")
-        start = ("{", "    " + row_declaration("tt", len(kept) - 1, dialect), "    tt[0] = t;",
-                 "    for (int j = 1; j <= order; ++j)",
-                 f"        tt[j] = {dialect.broadcast('j == 1 ? 1.0 : 0.0')};", "}")
+        start = time_start(len(kept) - 1, dialect)
     return SeriesCode(len(kept), tuple(row_declaration(name, j, dialect)
                                        for j, name in enumerate(kept)),
                       tuple(writer.constants), tuple(writer.constant_names), start,
@@ -381,13 +378,21 @@ def written_program(program: Program, coordinates: Sequence[sympy.Symbol],
     """The program's coefficient k, recorded by a SeriesWriter (its loop as values, its rows,
     constants and cost), with the state's next coefficients after it."""
     writer = SeriesWriter(scalar, dict(rows), time, dialect)
+    written_steps(writer, program)
+    next_coefficients(writer, [(rows[q], rows[dq]) for q, dq in zip(coordinates, speeds)],
+                      program.results)
+    return writer
+
+
+def written_steps(writer: SeriesWriter, program: Program) -> None:
+    """Coefficient k of the program's steps, recorded by the writer (its results apart)."""
     for step in program.steps:
         if isinstance(step, Guard):
             guard(writer, step)
             continue
         name, expr = step
         if writer.is_constant(expr):
-            writer.constant(name.name, scalar(expr))
+            writer.constant(name.name, writer.scalar(expr))
             continue
         value = writer.coefficient(expr)
         same = re.fullmatch(r"(\w+)\[k\]", value)  # already a row (sin, a product...): alias it
@@ -397,13 +402,27 @@ def written_program(program: Program, coordinates: Sequence[sympy.Symbol],
             writer.series[name] = writer.new_row(name.name)
             writer.loop.append(Assignment(name.name, value))
         writer.varying.add(name)
-    for q, dq, result in zip(coordinates, speeds, program.results):
-        q_row, dq_row = rows[q], rows[dq]
+
+
+def next_coefficients(writer: SeriesWriter, pairs: Sequence[tuple[str, str]],
+                      results: Sequence[sympy.Expr]) -> None:
+    """The state's next coefficients from the results (its accelerations): for each pair of
+    rows (a coordinate's, its rate's), x_q[k + 1] = x_dq[k] / (k + 1) and x_dq[k + 1] =
+    result[k] / (k + 1)."""
+    for (q_row, dq_row), result in zip(pairs, results):
         value = (writer.at_order_zero(writer.scalar_value(result)) if writer.is_constant(result)
                  else writer.coefficient(result))
         writer.loop.append(f"{q_row}[k + 1] = {dq_row}[k] * (1.0 / (k + 1));")
         writer.loop.append(f"{dq_row}[k + 1] = {value} * (1.0 / (k + 1));")
-    return writer
+
+
+def time_start(j: int, dialect: Dialect) -> tuple[str, ...]:
+    """The time's series in row j, filled before the loop over the orders (its row is declared
+    for the loop's body too); lines are relative to the block they sit in: "    " marks one
+    more level."""
+    return ("{", "    " + row_declaration("tt", j, dialect), "    tt[0] = t;",
+            "    for (int j = 1; j <= order; ++j)",
+            f"        tt[j] = {dialect.broadcast('j == 1 ? 1.0 : 0.0')};", "}")
 
 
 def row_declaration(name: str, j: int, dialect: Dialect) -> str:
@@ -568,3 +587,101 @@ def guard(writer: SeriesWriter, step: Guard) -> None:
         return
     value = writer.coefficient(step.value)
     writer.loop += writer.dialect.guard(value, step.status, True)
+
+
+# ---- the sensitivity columns' coefficients: the tangent of the state's series -------------------
+
+
+def taylor_tangent(program: Program, seeds: Mapping[sympy.Symbol, sympy.Symbol]) -> Program:
+    """The forward-mode derivative of nemc.Taylor's program along seeds (a state entry or a
+    parameter -> its tangent's symbol): its results are the accelerations' tangent, J_y s +
+    J_p e for a column s along the parameters' direction e. Written in Taylor arithmetic after
+    the program (column_series_code), it gives the Taylor coefficients of ds/dt from the
+    state's and the column's: the column's series is the tangent of the state's."""
+    return tangent_program(program, seeds, "tds")
+
+
+def taylor_jacobian(program: Program, seeds: Mapping[sympy.Symbol, sympy.Symbol]
+                    ) -> tuple[Program, Program] | None:
+    """The columns' derivative through the accelerations' Jacobian J = [J_y | J_p], whose
+    entries are functions of the state alone, the same for every column: (the program with J's
+    entries as more steps, reverse accumulation of its tangent as
+    templates/sensitivities.c.tmpl's dense product does; the columns' program, no steps, each
+    result the row sum J_i [s; e] of J's entries times the seeds). In Taylor arithmetic a
+    column then costs a Cauchy sum per entry of J_y that is not constant (J_p's, times the
+    column's constant direction, no sum), where the forward tangent (taylor_tangent) costs
+    about two per product of the program. None where a tangent step is not linear in the
+    seeds."""
+    tangent = taylor_tangent(program, seeds)
+    tangents = frozenset({*seeds.values(), *(name for name, _ in tangent.assignments())})
+    try:
+        steps = [(name, linear_form(expr, tangents)) for name, expr in tangent.assignments()]
+        results = [linear_form(result, tangents) for result in tangent.results]
+    except NotLinear:
+        return None
+    builder = ProgramBuilder("tj")
+    rows = [jacobian_row(steps, result, builder.let) for result in results]
+    entries = builder.finish([entry for row in rows for entry in row.values()])
+    sums = tuple(sympy.Add(*(entry * seed for seed, entry in row.items())) for row in rows)
+    return (Program(program.steps + entries.steps, program.results), Program((), sums))
+
+
+@dataclass(frozen=True)
+class ColumnSeriesCode:
+    """nemc.Taylor's coefficients of the state with its sensitivity columns
+    (templates/taylor_sensitivities.c.tmpl): the state's program (`state`, its rows kept where
+    a column's recurrence reads them), then one column's code, run for every column at each
+    order, its rows in the column's own work (`declarations`), its constants (which may read
+    the column's direction seed_p) computed once per expansion and column, before the loop."""
+
+    state: SeriesCode
+    n_series: int  # rows of a column's work array
+    declarations: tuple[str, ...]  # `double *name = TAYLOR_ROW(ws, j);`
+    constants: tuple[str, ...]  # before the loop, once per column
+    constant_names: tuple[str, ...]  # the names those lines define
+    loop: tuple[str, ...]  # a column's lines at order k, after the state's
+    program_lines: int
+    cost: float  # a column's Cauchy sums per order
+
+
+def column_series_code(program: Program, tangent: Program, coordinates: Sequence[sympy.Symbol],
+                       speeds: Sequence[sympy.Symbol], rows: Mapping[sympy.Symbol, str],
+                       column_rows: Mapping[sympy.Symbol, str], time: sympy.Symbol,
+                       scalar: Callable[[sympy.Expr], str]) -> ColumnSeriesCode:
+    """The Taylor-coefficient code of the program and of its TANGENT (taylor_tangent) for one
+    column. rows: each coordinate's and speed's row; column_rows: each state seed's row of the
+    column (in the order of coordinates, then speeds, as rows). One writer records both, so
+    the tangent's recurrences read the state's rows and share its named products; the column's
+    parameter-only values and its direction seed_p are its constants. Raises
+    TaylorUnsupported."""
+    writer = written_program(program, coordinates, speeds, rows, time, scalar)
+    split_loop, split_rows = len(writer.loop), len(writer.rows)
+    split_constants, state_cost = len(writer.constants), writer.cost
+    split_names = len(writer.constant_names)
+    writer.series.update(column_rows)
+    writer.varying.update(column_rows)
+    written_steps(writer, tangent)
+    column = list(column_rows.values())
+    n = len(coordinates)
+    next_coefficients(writer, list(zip(column[:n], column[n:])), tangent.results)
+    kept = rows_read_back(writer.rows, writer.loop)
+    local = frozenset(writer.rows) - set(kept)
+    own = set(writer.rows[:split_rows])
+    state_kept = [name for name in kept if name in own]
+    column_kept = [name for name in kept if name not in own]
+    start: tuple[str, ...] = ()
+    if writer.uses_time:
+        state_kept.append("tt")
+        start = time_start(len(state_kept) - 1, SCALAR)
+    state_loop, column_loop = writer.loop[:split_loop], writer.loop[split_loop:]
+    state = SeriesCode(
+        len(state_kept), tuple(row_declaration(name, j, SCALAR)
+                               for j, name in enumerate(state_kept)),
+        tuple(writer.constants[:split_constants]), tuple(writer.constant_names[:split_names]),
+        start, tuple(sums_in_blocks(state_loop, local, SCALAR)), len(state_loop), state_cost)
+    return ColumnSeriesCode(
+        state, len(column_kept), tuple(f"double *{name} = TAYLOR_ROW(ws, {j});"
+                                for j, name in enumerate(column_kept)),
+        tuple(writer.constants[split_constants:]), tuple(writer.constant_names[split_names:]),
+        tuple(sums_in_blocks(column_loop, local, SCALAR)), len(column_loop),
+        writer.cost - state_cost)

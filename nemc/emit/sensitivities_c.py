@@ -22,6 +22,7 @@ import sympy
 
 from ..derive.equations import Equations
 from ..derive.program import Guard, Program
+from ..derive.tangent import Linear, NotLinear, jacobian_row, linear_form
 from .angles_c import angles_c
 from .c_text import SymbolTablePrinter
 from .jacobian_c import jacobian_programs
@@ -225,38 +226,6 @@ def output_sensitivities(eqs: Equations, block: Block, printer: SymbolTablePrint
 # 601 ns), so its steps' coefficients are named once and each column sweeps forward through
 # them (hoisted_tangent: 59 -> 52 ns a column; benchmarks/loop_sensitivities.py).
 
-Linear = dict[sympy.Symbol, sympy.Expr]  # tangent symbol -> its coefficient
-
-
-class NotLinear(Exception):
-    """A tangent step that is not a sum of coefficient x tangent (then printed as it is)."""
-
-
-def linear_form(expr: sympy.Expr, tangents: frozenset[sympy.Symbol]) -> Linear:
-    """EXPR as {tangent: coefficient}, the coefficients free of TANGENTS."""
-    expr = sympy.sympify(expr)
-    if expr in tangents:
-        return {expr: sympy.S.One}
-    if not (expr.free_symbols & tangents):
-        if expr == 0:
-            return {}
-        raise NotLinear(expr)
-    if expr.is_Add:
-        total: Linear = {}
-        for term in expr.args:
-            for symbol, coefficient in linear_form(term, tangents).items():
-                total[symbol] = total.get(symbol, sympy.S.Zero) + coefficient
-        return total
-    if expr.is_Mul:
-        varying = [f for f in expr.args if f.free_symbols & tangents]
-        if len(varying) != 1:
-            raise NotLinear(expr)
-        scale = sympy.Mul(*(f for f in expr.args if f is not varying[0]))
-        return {symbol: scale * coefficient
-                for symbol, coefficient in linear_form(varying[0], tangents).items()}
-    raise NotLinear(expr)
-
-
 class Constants:
     """The values computed once per call, before the loop over the columns: each named
     kj<k> and printed in the order named (a value names only earlier ones)."""
@@ -311,7 +280,7 @@ def jacobian_tangent(printer: SymbolTablePrinter, tangent: Program, seeds: set[s
     if linear is None:
         return None
     constants, steps, results = linear
-    rows = [jacobian_row(steps, result, constants) for result in results]
+    rows = [jacobian_row(steps, result, constants.named) for result in results]
     inner = constants.names()
     loop = [f"        {target}({i}) = "
             f"{inner.doprint(sympy.Add(*(entry * seed for seed, entry in row.items())))};"
@@ -340,17 +309,3 @@ def hoisted_tangent(printer: SymbolTablePrinter, tangent: Program, seeds: set[sy
     loop += [f"        {target}({i}) = {text(form)};" for i, form in enumerate(results)]
     return "\n".join(constants.lines), "\n".join(loop)
 
-
-def jacobian_row(steps: list[tuple[sympy.Symbol, Linear]], result: Linear,
-                 constants: Constants) -> Linear:
-    """RESULT's derivative by each seed, its row of J: its adjoint carried back through
-    STEPS, each step's adjoint named once complete (it is then read by earlier steps)."""
-    adjoint: dict[sympy.Expr, sympy.Expr] = dict(result)
-    for name, form in reversed(steps):
-        weight = adjoint.pop(name, None)
-        if weight is None:
-            continue
-        weight = constants.named(weight)
-        for symbol, coefficient in form.items():
-            adjoint[symbol] = adjoint.get(symbol, sympy.S.Zero) + weight * coefficient
-    return {seed: constants.named(value) for seed, value in adjoint.items() if value != 0}

@@ -17,15 +17,20 @@ from ..derive.taylor import (
     LANES,
     SCALAR,
     TAYLOR_MAX_ORDER,
+    ColumnSeriesCode,
     Dialect,
     SeriesCode,
     TaylorUnsupported,
+    column_series_code,
     series_code,
+    taylor_jacobian,
+    taylor_tangent,
 )
 from ..front import mechanism as m
 from .c_text import SymbolTablePrinter
 from .math_kernels import taylor_math
 from .optimize import rewrite
+from .parts import CHUNK_STEPS
 from .printing import template
 
 # Taylor loops of at most this many lines are also written out for order 0 alone, where the
@@ -193,7 +198,85 @@ def taylor_section(eqs: Equations, printer: SymbolTablePrinter, fma: bool = Fals
         min_exponent=repr(TAYLOR_MIN_EXPONENT), margin=repr(TAYLOR_MARGIN),
         **step_cost_fields(step_costs(code, 2 * eqs.n)),
         **coefficient_fields(eqs, code, list(code.constants), SCALAR))
-    return TaylorC(source, None)
+    return TaylorC(source + sensitivity_section(eqs, printer), None)
+
+
+def sensitivity_section(eqs: Equations, printer: SymbolTablePrinter) -> str:
+    """nemc.Taylor's run of the sensitivity system (templates/taylor_sensitivities.c.tmpl) in
+    builds with the variational equations too, else "" (the entry point then says
+    NEMC_NO_TAYLOR: templates/integrators_entry.c.tmpl)."""
+    if eqs.sensitivities is None or eqs.taylor is None or eqs.loops is not None:
+        return ""
+    return template("taylor_sensitivities.c.tmpl").substitute(
+        **column_fields(eqs, column_code(eqs, printer)))
+
+
+def column_code(eqs: Equations, printer: SymbolTablePrinter) -> ColumnSeriesCode:
+    """The columns' coefficients by the cheaper of two derivatives of nemc.Taylor's program
+    for as many columns as the state has entries and the model parameters: its forward tangent
+    per column (taylor_tangent) or its Jacobian's entries once an order and their products
+    with each column (taylor_jacobian, on programs of at most CHUNK_STEPS steps). The double
+    pendulum's: the state's 13 Cauchy sums an order and 19.5 a column, or 56.5 (J's 18
+    entries too) and 8 a column; with 9 columns 188.5 and 128.5, its runs 5.9 and 4.2 ms
+    (benchmarks/sensitivities.py's case)."""
+    assert eqs.sensitivities is not None and eqs.taylor is not None
+    seeds = eqs.sensitivities.tangents.seeds  # state entry or parameter -> its tangent's symbol
+    rows = taylor_rows(eqs)
+    column_rows = {seeds[symbol]: "s" + rows[symbol]  # sxq<i>, sxdq<i>
+                   for symbol in (*eqs.coordinates, *eqs.speeds)}
+    names = {seeds[p]: f"seed_p[{k}]" for k, p in enumerate(eqs.parameters)}  # a direction
+    candidates = [(eqs.taylor, taylor_tangent(eqs.taylor, seeds))]
+    # J's reverse sweeps cost a row of results times the program's steps each, in sympy: on
+    # programs short enough for one body, as the other methods' dense product (sensitivities_c)
+    dense = taylor_jacobian(eqs.taylor, seeds) if eqs.taylor.size <= CHUNK_STEPS else None
+    if dense is not None:
+        candidates.append(dense)
+    for program, tangent in candidates:
+        names.update({name: name.name for name, _ in (*program.assignments(),
+                                                      *tangent.assignments())})
+    scalar = series_printer(printer.with_names(names))
+    codes = [column_series_code(program, tangent, eqs.coordinates, eqs.speeds, rows,
+                                column_rows, m.TIME, scalar) for program, tangent in candidates]
+    count = len(eqs.state) + len(eqs.parameters)
+    return min(codes, key=lambda code: code.state.cost + count * code.cost)
+
+
+def column_fields(eqs: Equations, code: ColumnSeriesCode) -> dict[str, object]:
+    """templates/taylor_sensitivities.c.tmpl's fields: the state's program at order k as
+    taylor.c.tmpl's, the constants either loop reads, and a column's rows, constants and
+    lines."""
+    state = code.state
+    read = set(re.findall(r"\b\w+\b", "\n".join(state.loop + code.loop)))
+    names = [name for name in state.constant_names if name in read]
+    column_read = set(re.findall(r"\b\w+\b", "\n".join(code.loop)))
+    column_names = [name for name in code.constant_names if name in column_read]
+    column_state = [line for i in range(eqs.n) for line in (
+        f"double *sxq{i} = TAYLOR_ROW(xs, STATE_Q({i}));",
+        f"double *sxdq{i} = TAYLOR_ROW(xs, STATE_DQ({i}));")]
+    return dict(
+        n_series=max(state.n_series, 1), n_column_series=max(code.n_series, 1),
+        n_column_constants=max(len(column_names), 1),
+        declarations=block_lines(taylor_declarations(eqs) + list(state.declarations), "    "),
+        constant_names=block_lines([f"const double {name} = constants[{j}];"
+                                    for j, name in enumerate(names)], "    "),
+        loop=block_lines(state.loop, "    "),
+        column_declarations=block_lines(column_state + list(code.declarations), " " * 8),
+        column_constant_names=block_lines([f"const double {name} = cs[{j}];"
+                                           for j, name in enumerate(column_names)], " " * 8),
+        column_loop=block_lines(code.loop, " " * 8),
+        constants=block_lines(state.constants, "    "),
+        constant_array=block_lines([constant_array(names)], "    "),
+        column_constants=block_lines(code.constants, " " * 8),
+        column_store=block_lines([f"cs[{j}] = {name};" for j, name in enumerate(column_names)],
+                                 " " * 8),
+        start=block_lines(state.start, "    "))
+
+
+def constant_array(names: list[str]) -> str:
+    """The array of the parameter-only values NAMES a loop over the orders reads."""
+    if not names:
+        return "const double *constants = NULL;"
+    return f"const double constants[{len(names)}] = {{{', '.join(names)}}};"
 
 
 def scalar_constants(code: SeriesCode) -> str:

@@ -9,18 +9,22 @@ one C call, the accelerations' program once and its exact forward-mode derivativ
 column). The columns' start: the unit vectors for initial values, d y0 / d p for a parameter
 when the scene's initial state is used (its values may be expressions of parameters), else 0.
 
-The system runs with nemc.DOP853, nemc.Vern9 and nemc.Radau (the drivers compiled for the
-system's size once, kept in the cache: nemc/build/systems.py; the model's events located on the
-state's entries) or with scipy's methods, the implicit ones with the block-diagonal Jacobian
-diag(J_y, ..., J_y) (the Newton iteration's, the second derivatives left out); nemc.Radau (the
-build then with the part "jacobian" as well) takes J_y as the diagonal block of its Newton
-matrix and the columns' coupling by differences (templates/radau.c.tmpl). At the scene's impact
-events the columns jump (the build's `sensitivity_impact`, applied where the run applies the
-law: by the native drivers in C, by scipy's runs through the same C), and every event's time has
-its own sensitivities (`event_time_sensitivities` at the states recorded before each event:
+The system runs with nemc.DOP853, nemc.Vern9, nemc.Radau and nemc.Taylor (the drivers compiled
+for the system's size once, kept in the cache: nemc/build/systems.py; the model's events
+located on the state's entries) or with scipy's methods, the implicit ones with the
+block-diagonal Jacobian diag(J_y, ..., J_y) (the Newton iteration's, the second derivatives
+left out); nemc.Radau (the build then with the part "jacobian" as well) takes J_y as the
+diagonal block of its Newton matrix and the columns' coupling by differences
+(templates/radau.c.tmpl); nemc.Taylor (the build then with the part "taylor" as well) is the
+model's own run of the system, handed to the drivers as a pointer: each column's Taylor
+coefficients the tangent of the state's, one expansion of the whole system, its step size from
+all of it (templates/taylor_sensitivities.c.tmpl). At the scene's impact events the
+columns jump (the build's `sensitivity_impact`, applied where the run applies the law: by the
+native drivers in C, by scipy's runs through the same C), and every event's time has its own
+sensitivities (`event_time_sensitivities` at the states recorded before each event:
 res.event_sensitivities). A closed loop's run starts from its assembled state with its
 columns in the constraints' tangent space (loop_sensitivities.py); inputs given as Python
-functions and nemc.Taylor are refused, each by name.
+functions are refused by name, and so is nemc.Taylor where the model has none (a closed loop).
 """
 
 from __future__ import annotations
@@ -52,8 +56,8 @@ from .results import LazyOutputs, SimulationResult
 INITIAL_VALUES = "y0"  # the name asking for d y(t) / d y0, every initial value at once
 SCIPY_DEFAULT = "DOP853"  # "auto" where the native drivers cannot run (a standalone package,
 #                           events= callables): scipy's DOP853
-SYSTEM_METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Radau")  # the native methods that take it
 NATIVE_RADAU = "nemc.Radau"  # its Newton matrix's diagonal blocks: the build's J_y
+NATIVE_TAYLOR = "nemc.Taylor"  # the build's own series of the system (its part "taylor")
 ACTIONS = {"record": 0, "stop": 1, "impact": 2}  # enum nemc_event_action
 
 
@@ -169,6 +173,23 @@ def radau_build(build: BuiltModel) -> BuiltModel:
     return variant
 
 
+def taylor_build(model: BuiltModel, build: BuiltModel) -> BuiltModel:
+    """The sensitivity build with the part "taylor" too (the series of the state and of its
+    columns: templates/taylor_sensitivities.c.tmpl), compiled on first need, or a refusal
+    saying why this model has no nemc.Taylor."""
+    why = model.metadata.get("taylor_unavailable")
+    if why:
+        raise ModelError(f"sensitivities with {NATIVE_TAYLOR}: {why}")
+    variant = build.compiled_with("taylor")
+    why = variant.metadata.get("taylor_unavailable")
+    if why:
+        raise ModelError(f"sensitivities with {NATIVE_TAYLOR}: {why}")
+    if not (variant.has_part("taylor") and variant.has_part("sensitivities")):
+        raise ModelError(f"sensitivities with {NATIVE_TAYLOR} need its series, and this build "
+                         "has none: compile it with nemc (taylor=True), or use nemc.Vern9")
+    return variant
+
+
 def checked_spec(model: BuiltModel, spec: RunSpec) -> RunSpec:
     """The run's plan with its method for sensitivities: scipy's (DOP853 for none or "auto");
     what cannot have sensitivities refused by name."""
@@ -182,10 +203,6 @@ def checked_spec(model: BuiltModel, spec: RunSpec) -> RunSpec:
             return spec.but(method=SCIPY_DEFAULT)
         return spec.but(method="nemc.Vern9" if spec.rtol < AUTO_VERN9_BELOW_RTOL
                         else "nemc.DOP853")
-    if method in NATIVE_METHODS and method not in SYSTEM_METHODS:
-        raise ModelError(f"sensitivities: {method} does not integrate the variational equations"
-                         f" yet: {', '.join(SYSTEM_METHODS)} or scipy's methods "
-                         f"({', '.join(SCIPY_METHODS)}) do")
     if method in NATIVE_METHODS and spec.user_events:
         raise ModelError(f"events= callables need one of scipy's methods: {method} runs in C")
     if method in NATIVE_METHODS and model.system_drivers is None:
@@ -209,6 +226,8 @@ def simulate_sensitivities(model: BuiltModel, spec: RunSpec, names: Any,
                          "--sensitivities)")
     if spec.method == NATIVE_RADAU:
         build = radau_build(build)
+    if spec.method == NATIVE_TAYLOR:
+        build = taylor_build(model, build)
     tangent = None if y0_given else initial_tangent(build, spec.p)
     if model.has_loops:  # the start assembled, the columns in its tangent space
         spec, given = closed.assembled_spec(model, spec, y0)
@@ -423,9 +442,12 @@ def native_run(model: BuiltModel, build: BuiltModel, spec: RunSpec, cols: Column
                            if table else drivers.ffi.NULL)
     jacobian, block = newton_block(drivers, build, spec)
 
+    taylor = (drivers.function(build, "sensitivity_taylor", "nemc_system_taylor_fn")
+              if spec.method == NATIVE_TAYLOR else drivers.ffi.NULL)
+
     def integrate(method: int, run: Any, y0: Any, p: Any) -> int:
         return drivers.lib.nemc_system_integrate(
-            method, rhs, jacobian, block, len(table),
+            method, rhs, jacobian, block, taylor, len(table),
             drivers.ffi.from_buffer(ints, directions), drivers.ffi.from_buffer(ints, actions),
             events, impact, run, y0, p)
 
