@@ -264,11 +264,11 @@ def test_what_ensembles_cannot_differentiate_is_refused_by_name(double_pendulum,
                                                     "name: taylor_scene").replace(
         "  t_eval: {step: 0.5}", "  t_eval: {step: 0.5}\n  method: nemc.Taylor"))
     with pytest.raises(ModelError, match="nemc.Taylor does not integrate the variational "
-                                         "equations \\(nor do its SIMD lanes\\)"):
+                                         "equations in an ensemble \\(nor do its SIMD lanes\\)"):
         nemc.compile(scene_taylor).simulate_many(params={"c": [0.3, 0.4]},
                                                  sensitivities=["c"])
     with pytest.raises(ModelError, match="nemc.Taylor does not integrate the variational "
-                                         "equations \\(nor do its SIMD lanes\\)"):
+                                         "equations in an ensemble \\(nor do its SIMD lanes\\)"):
         double_pendulum.simulate_many(params={"m2": [1.0, 1.1]}, sensitivities=["g"],
                                       method="nemc.Taylor")
     with pytest.raises(ModelError, match="method must be one of nemc.DOP853, nemc.Vern9, "

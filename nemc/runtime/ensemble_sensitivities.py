@@ -49,6 +49,10 @@ from .simulation import checked_settings, run_times, tolerances, with_tstops
 
 PREFIX = "simulate_many with sensitivities"
 
+# the system drivers' methods an ensemble runs one member after the other (nemc.Taylor's
+# ensembles are its SIMD lanes, which have no variational equations)
+ENSEMBLE_METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Radau")
+
 
 def simulate_many_sensitivities(model: BuiltModel, call: EnsembleCall, names: Any
                                 ) -> EnsembleResult:
@@ -102,13 +106,12 @@ def system_method(model: BuiltModel, method: Any, rtol: float) -> str:
     if not isinstance(method, str) or method not in NATIVE_METHODS:
         got = repr(method) if isinstance(method, str) else type(method).__name__
         raise ModelError(f"{PREFIX}: method must be one of "
-                         f"{', '.join(variational.SYSTEM_METHODS)} or auto, got {got}")
-    if method in TAYLOR_METHODS or method not in variational.SYSTEM_METHODS:
-        # (nemc.Taylor even where a single run takes it: the system's drivers have no Taylor)
+                         f"{', '.join(ENSEMBLE_METHODS)} or auto, got {got}")
+    if method not in ENSEMBLE_METHODS:
+        # (nemc.Taylor even where a single run takes it: an ensemble's is its SIMD lanes')
         lanes = " (nor do its SIMD lanes)" if method in TAYLOR_METHODS else ""
-        methods = [m for m in variational.SYSTEM_METHODS if m not in TAYLOR_METHODS]
         raise ModelError(f"{PREFIX}: {method} does not integrate the variational "
-                         f"equations{lanes}: {', '.join(methods)} do")
+                         f"equations in an ensemble{lanes}: {', '.join(ENSEMBLE_METHODS)} do")
     return method
 
 
