@@ -293,6 +293,10 @@ def test_what_ensembles_cannot_differentiate_is_refused_by_name(double_pendulum,
                                          "nemc.Radau, nemc.Taylor or auto, got 'RK45'"):
         double_pendulum.simulate_many(params={"m2": [1.0, 1.1]}, sensitivities=["g"],
                                       method="RK45")
+    with pytest.raises(ModelError, match="sensitivities with nemc.Taylor: .*fourbar.yaml:[0-9]+: "
+                                         ".*closed loop"):
+        nemc.compile(EXAMPLES / "fourbar.yaml").simulate_many(sensitivities=["y0"],
+                                                              method="nemc.Taylor")
     with pytest.raises(ModelError, match="unknown name 'gg'; did you mean 'g'"):
         double_pendulum.simulate_many(params={"m2": [1.0, 1.1]}, sensitivities=["gg"])
     with pytest.raises(ModelError, match="t_span is empty"):
