@@ -1,6 +1,7 @@
 """Sensitivities in ensembles (issue 47): simulate_many with sensitivities over 64 members of the
-double pendulum against 64 single simulate(..., sensitivities=...) calls and against
-simulate_many without them.
+double pendulum against 64 single simulate(..., sensitivities=...) calls, against
+simulate_many without them, and with nemc.Taylor (its members one after the other, not in SIMD
+lanes).
 
 Run: `python benchmarks/ensemble_sensitivities.py [--quick | --smoke] [--out DIR]`; part of
 `make bench`. Results: benchmarks/results/ensemble_sensitivities-latest.{json,md} (smoke: a
@@ -13,7 +14,8 @@ state at t = 20 only, one thread. The three contenders are timed interleaved
 (common.interleaved: calibrated loops, rounds rotating the order) on one CPU (common.one_cpu),
 the load average recorded at the start and the end; ratios of medians, with the range of the
 per-round ratios. Before the timing, every member's columns are compared with its single run's
-(the largest difference: 0 when they are the same to the bit).
+(the largest difference: 0 when they are the same to the bit), nemc.Taylor's with its single
+nemc.Taylor runs'.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ import nemc  # noqa: E402
 
 BOOK = ROOT / "examples" / "double_pendulum.yaml"
 RTOL, ATOL, METHOD = 1e-10, 1e-12, "nemc.Vern9"
+TAYLOR = "nemc.Taylor"  # the row of its ensemble's sensitivities
 NAMES = ["y0", "m1", "m2", "L1", "L2", "g"]  # 4 initial values, 5 parameters: 9 columns
 SEED = 47
 
@@ -66,20 +69,27 @@ def members(model: Any, k: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
 
 def contenders(model: Any, y0s: np.ndarray, params: dict[str, np.ndarray],
                span: tuple[float, float]) -> dict[str, Any]:
-    """The three calls timed: the ensemble with and without the columns, the single runs."""
+    """The four calls timed: the ensemble with and without the columns, the single runs, and
+    nemc.Taylor's ensemble with the columns."""
     options = {"method": METHOD, "rtol": RTOL, "atol": ATOL, "t_eval": [span[1]]}
     many = {"t_span": span, "threads": 1, "progress": False, **options}
-
-    def singles() -> list[Any]:
-        return [model.simulate(span, y0s[r], params={n: v[r] for n, v in params.items()},
-                               sensitivities=NAMES, **options) for r in range(len(y0s))]
 
     return {
         "simulate_many with sensitivities": lambda: model.simulate_many(
             y0s, params=params, sensitivities=NAMES, **many),
-        "single runs with sensitivities": singles,
+        "single runs with sensitivities": lambda: singles(model, y0s, params, span, METHOD),
         "simulate_many plain": lambda: model.simulate_many(y0s, params=params, **many),
+        f"simulate_many with sensitivities, {TAYLOR}": lambda: model.simulate_many(
+            y0s, params=params, sensitivities=NAMES, **{**many, "method": TAYLOR}),
     }
+
+
+def singles(model: Any, y0s: np.ndarray, params: dict[str, np.ndarray],
+            span: tuple[float, float], method: str) -> list[Any]:
+    """The members' single runs with sensitivities by METHOD."""
+    return [model.simulate(span, y0s[r], params={n: v[r] for n, v in params.items()},
+                           sensitivities=NAMES, method=method, rtol=RTOL, atol=ATOL,
+                           t_eval=[span[1]]) for r in range(len(y0s))]
 
 
 def largest_difference(ensemble: Any, singles: list[Any]) -> float:
@@ -103,9 +113,10 @@ def run(config: Config) -> dict[str, Any]:
     y0s, params = members(model, config.members)
     calls = contenders(model, y0s, params, span)
     ensemble = calls["simulate_many with sensitivities"]()  # the part and drivers built
-    singles = calls["single runs with sensitivities"]()
-    assert np.all(ensemble.success), ensemble.status
-    difference = largest_difference(ensemble, singles)
+    taylor = calls[f"simulate_many with sensitivities, {TAYLOR}"]()
+    assert np.all(ensemble.success) and np.all(taylor.success), (ensemble.status, taylor.status)
+    difference = largest_difference(ensemble, calls["single runs with sensitivities"]())
+    taylor_difference = largest_difference(taylor, singles(model, y0s, params, span, TAYLOR))
     with common.one_cpu(env):
         times = common.interleaved({name: (call, 1) for name, call in calls.items()},
                                    config.rounds, config.sample_seconds)
@@ -114,10 +125,13 @@ def run(config: Config) -> dict[str, Any]:
             "nfev": {"members with sensitivities": int(ensemble.nfev.sum()),
                      "members plain": int(calls["simulate_many plain"]().nfev.sum())},
             "largest_difference_from_single_runs": difference,
+            "taylor_largest_difference_from_single_runs": taylor_difference,
             "ratios": [ratio(times, "single runs with sensitivities",
                              "simulate_many with sensitivities"),
                        ratio(times, "simulate_many with sensitivities",
-                             "simulate_many plain")]}
+                             "simulate_many plain"),
+                       ratio(times, f"simulate_many with sensitivities, {TAYLOR}",
+                             "simulate_many with sensitivities")]}
 
 
 def markdown(result: dict[str, Any]) -> str:
@@ -125,8 +139,9 @@ def markdown(result: dict[str, Any]) -> str:
     lines = [f"# Sensitivities in ensembles: {config['members']} members of the double pendulum",
              "", *common.md_environment(result["environment"]), "",
              f"{config['members']} members (seed {SEED}) over [0, {config['t_end']:g}] with "
-             f"{METHOD} at rtol {RTOL:g}, atol {ATOL:g}, 9 sensitivity columns, the state at "
-             "the end only, one thread; medians (min–max) of the interleaved rounds.", "",
+             f"{METHOD} (and {TAYLOR}, one member after the other, not in SIMD lanes) at rtol "
+             f"{RTOL:g}, atol {ATOL:g}, 9 sensitivity columns, the state at the end only, one "
+             "thread; medians (min–max) of the interleaved rounds.", "",
              "| contender | time | a member |", "| --- | --- | --- |"]
     for name, times in result["times"].items():
         lines.append(f"| {name} | {common.spread(times)} | "
@@ -140,7 +155,8 @@ def markdown(result: dict[str, Any]) -> str:
     lines += ["", f"Right-hand sides over the members: {nfev['members with sensitivities']:,} "
               f"with the columns, {nfev['members plain']:,} without. Largest difference of a "
               "member's columns from its single run's: "
-              f"{result['largest_difference_from_single_runs']:.1e}."]
+              f"{result['largest_difference_from_single_runs']:.1e} ({TAYLOR}'s from its single "
+              f"{TAYLOR} runs': {result['taylor_largest_difference_from_single_runs']:.1e})."]
     return "\n".join(lines) + "\n"
 
 

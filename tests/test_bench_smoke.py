@@ -213,8 +213,10 @@ def test_ensemble_sensitivities_smoke_mode_writes_its_table(tmp_path: Path) -> N
     out = run_script("ensemble_sensitivities.py", tmp_path)
     result = json.loads((out / "ensemble_sensitivities-latest.json").read_text())
     assert set(result["times"]) == {"simulate_many with sensitivities",
-                                    "single runs with sensitivities", "simulate_many plain"}
+                                    "single runs with sensitivities", "simulate_many plain",
+                                    "simulate_many with sensitivities, nemc.Taylor"}
     assert result["largest_difference_from_single_runs"] < 1e-12
+    assert result["taylor_largest_difference_from_single_runs"] < 1e-12
     assert all(r["median"] > 0 for r in result["ratios"])
     assert (out / "ensemble_sensitivities-latest.md").read_text().startswith(
         "# Sensitivities in ensembles")

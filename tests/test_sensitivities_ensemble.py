@@ -257,24 +257,46 @@ def test_event_times_sensitivities_under_an_input_table(tmp_path: Path) -> None:
                                   single.event_sensitivities["down"][name])
 
 
+def test_taylor_members_are_their_single_runs(tmp_path: Path) -> None:
+    """nemc.Taylor's ensemble with sensitivities (the scene's method, so simulate_many's
+    default): every member's states, columns and counts are its single nemc.Taylor run's, to
+    the bit (the same series of the system, one member after the other, not in SIMD lanes);
+    and its columns agree with nemc.Vern9's ensemble at a tight tolerance (another method's
+    integration of the same system)."""
+    path = tmp_path / "taylor_scene.yaml"
+    path.write_text(DAMPED_PENDULUM.replace("name: damped_pendulum_many", "name: taylor_scene")
+                    .replace("  t_eval: {step: 0.5}",
+                             "  t_eval: {step: 0.5}\n  method: nemc.Taylor"))
+    model = nemc.compile(path)
+    rng = np.random.default_rng(470)
+    damping, theta0 = rng.uniform(0.2, 0.6, 5), rng.uniform(0.3, 1.2, 5)
+    names = ["c", "theta0", "g", "y0"]
+    run = {"rtol": 1e-12, "atol": 1e-14}
+    many = model.simulate_many(params={"c": damping, "theta0": theta0}, sensitivities=names,
+                               threads=2, **run)
+    assert many.method == "nemc.Taylor" and np.all(many.success)
+    for r in range(5):
+        single = model.simulate(params={"c": damping[r], "theta0": theta0[r]},
+                                sensitivities=names, method="nemc.Taylor", **run)
+        assert np.array_equal(many.y[r], single.y) and many.nfev[r] == single.nfev
+        for name in names:
+            assert np.array_equal(many.sensitivities[name][r], single.sensitivities[name])
+    vern9 = model.simulate_many(params={"c": damping, "theta0": theta0}, sensitivities=names,
+                                method="nemc.Vern9", **run)
+    for name in names:
+        assert relative_error(many.sensitivities[name], vern9.sensitivities[name]) < 1e-9
+
+
 def test_what_ensembles_cannot_differentiate_is_refused_by_name(double_pendulum,
                                                                 tmp_path: Path) -> None:
-    scene_taylor = tmp_path / "taylor_scene.yaml"
-    scene_taylor.write_text(DAMPED_PENDULUM.replace("name: damped_pendulum_many",
-                                                    "name: taylor_scene").replace(
-        "  t_eval: {step: 0.5}", "  t_eval: {step: 0.5}\n  method: nemc.Taylor"))
-    with pytest.raises(ModelError, match="nemc.Taylor does not integrate the variational "
-                                         "equations in an ensemble \\(nor do its SIMD lanes\\)"):
-        nemc.compile(scene_taylor).simulate_many(params={"c": [0.3, 0.4]},
-                                                 sensitivities=["c"])
-    with pytest.raises(ModelError, match="nemc.Taylor does not integrate the variational "
-                                         "equations in an ensemble \\(nor do its SIMD lanes\\)"):
-        double_pendulum.simulate_many(params={"m2": [1.0, 1.1]}, sensitivities=["g"],
-                                      method="nemc.Taylor")
     with pytest.raises(ModelError, match="method must be one of nemc.DOP853, nemc.Vern9, "
-                                         "nemc.Radau or auto, got 'RK45'"):
+                                         "nemc.Radau, nemc.Taylor or auto, got 'RK45'"):
         double_pendulum.simulate_many(params={"m2": [1.0, 1.1]}, sensitivities=["g"],
                                       method="RK45")
+    with pytest.raises(ModelError, match="sensitivities with nemc.Taylor: .*fourbar.yaml:[0-9]+: "
+                                         ".*closed loop"):
+        nemc.compile(EXAMPLES / "fourbar.yaml").simulate_many(sensitivities=["y0"],
+                                                              method="nemc.Taylor")
     with pytest.raises(ModelError, match="unknown name 'gg'; did you mean 'g'"):
         double_pendulum.simulate_many(params={"m2": [1.0, 1.1]}, sensitivities=["gg"])
     with pytest.raises(ModelError, match="t_span is empty"):

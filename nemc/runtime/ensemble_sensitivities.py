@@ -5,12 +5,13 @@ drivers (templates/system.c.tmpl's nemc_system_integrate_many: runs taken as nem
 ensembles take them, at the system's size, threads sharing the counter), no Python per member
 while they run; after, the event times' sensitivities from the states kept before each event.
 
-Not in SIMD lanes: the lanes are nemc.Taylor's (templates/batch.c.tmpl), which has no
-variational equations; the other native methods' ensembles already run one member after the
-other (decision 0035's amendment "Ensembles"). Each member's columns start as its single run's:
+nemc.Taylor's members too run one after the other, each its single run's series of the system
+(templates/taylor_sensitivities.c.tmpl), not in its SIMD lanes: the lanes' code
+(templates/batch.c.tmpl) has no columns' series and runs N_STATE entries a lane (decision 0035's
+amendment "Ensembles"). Each member's columns start as its single run's:
 unit vectors for initial values, d y0 / d p at its own parameters where the scene's initial
 state is used, a closed loop's in its own assembled state's tangent space
-(loop_sensitivities.py). Refused by name: nemc.Taylor, Coulomb friction and contacts (the
+(loop_sensitivities.py). Refused by name: Coulomb friction and contacts (the
 build's own refusal), what a closed loop's single run refuses, inputs as Python functions
 (ensembles run in C)."""
 
@@ -27,7 +28,6 @@ from ..vocabulary import (
     AUTO_VERN9_BELOW_RTOL,
     IMPLICIT_METHODS,
     NATIVE_METHODS,
-    TAYLOR_METHODS,
 )
 from . import loop_sensitivities as closed
 from . import runs
@@ -49,9 +49,9 @@ from .simulation import checked_settings, run_times, tolerances, with_tstops
 
 PREFIX = "simulate_many with sensitivities"
 
-# the system drivers' methods an ensemble runs one member after the other (nemc.Taylor's
-# ensembles are its SIMD lanes, which have no variational equations)
-ENSEMBLE_METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Radau")
+# the system drivers' methods an ensemble runs one member after the other (nemc.Taylor's with
+# the build's series of the system, not in its SIMD lanes, which have no columns)
+ENSEMBLE_METHODS = ("nemc.DOP853", "nemc.Vern9", "nemc.Radau", variational.NATIVE_TAYLOR)
 
 
 def simulate_many_sensitivities(model: BuiltModel, call: EnsembleCall, names: Any
@@ -67,6 +67,8 @@ def simulate_many_sensitivities(model: BuiltModel, call: EnsembleCall, names: An
     build = variational.sensitivity_build(model)
     if method == variational.NATIVE_RADAU:
         build = variational.radau_build(build)
+    if method == variational.NATIVE_TAYLOR:
+        build = variational.taylor_build(model, build)
     if span[0] == span[1]:
         raise ModelError(f"{PREFIX}: t_span is empty (t0 == t1): nothing to integrate")
     ps, y0s, tables = ensemble_inputs(model, call.y0s, call.params, call.inputs)
@@ -94,8 +96,8 @@ def refuse_unsupported(model: BuiltModel, call: EnsembleCall) -> None:
 
 def system_method(model: BuiltModel, method: Any, rtol: float) -> str:
     """The native method that runs the members' systems: the one asked for (one of the
-    system's drivers'); for None the scene's native method (simulate_many's default; nemc.Taylor
-    refused), nemc.Radau for an implicit scene, else as "auto": nemc.Vern9 below rtol 1e-4 and
+    system's drivers'); for None the scene's native method (simulate_many's default),
+    nemc.Radau for an implicit scene, else as "auto": nemc.Vern9 below rtol 1e-4 and
     nemc.DOP853 above (a single run's "auto" with sensitivities)."""
     if method is None:
         scene = model.scene["method"]
@@ -103,15 +105,10 @@ def system_method(model: BuiltModel, method: Any, rtol: float) -> str:
             variational.NATIVE_RADAU if scene in IMPLICIT_METHODS else AUTO
     if isinstance(method, str) and method == AUTO:
         return "nemc.Vern9" if rtol < AUTO_VERN9_BELOW_RTOL else "nemc.DOP853"
-    if not isinstance(method, str) or method not in NATIVE_METHODS:
+    if not isinstance(method, str) or method not in ENSEMBLE_METHODS:
         got = repr(method) if isinstance(method, str) else type(method).__name__
         raise ModelError(f"{PREFIX}: method must be one of "
                          f"{', '.join(ENSEMBLE_METHODS)} or auto, got {got}")
-    if method not in ENSEMBLE_METHODS:
-        # (nemc.Taylor even where a single run takes it: an ensemble's is its SIMD lanes')
-        lanes = " (nor do its SIMD lanes)" if method in TAYLOR_METHODS else ""
-        raise ModelError(f"{PREFIX}: {method} does not integrate the variational "
-                         f"equations in an ensemble{lanes}: {', '.join(ENSEMBLE_METHODS)} do")
     return method
 
 
@@ -229,8 +226,9 @@ class MemberArrays:
 
 
 def members_call(model: BuiltModel, build: BuiltModel, drivers: Any, method: str) -> Any:
-    """nemc_system_integrate_many bound to the build's system and events: a function of the
-    run's settings, the members and the output arrays."""
+    """nemc_system_integrate_many bound to the build's system and events (and nemc.Taylor's
+    series of the system): a function of the run's settings, the members and the output
+    arrays."""
     table = model.compiled.event_table
     ints = drivers.ffi.typeof("int[]")
     directions = np.array([runs.DIRECTIONS[e["direction"]] for e in table] or [0],
@@ -244,12 +242,14 @@ def members_call(model: BuiltModel, build: BuiltModel, drivers: Any, method: str
         if table else null
     jacobian, block = (drivers.function(build, "jacobian"), build.n_state) \
         if method == variational.NATIVE_RADAU else (null, 0)
+    taylor = drivers.function(build, "sensitivity_taylor", "nemc_system_taylor_fn") \
+        if method == variational.NATIVE_TAYLOR else null
     method_id = getattr(drivers.lib, "NEMC_" + method.split(".")[1].upper())
     kept = (drivers.ffi.from_buffer(ints, directions), drivers.ffi.from_buffer(ints, actions))
 
     def integrate(*arguments: Any) -> int:
         return drivers.lib.nemc_system_integrate_many(
-            method_id, rhs, jacobian, block, len(table), *kept, events, impact, *arguments)
+            method_id, rhs, jacobian, block, taylor, len(table), *kept, events, impact, *arguments)
 
     return integrate
 
