@@ -1,0 +1,92 @@
+"""Contacts together with friction on joints (issue 50; decision 0041's amendment), against
+the independent event-driven reference of tests/contact_reference.py (CartPendulumWall,
+Lagrange's equations by hand): tests/data/contacts/cart_pendulum_wall.yaml, a cart with dry
+friction on a rough floor whose rod's tip strikes a wall. Three parameter sets take every
+branch of Coulomb's law in the impulse: a slipping cart stopped by the impact and a stuck one
+held through it (the file's), a stuck cart the impact sets sliding, and a slipping cart the
+impact turns (it cannot stick: it slides back)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from contact_reference import CartPendulumWall, cart_impact, cart_pendulum_run
+from scipy.integrate import simpson
+
+import nemc
+
+DATA = Path(__file__).parent / "data" / "contacts"
+T_END, PHI0 = 3.0, -1.2  # the file's t_span and initial angle
+CASES = {  # name: (the parameters changed from the file's, the impacts' ways in the reference)
+    "stops_and_holds": ({}, ["stick", "stick"]),
+    "held_cart_slides": ({"mu": 0.15, "mu_s": 0.25, "d": 0.3}, ["slide"] * 3),
+    "slipping_cart_turns": ({"mu": 0.1, "mu_s": 0.15}, ["slide"]),
+}
+
+
+@pytest.fixture(scope="module")
+def cart():
+    return nemc.compile(DATA / "cart_pendulum_wall.yaml")
+
+
+def reference(params: dict[str, float]):
+    return cart_pendulum_run(CartPendulumWall(**params), T_END, PHI0)
+
+
+def test_the_cases_take_the_impulse_laws_branches() -> None:
+    """The reference's impacts go the ways the cases say (else a case tests less than it
+    claims): each impact replayed from the reference's state just before it."""
+    for params, ways in CASES.values():
+        p, run = CartPendulumWall(**params), reference(params)
+        found = []
+        for t in run.switch_times("impact"):
+            before = [seg for seg in run.segments if seg.t1 == t][0]
+            found.append(cart_impact(p, before.state(t), before.mode == "stick")[1])
+        assert found == ways
+    # the third case's impact: slipping before, sliding the other way after
+    p, run = CartPendulumWall(**CASES["slipping_cart_turns"][0]), \
+        reference(CASES["slipping_cart_turns"][0])
+    (t,) = run.switch_times("impact")
+    assert run.state(t - 1e-9)[2] * run.state(t)[2] < 0
+
+
+@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853"])
+@pytest.mark.parametrize("case", list(CASES))
+def test_cart_and_rod_follow_the_independent_reference(cart, case: str, method: str) -> None:
+    params = CASES[case][0]
+    run = reference(params)
+    result = cart.simulate(method=method, params=params)
+    assert result.success, result.message
+    impacts, _ = result.events["wall.contact"]
+    switches, _ = result.events["slide.stick_slip"]
+    np.testing.assert_allclose(impacts, run.switch_times("impact"), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(switches, [t for t, name in run.switches if name != "impact"],
+                               rtol=0, atol=1e-9)
+    expected = np.array([run.state(t) for t in result.t]).T  # x, phi, x', phi' (nemc: x, x', ...)
+    np.testing.assert_allclose(result.y[[0, 2, 1, 3]], expected, rtol=0, atol=5e-9)
+    p = CartPendulumWall(**params)
+    energy = [p.energy(state) for state in expected.T]
+    np.testing.assert_allclose(result.outputs["energy.total"], energy, rtol=0, atol=5e-9)
+    stuck = result.outputs["slide.stuck"] == 1.0
+    assert np.all(result.y[1][stuck] == 0.0) and stuck.any() and not stuck.all()
+
+
+def test_between_events_the_energy_drops_by_the_friction_work(cart) -> None:
+    """Power balance: between any two events the total energy changes by the integral of the
+    floor's friction force times the cart's speed (Simpson's rule on the 1 ms samples)."""
+    result = cart.simulate(params=CASES["slipping_cart_turns"][0])
+    events = np.sort(np.concatenate([result.events[name][0] for name in result.events]))
+    edges = np.concatenate([[result.t[0]], events, [result.t[-1]]])
+    power = result.outputs["slide.friction"] * result.y[1]  # x'
+    energy, checked = result.outputs["energy.total"], 0
+    for t0, t1 in zip(edges[:-1], edges[1:]):
+        inside = (result.t > t0 + 1e-6) & (result.t < t1 - 1e-6)
+        if inside.sum() < 21:
+            continue
+        t, w = result.t[inside], power[inside]
+        worked = simpson(w, x=t)
+        assert energy[inside][-1] - energy[inside][0] == pytest.approx(worked, abs=1e-8)
+        checked += abs(worked) > 1e-3
+    assert checked >= 3
