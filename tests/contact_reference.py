@@ -837,6 +837,34 @@ class RockingBlock:
         return self.h * (1.0 - r) / (self.b * (1.0 + r))
 
 
+def rocking_sliding_impact(p: RockingBlock, w: float, mu: float) -> tuple[np.ndarray, float]:
+    """The block's (x', y', th') just after its right corner strikes the floor at th = 0 while
+    it rocks at rate w < 0 on its left corner, the right corner's mu below what a sticking
+    impulse needs (impact_friction_ratio): the impact plastic, its friction impulse sliding,
+    P_t = s mu P_n with s the sticking impulse's sign, the left corner taking none (it lifts).
+    Newton-Euler of the impulses on the block (its centre G, the right corner at (b, -h) from
+    it, I_G = m (b^2 + h^2) / 3):
+
+        m dv_G = (P_t, P_n),   I_G dw = b P_n + h P_t
+
+    before: v_G = w k x (G - A) = (-h w, b w), so the right corner's v_B = (0, 2 b w); after:
+    v_B,y = 0. Returns the velocities and the left corner's normal speed after (v_G,y - b w:
+    >= 0 where it lifts, as the law's set without it requires)."""
+    m, b, h = p.m, p.b, p.h
+    inertia = m * (b * b + h * h) / 3
+    per_t = np.array([1 / m + h * h / inertia, h * b / inertia])  # dv_B per unit P_t
+    per_n = np.array([h * b / inertia, 1 / m + b * b / inertia])  # ... per unit P_n
+    pt_stick, pn_stick = np.linalg.solve(np.column_stack([per_t, per_n]), [0.0, -2 * b * w])
+    if abs(pt_stick) <= mu * pn_stick:
+        raise ValueError(f"mu = {mu} holds the corner (a sticking impact)")
+    s = math.copysign(1.0, pt_stick)
+    pn = -2 * b * w / (1 / m + b * (b + h * s * mu) / inertia)
+    pt = s * mu * pn
+    vx, vy = -h * w + pt / m, b * w + pn / m
+    w_after = w + (b * pn + h * pt) / inertia
+    return np.array([vx, vy, w_after]), vy - b * w_after
+
+
 def _rocking_gap(p: RockingBlock, amplitude: float) -> float:
     """cos(alpha - A) - cos(alpha), written without cancellation for small A: the kinetic
     energy at theta = 0 over m g R when released from rest at A."""
