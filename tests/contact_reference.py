@@ -27,6 +27,9 @@ tests/data/friction/):
 - ``CartPendulumWall``: a cart with dry friction on a rough floor carrying a rod whose tip
   strikes a wall (tests/data/contacts/cart_pendulum_wall.yaml): joint friction and a contact
   together, Coulomb's law in the impacts' impulses too. Lagrange's equations by hand.
+- ``CartBall``: a sliding cart with dry friction carrying a ball on a vertical slider that
+  bounces to rest on a rough floor (tests/data/contacts/cart_ball_floor.yaml): the cart's
+  speed through the impacts' friction impulses and the lasting contact in closed form.
 """
 
 from __future__ import annotations
@@ -1332,3 +1335,77 @@ def _cart_segment(p: CartPendulumWall, run: Run, t: float, y: np.ndarray, sigma:
     if len(sol.t_events[0]):
         return t1, y1, "impact"
     return t1, y1, "stop" if sigma != 0.0 else "limit"
+
+
+# =============================================================================================
+# g. A sliding cart carrying a ball that bounces to rest on a rough floor
+
+
+@dataclass(frozen=True)
+class CartBall:
+    """A cart (mass M) slides on a floor with dry friction mu (mu_s), carrying a ball (mass m,
+    radius r) on a frictionless vertical slider; the ball, dropped from its centre's height y0,
+    bounces on the floor (restitution e, friction mu_c) and comes to rest there.
+
+    The slider passes no vertical force, so the cart's normal force is M g throughout (in an
+    impact too: its normal impulse is 0), and the ball's bounces are the bouncing ball's:
+    t_1 = sqrt(2 (y0 - r) / g), impact k's speed v_k = e^(k-1) g t_1, flights 2 v_(k+1) / g,
+    accumulating at t_inf = t_1 (1 + e) / (1 - e). The cart and ball move together along x
+    (mass M + m): while the ball flies, x'' = -mu M g / (M + m); each impact's floor impulse
+    (1 + e) m v_k slides (the cart too fast to stop), taking mu_c (1 + e) m v_k / (M + m)
+    from x'; from t_inf on the ball rests, x'' = -(mu M + mu_c m) g / (M + m), until x' = 0,
+    where nothing pushes it: it sticks for good."""
+
+    M: float = 2.0
+    m: float = 0.5
+    r: float = 0.05
+    y0: float = 1.0
+    e: float = 0.5
+    mu: float = 0.1
+    mu_s: float = 0.15
+    mu_c: float = 0.3
+    v0: float = 3.0
+    g: float = 9.81
+
+    @property
+    def t1(self) -> float:
+        return math.sqrt(2 * (self.y0 - self.r) / self.g)
+
+    @property
+    def t_inf(self) -> float:
+        return self.t1 * (1 + self.e) / (1 - self.e)
+
+    def impacts(self) -> tuple[np.ndarray, np.ndarray]:
+        """The impacts' times and speeds, until the speeds fall below 1e-16 of the first."""
+        n = int(math.log(1e-16) / math.log(self.e)) + 1
+        speeds = self.g * self.t1 * self.e ** np.arange(n)
+        times = self.t1 + np.concatenate([[0.0], np.cumsum(2 * speeds[1:] / self.g)])
+        return times, speeds
+
+
+def cart_ball_motion(p: CartBall, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """(x, x') at the times t (from x = 0, x' = v0), the time the cart sticks and where."""
+    open_decel = p.mu * p.M * p.g / (p.M + p.m)
+    closed_decel = (p.mu * p.M + p.mu_c * p.m) * p.g / (p.M + p.m)
+    times, speeds = p.impacts()
+    jumps = p.mu_c * (1 + p.e) * p.m * speeds / (p.M + p.m)
+    # segments: (start, x, x', deceleration), each until the next
+    segments, x, v, tau = [], 0.0, p.v0, 0.0
+    for t_k, jump in [*zip(times, jumps), (p.t_inf, 0.0)]:
+        segments.append((tau, x, v, open_decel))
+        x, v = x + v * (t_k - tau) - open_decel * (t_k - tau) ** 2 / 2, \
+            v - open_decel * (t_k - tau) - jump
+        if v <= 0:
+            raise ValueError("the cart stops while the ball bounces: not this closed form's")
+        tau = t_k
+    segments.append((p.t_inf, x, v, closed_decel))
+    t_stop = p.t_inf + v / closed_decel
+    x_stop = x + v * v / (2 * closed_decel)
+    t = np.asarray(t, dtype=float)
+    xs, vs = np.empty_like(t), np.empty_like(t)
+    starts = np.array([seg[0] for seg in segments])
+    for i, ti in enumerate(t):
+        start, x0, v0, decel = segments[max(0, np.searchsorted(starts, ti, side="right") - 1)]
+        dt = min(ti, t_stop) - start
+        xs[i], vs[i] = x0 + v0 * dt - decel * dt ** 2 / 2, v0 - decel * dt
+    return xs, vs, t_stop, x_stop

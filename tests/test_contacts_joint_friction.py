@@ -4,7 +4,10 @@ Lagrange's equations by hand): tests/data/contacts/cart_pendulum_wall.yaml, a ca
 friction on a rough floor whose rod's tip strikes a wall. Three parameter sets take every
 branch of Coulomb's law in the impulse: a slipping cart stopped by the impact and a stuck one
 held through it (the file's), a stuck cart the impact sets sliding, and a slipping cart the
-impact turns (it cannot stick: it slides back). The native methods and scipy's DOP853 alike."""
+impact turns (it cannot stick: it slides back). The native methods and scipy's DOP853 alike.
+And tests/data/contacts/cart_ball_floor.yaml, a sliding cart whose ball bounces to rest on a
+rough floor, against the closed form of CartBall: the impacts' friction impulses, the lasting
+contact, and the cart and the ball's contact sticking at the same instant (one slip)."""
 
 from __future__ import annotations
 
@@ -12,7 +15,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from contact_reference import CartPendulumWall, cart_impact, cart_pendulum_run
+from contact_reference import (
+    CartBall,
+    CartPendulumWall,
+    cart_ball_motion,
+    cart_impact,
+    cart_pendulum_run,
+)
 from scipy.integrate import simpson
 
 import nemc
@@ -90,3 +99,37 @@ def test_between_events_the_energy_drops_by_the_friction_work(cart) -> None:
         assert energy[inside][-1] - energy[inside][0] == pytest.approx(worked, abs=1e-8)
         checked += abs(worked) > 1e-3
     assert checked >= 3
+
+
+ZENO = 1e-7  # friction.c.tmpl's CONTACT_ZENO: the impacts accumulate below this flight x (1 + t)
+
+
+@pytest.fixture(scope="module")
+def cart_ball():
+    return nemc.compile(DATA / "cart_ball_floor.yaml")
+
+
+@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853", "DOP853"])
+def test_the_cart_slows_through_the_balls_bounces_and_sticks_as_the_closed_form_says(
+        cart_ball, method: str) -> None:
+    p = CartBall()
+    result = cart_ball.simulate(method=method)
+    assert result.success, result.message
+    impacts, _ = result.events["floor.contact"]
+    times, _ = p.impacts()
+    np.testing.assert_allclose(impacts, times[:len(impacts)], rtol=0, atol=1e-9)
+    closes = impacts[-1]  # the accumulation: plastic, the contact closing early by the flights
+    assert 0 < p.t_inf - closes <= ZENO * (1 + p.t_inf) / (1 - p.e)
+    x, rate, t_stop, x_stop = cart_ball_motion(p, result.t)
+    (stops, *more), _ = result.events["slide.stick_slip"]
+    assert not more and stops == pytest.approx(t_stop, abs=1e-9)
+    outside = (result.t < closes) | (result.t > p.t_inf)  # nemc rests from `closes`
+    np.testing.assert_allclose(result.y[0][outside], x[outside], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(result.y[1][outside], rate[outside], rtol=0, atol=1e-9)
+    assert result.y[0, -1] == pytest.approx(x_stop, abs=1e-9) and result.y[1, -1] == 0.0
+    out, t = result.outputs, result.t
+    sliding = t < t_stop  # the cart's normal force M g: the slider passes no vertical force
+    np.testing.assert_allclose(out["slide.friction"][sliding], -p.mu * p.M * p.g, rtol=1e-12)
+    assert np.all(out["slide.stuck"][t > t_stop] == 1.0)
+    resting = t > p.t_inf
+    np.testing.assert_allclose(out["floor.Fn"][resting], p.m * p.g, rtol=1e-12)
