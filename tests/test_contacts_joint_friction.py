@@ -25,6 +25,9 @@ from contact_reference import (
 from scipy.integrate import simpson
 
 import nemc
+from nemc.errors import InputError
+from nemc.front.validate import load_mechanism
+from nemc.runtime.failures import ModelError
 
 DATA = Path(__file__).parent / "data" / "contacts"
 T_END, PHI0 = 3.0, -1.2  # the file's t_span and initial angle
@@ -133,3 +136,30 @@ def test_the_cart_slows_through_the_balls_bounces_and_sticks_as_the_closed_form_
     assert np.all(out["slide.stuck"][t > t_stop] == 1.0)
     resting = t > p.t_inf
     np.testing.assert_allclose(out["floor.Fn"][resting], p.m * p.g, rtol=1e-12)
+
+
+@pytest.mark.parametrize("old, new, line, key, words", [
+    ("  rtol: 1.0e-10", "  method: Radau\n  rtol: 1.0e-10", 36, "simulation.method",
+     "cannot run a mechanism with contacts"),
+    ("mu_static: mu_s}", "mu_static: 0.1}", 26, "friction[0].mu_static", "must be >= mu"),
+    ("restitution: e}", "restitution: -e}", 28, "contacts.wall.restitution", ">= 0"),
+])
+def test_a_bad_file_with_both_is_refused_at_its_line(tmp_path: Path, old: str, new: str,
+                                                      line: int, key: str, words: str) -> None:
+    text = (DATA / "cart_pendulum_wall.yaml").read_text()
+    assert text.count(old) == 1
+    path = tmp_path / "bad.yaml"
+    path.write_text(text.replace(old, new))
+    with pytest.raises(InputError) as caught:
+        load_mechanism(path)
+    assert f"{path}:{line}: {key}" in str(caught.value) and words in str(caught.value)
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    ({"method": "LSODA"}, "cannot run a mechanism with Coulomb friction or contacts"),
+    ({"params": {"mu_s": 0.1}}, "mu_static - mu must be >= 0"),
+    ({"params": {"e": 1.5}}, "restitution must be >= 0"),
+])
+def test_a_bad_run_of_both_is_refused_by_name(cart, kwargs: dict, words: str) -> None:
+    with pytest.raises(ModelError, match=words):
+        cart.simulate(**kwargs)
