@@ -7,10 +7,13 @@ held through it (the file's), a stuck cart the impact sets sliding, and a slippi
 impact turns (it cannot stick: it slides back). The native methods and scipy's DOP853 alike.
 And tests/data/contacts/cart_ball_floor.yaml, a sliding cart whose ball bounces to rest on a
 rough floor, against the closed form of CartBall: the impacts' friction impulses, the lasting
-contact, and the cart and the ball's contact sticking at the same instant (one slip)."""
+contact, and the cart and the ball's contact sticking at the same instant (one slip). And
+tests/data/contacts/rocking_block_on_cart.yaml: Housner's block rocks to rest on a cart its
+friction holds, as on the floor (the impacts among closed contacts, the accumulation's rest)."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -18,9 +21,12 @@ import pytest
 from contact_reference import (
     CartBall,
     CartPendulumWall,
+    RockingBlock,
     cart_ball_motion,
     cart_impact,
     cart_pendulum_run,
+    rocking_accumulation_time,
+    rocking_impact_times,
 )
 from scipy.integrate import simpson
 
@@ -163,3 +169,19 @@ def test_a_bad_file_with_both_is_refused_at_its_line(tmp_path: Path, old: str, n
 def test_a_bad_run_of_both_is_refused_by_name(cart, kwargs: dict, words: str) -> None:
     with pytest.raises(ModelError, match=words):
         cart.simulate(**kwargs)
+
+
+@pytest.mark.parametrize("method", ["nemc.Vern9", "nemc.DOP853", "DOP853"])
+def test_a_block_rocks_to_rest_on_a_held_cart_as_on_the_floor(method: str) -> None:
+    block, th0 = RockingBlock(), 0.8 * math.atan(0.1 / 0.4)  # the file's b, h and th0
+    result = nemc.compile(DATA / "rocking_block_on_cart.yaml").simulate(method=method)
+    assert result.success, result.message
+    impacts = np.sort(np.concatenate([result.events[f"{corner}_corner.contact"][0]
+                                      for corner in ("left", "right")]))
+    np.testing.assert_allclose(impacts[:12], rocking_impact_times(block, th0, 12), rtol=0,
+                               atol=1e-9)
+    assert 0 < rocking_accumulation_time(block, th0) - impacts[-1] < 2e-5  # rests early
+    assert not len(result.events["slide.stick_slip"][0])
+    assert np.all(result.y[0] == 0.0) and np.all(result.y[1] == 0.0)  # the cart held
+    np.testing.assert_allclose(result.y[[2, 4], -1], [0.0, block.h], atol=1e-9)  # x, y: rest
+    np.testing.assert_allclose(result.y[[3, 5, 6, 7], -1], 0.0, atol=1e-9)
