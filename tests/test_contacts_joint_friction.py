@@ -185,3 +185,12 @@ def test_a_block_rocks_to_rest_on_a_held_cart_as_on_the_floor(method: str) -> No
     assert np.all(result.y[0] == 0.0) and np.all(result.y[1] == 0.0)  # the cart held
     np.testing.assert_allclose(result.y[[2, 4], -1], [0.0, block.h], atol=1e-9)  # x, y: rest
     np.testing.assert_allclose(result.y[[3, 5, 6, 7], -1], 0.0, atol=1e-9)
+
+
+def test_a_start_the_equations_cannot_take_fails_as_a_run_without_friction_does(cart) -> None:
+    """A rod of length 0 (no inertia about its pin): the friction's start cannot be solved,
+    the mass matrix singular; the run fails at t = 0 with its state, a failed result (it
+    raised a TypeError: the start's error was built without its state)."""
+    result = cart.simulate(params={"L": 0.0})
+    assert not result.success
+    assert "at t=0: the mass matrix is singular" in result.message, result.message
