@@ -24,6 +24,12 @@ tests/data/friction/):
   On a table shaken by a half-sine pulse of acceleration (``BasePulse``,
   rocking_block_pulse.yaml): it rests, lifts and rocks, or slides, then rests again; the
   onsets and the slide in closed form.
+- ``CartPendulumWall``: a cart with dry friction on a rough floor carrying a rod whose tip
+  strikes a wall (tests/data/contacts/cart_pendulum_wall.yaml): joint friction and a contact
+  together, Coulomb's law in the impacts' impulses too. Lagrange's equations by hand.
+- ``CartBall``: a sliding cart with dry friction carrying a ball on a vertical slider that
+  bounces to rest on a rough floor (tests/data/contacts/cart_ball_floor.yaml): the cart's
+  speed through the impacts' friction impulses and the lasting contact in closed form.
 """
 
 from __future__ import annotations
@@ -834,6 +840,34 @@ class RockingBlock:
         return self.h * (1.0 - r) / (self.b * (1.0 + r))
 
 
+def rocking_sliding_impact(p: RockingBlock, w: float, mu: float) -> tuple[np.ndarray, float]:
+    """The block's (x', y', th') just after its right corner strikes the floor at th = 0 while
+    it rocks at rate w < 0 on its left corner, the right corner's mu below what a sticking
+    impulse needs (impact_friction_ratio): the impact plastic, its friction impulse sliding,
+    P_t = s mu P_n with s the sticking impulse's sign, the left corner taking none (it lifts).
+    Newton-Euler of the impulses on the block (its centre G, the right corner at (b, -h) from
+    it, I_G = m (b^2 + h^2) / 3):
+
+        m dv_G = (P_t, P_n),   I_G dw = b P_n + h P_t
+
+    before: v_G = w k x (G - A) = (-h w, b w), so the right corner's v_B = (0, 2 b w); after:
+    v_B,y = 0. Returns the velocities and the left corner's normal speed after (v_G,y - b w:
+    >= 0 where it lifts, as the law's set without it requires)."""
+    m, b, h = p.m, p.b, p.h
+    inertia = m * (b * b + h * h) / 3
+    per_t = np.array([1 / m + h * h / inertia, h * b / inertia])  # dv_B per unit P_t
+    per_n = np.array([h * b / inertia, 1 / m + b * b / inertia])  # ... per unit P_n
+    pt_stick, pn_stick = np.linalg.solve(np.column_stack([per_t, per_n]), [0.0, -2 * b * w])
+    if abs(pt_stick) <= mu * pn_stick:
+        raise ValueError(f"mu = {mu} holds the corner (a sticking impact)")
+    s = math.copysign(1.0, pt_stick)
+    pn = -2 * b * w / (1 / m + b * (b + h * s * mu) / inertia)
+    pt = s * mu * pn
+    vx, vy = -h * w + pt / m, b * w + pn / m
+    w_after = w + (b * pn + h * pt) / inertia
+    return np.array([vx, vy, w_after]), vy - b * w_after
+
+
 def _rocking_gap(p: RockingBlock, amplitude: float) -> float:
     """cos(alpha - A) - cos(alpha), written without cancellation for small A: the kinetic
     energy at theta = 0 over m g R when released from rest at A."""
@@ -1116,3 +1150,280 @@ def _slide_on_base(p: RockingBlock, base: BasePulse, run: Run, t: float, y: np.n
     held = abs(base.accel(t1)) <= mu_s * p.g
     run.switches.append((t1, "stick" if held else "reverse"))
     return t1, np.array([0.0, 0.0, sol.y[0, -1], 0.0]), "rest" if held else "slide"
+
+
+# =============================================================================================
+# f. A cart with dry friction carrying a rod that strikes a wall
+
+
+@dataclass(frozen=True)
+class CartPendulumWall:
+    """A cart of mass M on a rough floor (x; Coulomb friction mu, mu_s on its normal force N,
+    the floor's push) carries a rod (mass m, length L, its centre c = L/2 from the pin at the
+    cart's origin, inertia I = m L^2/12 there) at angle phi from hanging down; its tip strikes
+    a wall x = d with restitution e (no friction at the wall).
+
+    Lagrange, q = (x, phi), T = (M + m) x'^2/2 + m c cos(phi) x' phi' + (m c^2 + I) phi'^2/2,
+    V = -m g c cos(phi):
+
+        (M + m) x'' + m c cos(phi) phi'' = m c sin(phi) phi'^2 + F
+        m c cos(phi) x'' + (m c^2 + I) phi'' = -m g c sin(phi)
+        N = (M + m) g + m c (sin(phi) phi'' + cos(phi) phi'^2)   (the rod's vertical momentum)
+
+    F = -sigma mu |N| slipping (sigma the sign of x'), or whatever holds x'' = 0 while
+    |F| <= mu_s |N|. An impact: the tip's normal speed v_n = -(x' + L cos(phi) phi') (the wall's
+    normal -x), its impulse P_n along -x, the cart's friction impulse P_f with the floor's normal
+    impulse N_P = m c sin(phi) dphi' (the finite forces take none); (M + m, ...) dq' = (-P_n +
+    P_f, -L cos(phi) P_n), v_n after = -e v_n. Coulomb's law in the impulse: the cart sticks
+    (x' after 0) where that takes |P_f| <= mu_s |N_P|, else slides, P_f = -sigma mu |N_P|
+    (sigma: its way before, or against the holding impulse from rest)."""
+
+    M: float = 1.0
+    m: float = 1.0
+    L: float = 1.0
+    d: float = 0.5
+    e: float = 0.7
+    mu: float = 0.2
+    mu_s: float = 0.3
+    g: float = 9.81
+
+    @property
+    def c(self) -> float:
+        return self.L / 2
+
+    @property
+    def inertia(self) -> float:
+        """The rod's inertia about its pin."""
+        return self.m * self.c ** 2 + self.m * self.L ** 2 / 12
+
+    def normal(self, phi: float, phid: float, phidd: float) -> float:
+        return (self.M + self.m) * self.g + self.m * self.c * (
+            math.sin(phi) * phidd + math.cos(phi) * phid ** 2)
+
+    def stuck(self, phi: float, phid: float) -> tuple[float, float, float]:
+        """(phi'', F, N) with the cart held (x'' = 0)."""
+        mc = self.m * self.c
+        phidd = -mc * self.g * math.sin(phi) / self.inertia
+        force = mc * math.cos(phi) * phidd - mc * math.sin(phi) * phid ** 2
+        return phidd, force, self.normal(phi, phid, phidd)
+
+    def sliding(self, phi: float, phid: float, sigma: float) -> tuple[float, float, float, float]:
+        """(x'', phi'', F, N) with the cart slipping the way sigma (N > 0 checked)."""
+        mc, total = self.m * self.c, self.M + self.m
+        a = np.array([[total, mc * math.cos(phi) + sigma * self.mu * mc * math.sin(phi)],
+                      [mc * math.cos(phi), self.inertia]])
+        b = np.array([mc * math.sin(phi) * phid ** 2
+                      - sigma * self.mu * (total * self.g + mc * math.cos(phi) * phid ** 2),
+                      -mc * self.g * math.sin(phi)])
+        xdd, phidd = np.linalg.solve(a, b)
+        n = self.normal(phi, phid, phidd)
+        if n <= 0:
+            raise PainleveError(f"the cart lifts off (N = {n})")
+        return float(xdd), float(phidd), -sigma * self.mu * n, n
+
+    def energy(self, y: np.ndarray) -> float:
+        x, phi, xd, phid = y
+        mc = self.m * self.c
+        return 0.5 * ((self.M + self.m) * xd ** 2 + 2 * mc * math.cos(phi) * xd * phid
+                      + self.inertia * phid ** 2) - mc * self.g * math.cos(phi)
+
+    def gap(self, y: np.ndarray) -> float:
+        return self.d - y[0] - self.L * math.sin(y[1])
+
+
+def _cart_held(p: CartPendulumWall, phi: float, phid: float) -> tuple[bool, float]:
+    _, force, n = p.stuck(phi, phid)
+    return abs(force) <= p.mu_s * abs(n), force
+
+
+def _cart_stick_impulse(p: CartPendulumWall, y: np.ndarray, vn: float
+                        ) -> tuple[float, float, float]:
+    """(dphi', P_f, N_P) of an impact that leaves the cart at rest (dx' = -x')."""
+    mc, cos = p.m * p.c, math.cos(y[1])
+    dxd = -y[2]  # and the restitution: -dx' - L cos(phi) dphi' = -(1 + e) v_n
+    dphid = ((1 + p.e) * vn - dxd) / (p.L * cos)
+    pn = -(p.inertia * dphid + mc * cos * dxd) / (p.L * cos)
+    pf = (p.M + p.m) * dxd + mc * cos * dphid + pn
+    return dphid, pf, mc * math.sin(y[1]) * dphid
+
+
+def _cart_slide_impulse(p: CartPendulumWall, y: np.ndarray, vn: float, sigma: float
+                        ) -> tuple[float, float, float]:
+    """(dx', dphi', P_f) of an impact the cart slides through the way sigma."""
+    mc, cos, sin = p.m * p.c, math.cos(y[1]), math.sin(y[1])
+    for sign_n in (1.0, -1.0):  # the normal impulse's sign, checked below
+        k = sigma * p.mu * sign_n * mc * sin  # P_f = -k dphi'
+        a = np.array([[p.M + p.m, mc * cos + k, 1.0],
+                      [mc * cos, p.inertia, p.L * cos],
+                      [-1.0, -p.L * cos, 0.0]])
+        dxd, dphid, _ = np.linalg.solve(a, [0.0, 0.0, -(1 + p.e) * vn])
+        if sign_n * mc * sin * dphid >= 0:
+            return float(dxd), float(dphid), -k * float(dphid)
+    raise PainleveError("no consistent sliding impulse")
+
+
+def cart_impact(p: CartPendulumWall, y: np.ndarray, stuck: bool) -> tuple[np.ndarray, str]:
+    """The state after the tip's impact and the cart's mode in the impulse ('stick' or
+    'slide')."""
+    vn = -(y[2] + p.L * math.cos(y[1]) * y[3])
+    sigma = math.copysign(1.0, y[2]) if not stuck else 0.0
+    if sigma != 0.0:  # slipping: slides on, unless that turns its rate
+        dxd, dphid, _ = _cart_slide_impulse(p, y, vn, sigma)
+        if sigma * (y[2] + dxd) >= 0:
+            return y + np.array([0.0, 0.0, dxd, dphid]), "slide"
+    dphid, pf, n_p = _cart_stick_impulse(p, y, vn)
+    if abs(pf) <= p.mu_s * abs(n_p):
+        return np.array([y[0], y[1], 0.0, y[3] + dphid]), "stick"
+    dxd, dphid, _ = _cart_slide_impulse(p, y, vn, -math.copysign(1.0, pf))
+    return y + np.array([0.0, 0.0, dxd, dphid]), "slide"
+
+
+def cart_pendulum_run(p: CartPendulumWall, t_end: float, phi0: float) -> Run:
+    """Event-driven run from rest at phi0. Switches: 'stick', 'slip', 'impact'; the friction
+    work is the sliding friction's power integrated plus the friction impulses' work."""
+    run = Run()
+    t, y = 0.0, np.array([0.0, phi0, 0.0, 0.0])
+    held, force = _cart_held(p, phi0, 0.0)
+    sigma = 0.0 if held else -math.copysign(1.0, force)
+    while t < t_end:
+        t, y, name = _cart_segment(p, run, t, y, sigma, t_end)
+        if name == "end":
+            break
+        run.switches.append((t, name))
+        if name == "impact":
+            before = y.copy()
+            y, how = cart_impact(p, y, sigma == 0.0)
+            run.friction_work += _impulse_work(p, before, y)
+            sigma = 0.0 if how == "stick" else math.copysign(1.0, y[2])
+        elif name == "stop":
+            sigma = 0.0
+            y[2] = 0.0
+        else:  # the holding force reached its limit
+            sigma = -math.copysign(1.0, p.stuck(y[1], y[3])[1])
+        if sigma == 0.0:
+            held, force = _cart_held(p, y[1], y[3])
+            if not held:
+                sigma = -math.copysign(1.0, force)
+            if name == "stop":
+                run.switches[-1] = (t, "stick" if held else "reverse")
+            elif not held:
+                run.switches.append((t, "slip"))
+    return run
+
+
+def _impulse_work(p: CartPendulumWall, before: np.ndarray, after: np.ndarray) -> float:
+    """The friction impulse's work: the energy an impact takes less the wall's share (the
+    frictionless wall's impulse alone would take (1 - e^2) of the normal's relative kinetic
+    energy; here measured as the energy change less the work of P_n, P_n (v_n+ + v_n-)/2)."""
+    mc, cos = p.m * p.c, math.cos(before[1])
+    dxd, dphid = after[2] - before[2], after[3] - before[3]
+    pn = -(p.inertia * dphid + mc * cos * dxd) / (p.L * cos)
+    vn = [-(y[2] + p.L * cos * y[3]) for y in (before, after)]
+    return p.energy(after) - p.energy(before) - pn * (vn[0] + vn[1]) / 2
+
+
+def _cart_segment(p: CartPendulumWall, run: Run, t: float, y: np.ndarray, sigma: float,
+                  t_end: float) -> tuple[float, np.ndarray, str]:
+    """One mode's stretch (sigma 0: the cart held) until a switch: 'impact', 'stop' (its rate
+    reaches 0), 'limit' (the holding force reaches mu_s |N|), or 'end'."""
+
+    def rhs(_t: float, s: np.ndarray) -> np.ndarray:
+        if sigma == 0.0:
+            phidd = p.stuck(s[1], s[3])[0]
+            return np.array([0.0, s[3], 0.0, phidd, 0.0])
+        xdd, phidd, force, _ = p.sliding(s[1], s[3], sigma)
+        return np.array([s[2], s[3], xdd, phidd, force * s[2]])
+
+    wall = _event(lambda _t, s: p.gap(s[:4]), -1.0)
+    if sigma == 0.0:
+        def other(_t: float, s: np.ndarray) -> float:
+            _, force, n = p.stuck(s[1], s[3])
+            return p.mu_s * abs(n) - abs(force)
+        other = _event(other, -1.0)
+    else:
+        other = _event(lambda _t, s: s[2], -sigma)
+    sol = solve_ivp(rhs, (t, t_end), [*y, 0.0], method="DOP853", rtol=RTOL, atol=ATOL,
+                    events=[wall, other], dense_output=True)
+    run.segments.append(Segment(t, float(sol.t[-1]), "stick" if sigma == 0.0 else "slip",
+                                lambda tt, f=sol.sol: np.asarray(f(tt))[:4]))
+    run.friction_work += sol.y[4, -1]
+    t1, y1 = float(sol.t[-1]), sol.y[:4, -1].copy()
+    if sol.status != 1:
+        return t1, y1, "end"
+    if len(sol.t_events[0]):
+        return t1, y1, "impact"
+    return t1, y1, "stop" if sigma != 0.0 else "limit"
+
+
+# =============================================================================================
+# g. A sliding cart carrying a ball that bounces to rest on a rough floor
+
+
+@dataclass(frozen=True)
+class CartBall:
+    """A cart (mass M) slides on a floor with dry friction mu (mu_s), carrying a ball (mass m,
+    radius r) on a frictionless vertical slider; the ball, dropped from its centre's height y0,
+    bounces on the floor (restitution e, friction mu_c) and comes to rest there.
+
+    The slider passes no vertical force, so the cart's normal force is M g throughout (in an
+    impact too: its normal impulse is 0), and the ball's bounces are the bouncing ball's:
+    t_1 = sqrt(2 (y0 - r) / g), impact k's speed v_k = e^(k-1) g t_1, flights 2 v_(k+1) / g,
+    accumulating at t_inf = t_1 (1 + e) / (1 - e). The cart and ball move together along x
+    (mass M + m): while the ball flies, x'' = -mu M g / (M + m); each impact's floor impulse
+    (1 + e) m v_k slides (the cart too fast to stop), taking mu_c (1 + e) m v_k / (M + m)
+    from x'; from t_inf on the ball rests, x'' = -(mu M + mu_c m) g / (M + m), until x' = 0,
+    where nothing pushes it: it sticks for good."""
+
+    M: float = 2.0
+    m: float = 0.5
+    r: float = 0.05
+    y0: float = 1.0
+    e: float = 0.5
+    mu: float = 0.1
+    mu_s: float = 0.15
+    mu_c: float = 0.3
+    v0: float = 3.0
+    g: float = 9.81
+
+    @property
+    def t1(self) -> float:
+        return math.sqrt(2 * (self.y0 - self.r) / self.g)
+
+    @property
+    def t_inf(self) -> float:
+        return self.t1 * (1 + self.e) / (1 - self.e)
+
+    def impacts(self) -> tuple[np.ndarray, np.ndarray]:
+        """The impacts' times and speeds, until the speeds fall below 1e-16 of the first."""
+        n = int(math.log(1e-16) / math.log(self.e)) + 1
+        speeds = self.g * self.t1 * self.e ** np.arange(n)
+        times = self.t1 + np.concatenate([[0.0], np.cumsum(2 * speeds[1:] / self.g)])
+        return times, speeds
+
+
+def cart_ball_motion(p: CartBall, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """(x, x') at the times t (from x = 0, x' = v0), the time the cart sticks and where."""
+    open_decel = p.mu * p.M * p.g / (p.M + p.m)
+    closed_decel = (p.mu * p.M + p.mu_c * p.m) * p.g / (p.M + p.m)
+    times, speeds = p.impacts()
+    jumps = p.mu_c * (1 + p.e) * p.m * speeds / (p.M + p.m)
+    # segments: (start, x, x', deceleration), each until the next
+    segments, x, v, tau = [], 0.0, p.v0, 0.0
+    for t_k, jump in [*zip(times, jumps), (p.t_inf, 0.0)]:
+        segments.append((tau, x, v, open_decel))
+        x, v = x + v * (t_k - tau) - open_decel * (t_k - tau) ** 2 / 2, \
+            v - open_decel * (t_k - tau) - jump
+        if v <= 0:
+            raise ValueError("the cart stops while the ball bounces: not this closed form's")
+        tau = t_k
+    segments.append((p.t_inf, x, v, closed_decel))
+    t_stop = p.t_inf + v / closed_decel
+    x_stop = x + v * v / (2 * closed_decel)
+    t = np.asarray(t, dtype=float)
+    xs, vs = np.empty_like(t), np.empty_like(t)
+    starts = np.array([seg[0] for seg in segments])
+    for i, ti in enumerate(t):
+        start, x0, v0, decel = segments[max(0, np.searchsorted(starts, ti, side="right") - 1)]
+        dt = min(ti, t_stop) - start
+        xs[i], vs[i] = x0 + v0 * dt - decel * dt ** 2 / 2, v0 - decel * dt
+    return xs, vs, t_stop, x_stop

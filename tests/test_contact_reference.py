@@ -20,6 +20,12 @@
 - The example files of tests/data/friction/: their parameters and initial states are the
   references' (read as YAML: nemc does not load them until issue 50 lands), and their
   `friction` and `contacts` entries use only the spec's keys.
+- Cart and rod striking a wall: the hand-derived equations against sympy's Lagrange with the
+  rod's vertical momentum for the normal force; a stuck cart's impact takes the fixed-pin
+  pendulum's (1 - e^2) m_eff v_n^2 / 2.
+- Cart carrying a bouncing ball: the floor's impulses add up to the momentum the ball loses
+  plus gravity's impulse until t_inf. Rocking block's sliding impact: its impulses from the
+  momentum change (the corner stops along the normal, |P_t| = mu P_n) and its energy loss.
 - benchmarks/stick_slip_tanh.py: its smooth law peaks at mu_s N, and its stick-phase error
   tells a creeping regularization from a nearly sticking one.
 """
@@ -38,6 +44,8 @@ import yaml
 from contact_reference import (
     Ball,
     BasePulse,
+    CartBall,
+    CartPendulumWall,
     Incline,
     PainleveError,
     RockingBlock,
@@ -48,6 +56,7 @@ from contact_reference import (
     ball_rest,
     ball_run,
     base_slide_closed_form,
+    cart_impact,
     incline_friction_work,
     incline_run,
     incline_slide,
@@ -60,6 +69,7 @@ from contact_reference import (
     rocking_impact_times,
     rocking_pivot_force,
     rocking_run,
+    rocking_sliding_impact,
     slider_crank_energy,
     slider_crank_holding,
     slider_crank_pose,
@@ -516,3 +526,65 @@ def test_tanh_baseline_stick_error_follows_its_creep(tanh_baseline) -> None:
     assert wide["success"] and narrow["success"]
     assert wide["stick_error"] > 0.05
     assert 1e-7 < narrow["stick_error"] < 1e-4
+
+
+# --- f, g. contacts with joint friction; a sliding impact among contacts ---------------------
+
+
+@pytest.mark.parametrize("phi, phid, sigma", [(0.3, 1.2, 1.0), (-0.9, -2.0, -1.0),
+                                              (1.1, 0.4, -1.0)])
+def test_cart_pendulum_equations_by_lagrange(phi: float, phid: float, sigma: float) -> None:
+    p = CartPendulumWall()
+    t = sp.Symbol("t")
+    x, th = sp.Function("x")(t), sp.Function("th")(t)
+    c = p.L / 2
+    gx, gy = x + c * sp.sin(th), -c * sp.cos(th)  # the rod's centre
+    kinetic = (p.M * x.diff(t) ** 2 + p.m * (gx.diff(t) ** 2 + gy.diff(t) ** 2)
+               + p.m * p.L ** 2 / 12 * th.diff(t) ** 2) / 2
+    lagrangian = kinetic - p.m * p.g * gy
+    xdd, thdd, force = sp.symbols("xdd thdd force")
+    normal = (p.M + p.m) * p.g + p.m * gy.diff(t, 2)  # the floor's push: vertical momentum
+    eqs = [lagrangian.diff(q.diff(t)).diff(t) - lagrangian.diff(q) - f
+           for q, f in ((x, force), (th, 0))]
+    values = {x.diff(t, 2): xdd, th.diff(t, 2): thdd}
+    values2 = {th.diff(t): phid, th: phi}
+    eqs = [e.subs(values).subs(values2) for e in eqs]
+    n = normal.subs(values).subs(values2)
+    solved = sp.solve([*eqs, force + sigma * p.mu * n], [xdd, thdd, force], dict=True)[0]
+    ours = p.sliding(phi, phid, sigma)
+    np.testing.assert_allclose([float(solved[xdd]), float(solved[thdd]), float(solved[force])],
+                               ours[:3], rtol=1e-12)
+
+
+def test_cart_held_through_an_impact_loses_the_fixed_pin_pendulums_energy() -> None:
+    p = CartPendulumWall()
+    y = np.array([0.0, 0.5, 0.0, 3.0])  # the cart at rest, the rod swinging at the wall
+    after, how = cart_impact(p, y, stuck=True)
+    assert how == "stick" and after[2] == 0.0
+    arm = p.L * math.cos(y[1])  # the tip's normal speed per unit phi'
+    m_eff = p.inertia / arm ** 2
+    lost = (1 - p.e ** 2) * m_eff * (arm * y[3]) ** 2 / 2
+    assert p.energy(y) - p.energy(after) == pytest.approx(lost, rel=1e-12)
+
+
+def test_cart_ball_floor_impulses_balance_the_balls_momentum() -> None:
+    p = CartBall()
+    times, speeds = p.impacts()
+    impulses = (1 + p.e) * p.m * speeds
+    # from just before the first impact to rest at t_inf: the impulses take m v_1 and gravity's
+    assert impulses.sum() == pytest.approx(p.m * speeds[0] + p.m * p.g * (p.t_inf - times[0]),
+                                           rel=1e-12)
+
+
+def test_rocking_sliding_impact_stops_the_corner_with_friction_at_mu() -> None:
+    p, mu, w = RockingBlock(), 0.1, -1.0
+    (vx, vy, w_after), lift = rocking_sliding_impact(p, w, mu)
+    pt, pn = p.m * (vx - -p.h * w), p.m * (vy - p.b * w)  # from the centre's momentum
+    inertia = p.m * (p.b ** 2 + p.h ** 2) / 3
+    assert inertia * (w_after - w) == pytest.approx(p.b * pn + p.h * pt, rel=1e-12)
+    assert vy + p.b * w_after == pytest.approx(0.0, abs=1e-14)  # plastic at the corner
+    assert pn > 0 and abs(pt) == pytest.approx(mu * pn, rel=1e-12)
+    assert lift > 0  # the left corner leaves: the set without it is consistent
+    before = (p.m * (p.h ** 2 + p.b ** 2) * w ** 2 + inertia * w ** 2) / 2
+    after = (p.m * (vx ** 2 + vy ** 2) + inertia * w_after ** 2) / 2
+    assert after < before

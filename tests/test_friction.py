@@ -188,9 +188,6 @@ def test_bad_friction_items_are_refused_with_their_line(tmp_path: Path, item: st
      "{joint: slide, mu: 0.2}", "is driven"),
     ("slide: {type: prismatic, parent: ground, child: block, coordinate: x}",
      "{constraint: guide, mu: 0.2}", "no constraint named 'guide'"),
-    ("slide: {type: prismatic, parent: ground, child: block, coordinate: x}",
-     "{joint: slide, mu: 0.2}\ncontacts:\n  floor: {point: block.origin, surface: {body: "
-     "ground}}", "contacts together with `friction` items are not built yet"),
 ])
 def test_friction_on_a_joint_that_cannot_carry_it_is_refused(tmp_path: Path, joints: str,
                                                              item: str, message: str) -> None:

@@ -318,3 +318,17 @@ def test_a_bad_friction_item_on_a_constraint_is_refused_at_its_line(
         nemc.compile(path)
     text = str(caught.value)
     assert f"{path}:15:" in text and key in text, text
+
+
+def test_friction_along_a_constraint_together_with_contacts_is_refused_at_its_line(
+        tmp_path: Path) -> None:
+    """An impact's impulses take the joints' friction (Coulomb's law in the impulse), not a
+    guide's: refused at the guide's item rather than run with the guide ignored in impacts."""
+    path = tmp_path / "guide_and_contact.yaml"
+    path.write_text(BAD.replace("FIRST", "{constraint: guide, mu: 0.2}").replace(
+        "ITEM", JOINT_ITEM) + "contacts:\n  floor: {point: arm.origin, radius: 0.1, "
+                              "surface: {body: ground, at: [0, -1]}}\n")
+    with pytest.raises(InputError, match="friction along a constraint together with "
+                                         "`contacts` is not built yet") as caught:
+        nemc.compile(path)
+    assert f"{path}:14: friction[0]" in str(caught.value), str(caught.value)

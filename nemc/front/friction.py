@@ -113,3 +113,18 @@ def _static_below_kinetic(ctx: Context, friction: Friction | GuideFriction) -> b
         return False
     value = default_value(ctx, difference)
     return value is not None and value < 0
+
+
+def check_guides_without_contacts(ctx: Context, frictions: tuple[Load, ...],
+                                  contacts: tuple[Load, ...]) -> None:
+    """Refuse friction along a constraint together with contacts, at the friction item's line:
+    an impact's impulses are solved with the joints' friction (Coulomb's law in the impulse),
+    not yet with a guide's."""
+    if not contacts:
+        return
+    for guide in (f for f in frictions if isinstance(f, GuideFriction)):
+        ctx.problem(guide.loc.line, guide.loc.key, "friction along a constraint together with "
+                    "`contacts` is not built yet (an impact's impulses take the joints' "
+                    "friction, not a guide's): make the sliding pair a prismatic joint of the "
+                    "tree with `friction`, closing the loop with a revolute constraint")
+

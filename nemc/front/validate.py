@@ -22,7 +22,7 @@ from .constraints import read_constraints
 from .contacts import check_contact_method, read_contacts
 from .context import Context, check_keys, entries_of
 from .fields import ZERO2, read_string, read_vec2
-from .friction import read_friction
+from .friction import check_guides_without_contacts, read_friction
 from .inputs import read_inputs
 from .joints import read_joints
 from .loads import read_loads
@@ -88,6 +88,7 @@ def _build(ctx: Context, tree: Node, source_hash: str) -> Mechanism | None:
     frictions = read_friction(ctx, root["friction"], constraints) if "friction" in root else ()
     contacts = read_contacts(ctx, root["contacts"]) if "contacts" in root else ()
     check_contact_method(ctx, contacts, root.get("simulation"))
+    check_guides_without_contacts(ctx, frictions, contacts)
     outputs = read_outputs(ctx, root["outputs"]) if "outputs" in root else Outputs()
     simulation = read_simulation(ctx, root["simulation"]) if "simulation" in root else Simulation()
     units = read_units(ctx, root["units"]) if "units" in root else Units()

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from .compiled import Compiled
-from .failures import ModelError
+from .failures import FRICTION_UNSOLVABLE, ModelError, failure_cause
 
 FRICTION_METHODS = ("nemc.Vern9", "nemc.DOP853")  # explicit, their events in C
 SCIPY_FRICTION_METHODS = ("RK45", "RK23", "DOP853")  # explicit, driven by scipy_switches.py
@@ -76,14 +76,16 @@ class Friction:
     def started(self, t0: float, y0: np.ndarray, p: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
         """A run's start: Y0 with every item at rest that its static friction cannot hold set
-        slipping, and a copy of P with each item's mode (what the switches then write)."""
+        slipping, and a copy of P with each item's mode (what the switches then write).
+        Painleve's paradox there is refused; where the equations themselves fail (a singular
+        mass matrix), the run's first step fails the same way, a failed result with its state
+        as a run without friction gives."""
         y, p = np.array(y0, dtype=float), np.array(p, dtype=float)
         buffer = self.compiled.buffer
         status = self.compiled.function("friction_start")(t0, buffer(y), buffer(p))
-        if status:
-            cause = self.compiled.status_cause(status)
+        if status == FRICTION_UNSOLVABLE:
             raise ModelError(f"the friction at the start (t = {t0:g}) cannot be solved: "
-                             f"{cause or f'status {status}'}")
+                             f"{failure_cause(y, status, self.compiled.state_names)}")
         return y, p
 
     def account_outputs(self, work: np.ndarray) -> dict[str, np.ndarray]:
