@@ -71,7 +71,10 @@ def test_with_any_restitution_the_rest_starts_at_t_inf(ball, e: float) -> None:
     expected = T1 + 2 * T1 * np.concatenate(([0.0], np.cumsum(e ** np.arange(1, len(times) - 1))))
     np.testing.assert_allclose(times[:-1], expected, rtol=0, atol=1e-10)
     assert times[-1] == pytest.approx(T1 * (1 + e) / (1 - e), abs=1e-10)
-    assert result.y[2][-1] == R and result.y[3][-1] == 0.0
+    # at rest on the floor: the closed contact's normal acceleration is Newton's solve's, 0 to
+    # its rounding (e = 0.9: the rate -5e-20 m/s after 30 s at rest)
+    assert result.y[2][-1] == pytest.approx(R, abs=1e-15)
+    assert result.y[3][-1] == pytest.approx(0.0, abs=1e-15)
 
 
 def test_between_the_last_bounce_and_t_inf_the_ball_flies_one_parabola(ball) -> None:
@@ -93,7 +96,7 @@ def test_between_the_last_bounce_and_t_inf_the_ball_flies_one_parabola(ball) -> 
 def test_a_run_much_longer_than_the_bounces_ends_at_rest(ball, method: str, t_end: float
                                                          ) -> None:
     """1000 s and 1e5 s: the run control's chattering window (1e-9 of the run: 2e-6 s apart
-    chatter at 1000 s, 2e-4 s at 1e5 s) is at most 1e-7 (1 + t) for a contact's switches,
+    chatter at 1000 s, 2e-4 s at 1e5 s) is at most 1e-8 (1 + t) for a contact's switches,
     shorter than every flight the Zeno rule flies (ZENO (1 + t) = 2.35e-6 s)."""
     result = ball.simulate(method=method, t_span=(0.0, t_end), t_eval=[0.0, t_end])
     assert result.success

@@ -110,7 +110,7 @@ def test_between_events_the_energy_drops_by_the_friction_work(cart) -> None:
     assert checked >= 3
 
 
-ZENO = 1e-7  # friction.c.tmpl's CONTACT_ZENO: the impacts accumulate below this flight x (1 + t)
+ZENO = 1e-6  # friction.c.tmpl's CONTACT_ZENO: the impacts accumulate below this flight x (1 + t)
 
 
 @pytest.fixture(scope="module")
@@ -126,9 +126,10 @@ def test_the_cart_slows_through_the_balls_bounces_and_sticks_as_the_closed_form_
     assert result.success, result.message
     impacts, _ = result.events["floor.contact"]
     times, _ = p.impacts()
-    np.testing.assert_allclose(impacts, times[:len(impacts)], rtol=0, atol=1e-9)
-    closes = impacts[-1]  # the accumulation: plastic, the contact closing early by the flights
-    assert 0 < p.t_inf - closes <= ZENO * (1 + p.t_inf) / (1 - p.e)
+    np.testing.assert_allclose(impacts[:-1], times[:len(impacts) - 1], rtol=0, atol=1e-9)
+    closes = impacts[-2]  # the accumulation: the flights left flown as one from here
+    assert times[len(impacts) - 1] - closes < ZENO * (1 + p.t_inf) / p.e  # a short next
+    assert impacts[-1] == pytest.approx(p.t_inf, abs=1e-9)  # that flight lands at t_inf
     x, rate, t_stop, x_stop = cart_ball_motion(p, result.t)
     (stops, *more), _ = result.events["slide.stick_slip"]
     assert not more and stops == pytest.approx(t_stop, abs=1e-9)

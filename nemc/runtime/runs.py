@@ -31,7 +31,7 @@ STIFF_FRACTION = 0.01  # a stiff run stops when the rest would take over this x 
 NSTIFF = 1000  # scipy's methods: test every NSTIFF steps, and every step once one is positive
 CHATTER_FRACTION = 1e-9  # the chattering window, x |t_end - t0|: after an impact its event
 # is not looked at for one window; impacts of one event closer than two windows chatter
-SWITCH_WINDOW = 1e-7  # a mode switch's window at most this x (1 + |t|) (run_control.c.tmpl)
+SWITCH_WINDOW = 1e-8  # a mode switch's window at most this x (1 + |t|) (run_control.c.tmpl)
 DIRECTIONS = {"rising": 1, "falling": -1, "both": 0}
 # The statuses of a run: the C enum nemc_status (templates/model.h.tmpl), the same for scipy's
 # methods. scipy's own: 1 a terminal event, 0 the end, -1 it gave up.
