@@ -43,7 +43,8 @@ figures: $(STAMP)
 test: $(STAMP) other-python
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=15
 
-# The tests marked slow (over 20 s each), left out of `make test`; CI runs them too.
+# The tests marked slow (over 20 s each, the benchmarks' smoke runs and the largest scale
+# checks), left out of `make test`; CI runs them too.
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
 

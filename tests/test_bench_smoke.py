@@ -1,4 +1,6 @@
-"""The benchmark scripts run end to end (tiny subsets; speed is never asserted in tests)."""
+"""The benchmark scripts run end to end (tiny subsets; speed is never asserted in tests). They
+check the scripts, not nemc's answers, and take 2.5 minutes together: `make test-slow` runs
+them (CI too), `make test` leaves them out."""
 
 from __future__ import annotations
 
@@ -13,6 +15,8 @@ import pytest
 from children import HANG
 
 ROOT = Path(__file__).resolve().parent.parent
+
+pytestmark = pytest.mark.slow
 
 
 def run_script(script: str, tmp_path: Path, mode: str = "--smoke") -> Path:
@@ -77,7 +81,6 @@ def test_native_smoke_mode_writes_the_equal_error_table(tmp_path: Path) -> None:
     assert "speed-up vs lambdify(cse)" in text
 
 
-@pytest.mark.slow
 def test_loops_smoke_mode_writes_its_tables(tmp_path: Path) -> None:
     """The closed-loop benchmark: the baseline reaches its target against the extended-precision
     reference; nemc's rows are measured or marked "not supported yet" with a reason."""

@@ -117,6 +117,7 @@ def test_stiff_arm_with_analytic_jacobian(gain: float) -> None:
     assert analytic.nfev < explicit.nfev  # stiffness, not accuracy, limits RK45
 
 
+@pytest.mark.slow  # 10 s: make test-slow
 def test_stiff_joint_spring(tmp_path: Path) -> None:
     text = (EXAMPLES / "double_pendulum.yaml").read_text().replace(
         "outputs:", "loads:\n  - joint_spring: {joint: B, k: 1.0e6, damping: 10}\noutputs:"

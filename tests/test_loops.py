@@ -334,6 +334,7 @@ def test_slider_crank_held_by_a_slot_or_a_prismatic_joint(variant: str,
 # The four-bar over long runs and with every method
 
 
+@pytest.mark.slow  # 9 s: make test-slow
 def test_fourbar_constraints_hold_over_1000_s_without_growth() -> None:
     model = compiled(example_path("fourbar"))
     rtol, atol = 1e-9, 1e-9
