@@ -192,9 +192,6 @@ EXPECTED: dict[str, tuple[int, str, str]] = {
 }
 
 
-LARGEST = {"loads_flood_with_5000_names", "flat_list_flood"}  # 10-16 s each: make test-slow
-
-
 def generated_cases() -> dict[str, tuple[bytes, tuple[int, str, str]]]:
     """Large files, made here rather than stored."""
     base = (HOSTILE / "caret.yaml").read_text().replace("m^2", "m")
@@ -286,9 +283,7 @@ def test_hostile_file_is_refused(stem: str, folders, capsys, tmp_path: Path,
     assert sorted(p.name for p in tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("name", [
-    pytest.param(name, marks=pytest.mark.slow) if name in LARGEST else name
-    for name in sorted(generated_cases())])
+@pytest.mark.parametrize("name", sorted(generated_cases()))
 def test_large_file_is_handled_with_work_linear_in_it_and_bounded_memory(name: str,
                                                                          tmp_path: Path) -> None:
     """In a child process: its peak memory is its own. The checker's work (Python calls,
